@@ -1,0 +1,118 @@
+//! Reference materials: opaque Lambertian reflection, and Lambertian reflection plus
+//! Lambertian transmission (pbrt-v4 `diffusetransmission`, glTF
+//! `KHR_materials_diffuse_transmission`).
+//!
+//! Both are two-sided: reflection happens on whichever side `wo` lies. They are the
+//! diffuse limit the leaf model must reduce to, and the materials other renderers render
+//! identically, so comparisons between renderers use them.
+
+use crate::bsdf::{Bsdf, BsdfSample};
+use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, luminance};
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+
+/// Opaque Lambertian reflector: `f = R / π` on the side of `wo`, nothing transmitted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lambertian {
+    /// Hemispherical reflectance (albedo), linear RGB, each channel in `[0, 1]`.
+    pub reflectance: Vec3,
+}
+
+impl Bsdf for Lambertian {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if wo.z * wi.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        self.reflectance * (FRAC_1_PI * wi.z.abs())
+    }
+
+    fn sample(&self, wo: Vec3, u: Vec3) -> Option<BsdfSample> {
+        if wo.z == 0.0 {
+            return None;
+        }
+        let mut wi = cosine_hemisphere(Vec2::new(u.y, u.z));
+        if wo.z < 0.0 {
+            wi.z = -wi.z;
+        }
+        let pdf = cosine_hemisphere_pdf(wi.z.abs());
+        (pdf > 0.0).then(|| BsdfSample {
+            wi,
+            f: self.eval(wo, wi),
+            pdf,
+        })
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z * wi.z <= 0.0 {
+            0.0
+        } else {
+            cosine_hemisphere_pdf(wi.z.abs())
+        }
+    }
+}
+
+/// Lambertian reflection `R / π` on the side of `wo` plus Lambertian transmission `T / π`
+/// to the other side. Symmetric: the same from both faces. Energy is conserved when
+/// `R + T <= 1` per channel (checked by the constructor of scene materials, not here).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiffuseTransmission {
+    /// Hemispherical reflectance, linear RGB.
+    pub reflectance: Vec3,
+    /// Hemispherical (diffuse) transmittance, linear RGB.
+    pub transmittance: Vec3,
+}
+
+impl DiffuseTransmission {
+    /// Probability of sampling the reflection lobe, proportional to its luminance.
+    #[inline]
+    fn reflect_probability(&self) -> f32 {
+        let r = luminance(self.reflectance).max(0.0);
+        let t = luminance(self.transmittance).max(0.0);
+        if r + t <= 0.0 { 0.5 } else { r / (r + t) }
+    }
+}
+
+impl Bsdf for DiffuseTransmission {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        let c = wo.z * wi.z;
+        if c > 0.0 {
+            self.reflectance * (FRAC_1_PI * wi.z.abs())
+        } else if c < 0.0 {
+            self.transmittance * (FRAC_1_PI * wi.z.abs())
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    fn sample(&self, wo: Vec3, u: Vec3) -> Option<BsdfSample> {
+        if wo.z == 0.0 {
+            return None;
+        }
+        let pr = self.reflect_probability();
+        let mut wi = cosine_hemisphere(Vec2::new(u.y, u.z));
+        let reflect = u.x < pr;
+        // Reflection stays on the side of wo, transmission crosses to the other.
+        if (wo.z < 0.0) == reflect {
+            wi.z = -wi.z;
+        }
+        let pdf = self.pdf(wo, wi);
+        (pdf > 0.0).then(|| BsdfSample {
+            wi,
+            f: self.eval(wo, wi),
+            pdf,
+        })
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let c = wo.z * wi.z;
+        let pr = self.reflect_probability();
+        let lobe = if c > 0.0 {
+            pr
+        } else if c < 0.0 {
+            1.0 - pr
+        } else {
+            0.0
+        };
+        lobe * cosine_hemisphere_pdf(wi.z.abs())
+    }
+}

@@ -1,0 +1,24 @@
+//! Leaf optics for lamina.
+//!
+//! Everything here is pure math on local directions: no rays, no scenes. The renderer
+//! (`lamina-render`) and the GPU path call into this crate; it calls into nothing of theirs.
+//!
+//! # Conventions
+//! * **Local frame**: directions are unit vectors in the frame of the surface at the shaded
+//!   point: `z` is the *geometric* normal, `x` the tangent along increasing texture `u`,
+//!   `y = z × x`. For a leaf, `+z` is the adaxial (upper, front) side.
+//! * **Directions point away from the surface**: `wo` toward the viewer, `wi` toward the light.
+//! * **Colours** are linear Rec.709 / sRGB-primaries RGB, stored in [`glam::Vec3`].
+//! * [`Bsdf::eval`] returns the BSDF *times the cosine foreshortening* `f(wo, wi) |cos θi|`,
+//!   as Mitsuba 3 does, so that bump-mapped shading normals stay an internal affair of each
+//!   model and the integrator never needs them.
+
+pub mod bsdf;
+pub mod frame;
+pub mod lambert;
+pub mod sampling;
+pub mod texture;
+
+pub use bsdf::{Bsdf, BsdfSample};
+pub use lambert::{DiffuseTransmission, Lambertian};
+pub use texture::{Encoding, Texture, TextureError, Wrap};

@@ -1,0 +1,269 @@
+//! The in-memory scene: what a scene file, a built-in scene or an importer produces, and
+//! what the renderers consume. Pure data, validated on construction by the loaders.
+//!
+//! Units: lengths in metres (leaf thickness, a material parameter, is in millimetres),
+//! angles in degrees where a user types them, radiometry in linear Rec.709 RGB:
+//! radiance in W m⁻² sr⁻¹, irradiance in W m⁻², intensity in W sr⁻¹.
+//! World space is right-handed with `+y` up.
+
+use glam::{Vec2, Vec3};
+use lamina_leaf::Texture;
+use std::sync::Arc;
+
+/// A complete scene ready to render.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The viewpoint.
+    pub camera: Camera,
+    /// Image size, sampling and tone mapping.
+    pub film: Film,
+    /// Which light-transport algorithm and its settings.
+    pub integrator: Integrator,
+    /// Lights other than the sky.
+    pub lights: Vec<Light>,
+    /// Light arriving from infinitely far away in every direction not blocked by geometry.
+    pub sky: Option<Sky>,
+    /// Materials, indexed by [`Mesh::material`].
+    pub materials: Vec<Material>,
+    /// World-space triangle meshes.
+    pub meshes: Vec<Mesh>,
+}
+
+/// A pinhole or thin-lens perspective camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position (m).
+    pub position: Vec3,
+    /// A point the camera looks at (m). Never equal to `position`.
+    pub look_at: Vec3,
+    /// Approximate up direction; must not be parallel to `look_at - position`.
+    pub up: Vec3,
+    /// Horizontal field of view (degrees), in `(0, 180)`.
+    pub fov_deg: f32,
+    /// Lens aperture radius (m); 0 is a pinhole.
+    pub aperture_radius: f32,
+    /// Distance to the plane in focus (m), used when `aperture_radius > 0`.
+    pub focus_distance: f32,
+}
+
+/// The reconstruction filter that splats samples into pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PixelFilter {
+    /// Each sample counts only in its own pixel (radius 0.5 px).
+    Box,
+    /// Triangle filter of the given radius (px).
+    Tent {
+        /// Radius in pixels.
+        radius: f32,
+    },
+    /// Truncated Gaussian (px).
+    Gaussian {
+        /// Radius in pixels where the filter is cut off.
+        radius: f32,
+        /// Standard deviation in pixels.
+        sigma: f32,
+    },
+}
+
+/// How linear radiance becomes display values in the PNG (the EXR is never tone-mapped).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ToneMap {
+    /// Exposure, then clamp to `[0, 1]`, then the sRGB curve.
+    Clamp,
+    /// Exposure, then the ACES filmic fit of Narkowicz (2015), then the sRGB curve.
+    Aces,
+    /// Exposure, then `x / (1 + x)` per channel, then the sRGB curve.
+    Reinhard,
+}
+
+/// Image size and sampling.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Film {
+    /// Width in pixels (> 0).
+    pub width: u32,
+    /// Height in pixels (> 0).
+    pub height: u32,
+    /// Samples per pixel (> 0).
+    pub spp: u32,
+    /// Pixel reconstruction filter.
+    pub filter: PixelFilter,
+    /// Exposure in stops: the PNG shows radiance times `2^exposure`.
+    pub exposure: f32,
+    /// Tone map applied to the PNG.
+    pub tonemap: ToneMap,
+}
+
+/// The light-transport algorithm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Integrator {
+    /// Unidirectional path tracing with next-event estimation, MIS and Russian roulette.
+    Path {
+        /// Longest path, in scattering events (1 = direct light only).
+        max_depth: u32,
+        /// Depth from which Russian roulette may end paths.
+        rr_depth: u32,
+    },
+    /// The paper's renderer: direct light only, per light front/back/through-light shading,
+    /// multiple scattering as an ambient term.
+    Paper {
+        /// Ambient radiance (W m⁻² sr⁻¹) that multiple scattering stands for, times the
+        /// material's diffuse albedo. `None`: the sky's mean radiance (zero without a sky).
+        ambient: Option<Vec3>,
+    },
+}
+
+/// A light source.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Light {
+    /// A distant disc light such as the sun.
+    Sun {
+        /// Unit direction from the scene *toward* the sun.
+        direction: Vec3,
+        /// Irradiance on a surface facing the sun (W m⁻²).
+        irradiance: Vec3,
+        /// Apparent angular diameter (degrees); 0 is a delta light with hard shadows.
+        angular_diameter_deg: f32,
+    },
+    /// An isotropic point light.
+    Point {
+        /// Position (m).
+        position: Vec3,
+        /// Radiant intensity (W sr⁻¹).
+        intensity: Vec3,
+    },
+    /// An emitting parallelogram `corner + s·edge_u + t·edge_v`, `s, t ∈ [0, 1]`, visible to
+    /// camera rays. Emits on the side of `edge_u × edge_v`, or both when `two_sided`.
+    Quad {
+        /// One corner (m).
+        corner: Vec3,
+        /// First edge (m).
+        edge_u: Vec3,
+        /// Second edge (m).
+        edge_v: Vec3,
+        /// Emitted radiance (W m⁻² sr⁻¹).
+        radiance: Vec3,
+        /// Emit from both faces.
+        two_sided: bool,
+    },
+    /// An emitting sphere, visible to camera rays.
+    Sphere {
+        /// Centre (m).
+        center: Vec3,
+        /// Radius (m), > 0.
+        radius: f32,
+        /// Emitted radiance (W m⁻² sr⁻¹).
+        radiance: Vec3,
+    },
+}
+
+/// Light from infinitely far away.
+#[derive(Clone, Debug)]
+pub enum Sky {
+    /// The same radiance (W m⁻² sr⁻¹) from every direction.
+    Constant(Vec3),
+    /// An equirectangular (latitude-longitude) linear HDR image, importance-sampled.
+    /// Image `u` runs with azimuth `φ = atan2(d.x, -d.z)` from `u = 0` at `φ = -π`, image `v`
+    /// from the zenith (`+y`, top row) to the nadir (bottom row).
+    Image {
+        /// The radiance map (linear, W m⁻² sr⁻¹ after `scale`).
+        map: Texture,
+        /// Multiplier on the map.
+        scale: f32,
+        /// Rotation of the map about `+y` (degrees).
+        rotation_deg: f32,
+    },
+}
+
+/// A colour that is either constant or read from a map.
+#[derive(Clone, Debug)]
+pub enum ColorInput {
+    /// One linear RGB value everywhere.
+    Constant(Vec3),
+    /// A colour map (already linear) times a linear RGB factor.
+    Texture {
+        /// The map.
+        map: Texture,
+        /// Per-channel factor.
+        factor: Vec3,
+    },
+}
+
+impl ColorInput {
+    /// The linear RGB value at texture coordinates `uv`.
+    #[inline]
+    pub fn at(&self, uv: Vec2) -> Vec3 {
+        match self {
+            ColorInput::Constant(c) => *c,
+            ColorInput::Texture { map, factor } => map.rgb(uv) * *factor,
+        }
+    }
+}
+
+/// A two-state cut-out: the surface exists where the map's value is at least `cutoff`.
+#[derive(Clone, Debug)]
+pub struct AlphaMask {
+    /// The matte; its alpha channel if `use_alpha_channel`, else its first channel.
+    pub map: Texture,
+    /// Read the alpha channel (RGBA base colours) rather than the first channel (mattes).
+    pub use_alpha_channel: bool,
+    /// Threshold in `[0, 1]`; the paper's mattes are binary, 0.5 separates them.
+    pub cutoff: f32,
+}
+
+impl AlphaMask {
+    /// Whether the surface is present at `uv`.
+    #[inline]
+    pub fn opaque(&self, uv: Vec2) -> bool {
+        let s = self.map.sample(uv);
+        let a = if self.use_alpha_channel { s.w } else { s.x };
+        a >= self.cutoff
+    }
+}
+
+/// A surface material. All are two-sided.
+#[derive(Clone, Debug)]
+pub enum Material {
+    /// Opaque Lambertian reflector.
+    Diffuse {
+        /// Name in the scene file (for messages).
+        name: String,
+        /// Albedo, linear RGB in `[0, 1]`.
+        reflectance: ColorInput,
+        /// Optional cut-out.
+        alpha: Option<AlphaMask>,
+    },
+    /// Lambertian reflection plus Lambertian transmission (`R + T <= 1`).
+    DiffuseTransmission {
+        /// Name in the scene file (for messages).
+        name: String,
+        /// Hemispherical reflectance, linear RGB.
+        reflectance: ColorInput,
+        /// Hemispherical transmittance, linear RGB.
+        transmittance: ColorInput,
+        /// Optional cut-out.
+        alpha: Option<AlphaMask>,
+    },
+    /// The three-layer leaf model with its seven maps.
+    Leaf {
+        /// Name in the scene file (for messages).
+        name: String,
+        /// The leaf's maps and parameters.
+        leaf: Arc<lamina_leaf::LeafMaterial>,
+    },
+}
+
+/// A triangle mesh in world space.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Vertex positions (m).
+    pub positions: Vec<Vec3>,
+    /// Per-vertex shading normals, or empty for flat shading.
+    pub normals: Vec<Vec3>,
+    /// Per-vertex texture coordinates, or empty (then `uv = (0, 0)` everywhere).
+    pub uvs: Vec<Vec2>,
+    /// Triangles as indices into the vertex arrays; the front face (for leaves, the
+    /// adaxial side) is the one from which the vertices appear counter-clockwise.
+    pub indices: Vec<[u32; 3]>,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+}

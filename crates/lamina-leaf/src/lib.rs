@@ -14,11 +14,21 @@
 //!   model and the integrator never needs them.
 
 pub mod bsdf;
+pub mod error;
 pub mod frame;
 pub mod lambert;
+pub mod leaf_bsdf;
+pub mod maps;
+pub mod material;
+pub mod params;
 pub mod sampling;
 pub mod texture;
 
 pub use bsdf::{Bsdf, BsdfSample};
+pub use error::LeafError;
 pub use lambert::{DiffuseTransmission, Lambertian};
+pub use leaf_bsdf::LeafBsdf;
+pub use maps::{LeafDescription, LeafMapPaths, LeafMaps};
+pub use material::LeafMaterial;
+pub use params::{LayerParams, LeafMode, LeafParams};
 pub use texture::{Encoding, Texture, TextureError, Wrap};

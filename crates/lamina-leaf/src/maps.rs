@@ -1,0 +1,118 @@
+//! The seven leaf maps (Franzke & Deussen, Fig. 3): where they come from on disk, how they
+//! load, and their defaults when absent.
+//!
+//! | map | encoding | meaning | default when absent |
+//! |---|---|---|---|
+//! | `front` | sRGB colour | adaxial (upper) diffuse reflectance under the reference (diffuse, specular-free) lighting | the layer model's own adaxial albedo |
+//! | `back` | sRGB colour | abaxial (lower) diffuse reflectance | derived from `front`: 30 % desaturated and 20 % brighter (the lower side is paler); without `front`, the layer model's abaxial albedo |
+//! | `translucency` | sRGB colour | diffuse transmittance (through-light scan) | derived from `front` times the model's transmittance/reflectance ratio (yellow-green); without `front`, the model's transmittance |
+//! | `alpha` | linear | cut-out, two states: opaque where `>= 0.5` | opaque everywhere |
+//! | `thickness` | linear grey `[0, 1]` | scales the blade thickness (see [`crate::LeafParams::thickness_variation`]) | 0.5 (the nominal thickness) |
+//! | `extinction` | linear grey `[0, 1]` | scales absorption (see [`crate::LeafParams::extinction_strength`]) | 0.5 (the nominal absorption) |
+//! | `bump` | linear grey | height field perturbing the shading normal | flat |
+//!
+//! Maps may have different resolutions; all share the texture coordinates and the
+//! [`Wrap`] mode of the description.
+
+use crate::error::LeafError;
+use crate::params::LeafParams;
+use crate::texture::{Encoding, Texture, Wrap};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// File names of the seven maps, relative to the directory of the file that names them.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LeafMapPaths {
+    /// Adaxial (upper side) colour photograph, sRGB.
+    pub front: Option<PathBuf>,
+    /// Abaxial (lower side) colour photograph, sRGB.
+    pub back: Option<PathBuf>,
+    /// Through-light (translucency) scan, sRGB.
+    pub translucency: Option<PathBuf>,
+    /// Alpha matte (grey, or the alpha channel when the image has one), linear.
+    pub alpha: Option<PathBuf>,
+    /// Thickness map, linear grey.
+    pub thickness: Option<PathBuf>,
+    /// Extinction map, linear grey.
+    pub extinction: Option<PathBuf>,
+    /// Bump (height) map, linear grey.
+    pub bump: Option<PathBuf>,
+    /// Addressing of texture coordinates outside `[0, 1]`, for all maps.
+    pub wrap: Wrap,
+}
+
+/// What a `leaf.toml` file holds, and what a scene's leaf material table holds:
+/// `[maps]` with the file names and `[params]` with the physical parameters.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LeafDescription {
+    /// The map files.
+    pub maps: LeafMapPaths,
+    /// The physical parameters.
+    pub params: LeafParams,
+}
+
+impl LeafDescription {
+    /// Reads and parses a `leaf.toml` (unknown keys are errors). Does not load the maps:
+    /// pass the result and the file's directory to [`crate::LeafMaterial::load`].
+    pub fn from_toml_file(path: &Path) -> Result<Self, LeafError> {
+        let text = std::fs::read_to_string(path).map_err(|source| LeafError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        toml::from_str(&text).map_err(|source| LeafError::Parse {
+            path: path.to_owned(),
+            source,
+        })
+    }
+}
+
+/// The seven maps in memory (linear values). `None` takes the default of the module docs.
+#[derive(Clone, Debug, Default)]
+pub struct LeafMaps {
+    /// Adaxial diffuse reflectance, linear RGB (decoded from sRGB).
+    pub front: Option<Texture>,
+    /// Abaxial diffuse reflectance, linear RGB.
+    pub back: Option<Texture>,
+    /// Diffuse transmittance, linear RGB.
+    pub translucency: Option<Texture>,
+    /// Alpha matte.
+    pub alpha: Option<Texture>,
+    /// Thickness map, `[0, 1]`.
+    pub thickness: Option<Texture>,
+    /// Extinction map, `[0, 1]`.
+    pub extinction: Option<Texture>,
+    /// Bump height map.
+    pub bump: Option<Texture>,
+}
+
+impl LeafMaps {
+    /// Loads the maps named in `paths`, relative to `base_dir`. The error names the map and
+    /// the file.
+    pub fn load(paths: &LeafMapPaths, base_dir: &Path) -> Result<Self, LeafError> {
+        let one = |map: &'static str,
+                   p: &Option<PathBuf>,
+                   enc: Encoding|
+         -> Result<Option<Texture>, LeafError> {
+            let Some(p) = p else { return Ok(None) };
+            let path = base_dir.join(p);
+            let mut t = Texture::load(&path, enc).map_err(|source| LeafError::Map {
+                map,
+                path: path.clone(),
+                source,
+            })?;
+            t.wrap = paths.wrap;
+            Ok(Some(t))
+        };
+        Ok(LeafMaps {
+            front: one("front", &paths.front, Encoding::Srgb)?,
+            back: one("back", &paths.back, Encoding::Srgb)?,
+            translucency: one("translucency", &paths.translucency, Encoding::Srgb)?,
+            alpha: one("alpha", &paths.alpha, Encoding::Linear)?,
+            thickness: one("thickness", &paths.thickness, Encoding::Linear)?,
+            extinction: one("extinction", &paths.extinction, Encoding::Linear)?,
+            bump: one("bump", &paths.bump, Encoding::Linear)?,
+        })
+    }
+}

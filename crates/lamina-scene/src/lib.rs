@@ -1,6 +1,16 @@
 //! Scene description for lamina: the in-memory [`Scene`], TOML scene files, leaf-card
 //! files, OBJ meshes and the built-in scenes.
 
+pub mod builtin;
+pub mod cards;
+pub mod error;
+pub mod file;
+mod leaf;
+pub mod load;
+pub mod obj;
 pub mod scene;
+pub mod transform;
 
+pub use error::SceneError;
+pub use load::{load_scene, parse_scene};
 pub use scene::*;

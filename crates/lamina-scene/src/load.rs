@@ -1,0 +1,951 @@
+//! Scene files (TOML) to [`Scene`]: parsing, validation with file/line/key errors, and
+//! loading of everything the file refers to (maps, meshes, leaf-card files), with paths
+//! relative to the scene file.
+
+use crate::cards::{LeafCard, append_cards, read_card_file};
+use crate::error::{LineIndex, SceneError};
+use crate::file::*;
+use crate::scene::*;
+use crate::transform::Transform;
+use glam::{Vec2, Vec3};
+use lamina_leaf::{Encoding, Texture};
+use std::collections::HashMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Loads a scene file and everything it refers to.
+pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| SceneError::new(path, None, "", format!("cannot read scene file: {e}")))?;
+    parse_scene(&text, path)
+}
+
+/// Parses scene-file text; `path` names the file in errors and anchors relative paths.
+pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    let cx = Ctx {
+        file: path.to_owned(),
+        lines: LineIndex::new(text),
+        base: path.parent().map(Path::to_owned).unwrap_or_default(),
+    };
+    let doc: SceneFile = toml::from_str(text).map_err(|e| cx.toml_error(&e))?;
+    cx.build(doc)
+}
+
+/// Converts a TOML error into ours, with the line of its span.
+pub fn toml_error(file: &Path, text: &str, e: &toml::de::Error) -> SceneError {
+    let line = e.span().map(|s| LineIndex::new(text).line(s.start));
+    SceneError::new(file, line, "", e.message().trim().to_string())
+}
+
+pub(crate) struct Ctx {
+    pub(crate) file: PathBuf,
+    lines: LineIndex,
+    pub(crate) base: PathBuf,
+}
+
+fn v3(a: [f32; 3]) -> Vec3 {
+    Vec3::from(a)
+}
+
+impl Ctx {
+    fn toml_error(&self, e: &toml::de::Error) -> SceneError {
+        let line = e.span().map(|s| self.lines.line(s.start));
+        SceneError::new(&self.file, line, "", e.message().trim().to_string())
+    }
+
+    pub(crate) fn err(
+        &self,
+        span: Range<usize>,
+        key: impl Into<String>,
+        msg: impl Into<String>,
+    ) -> SceneError {
+        SceneError::new(&self.file, Some(self.lines.line(span.start)), key, msg)
+    }
+
+    pub(crate) fn path(&self, p: &S<String>) -> PathBuf {
+        self.base.join(p.get_ref())
+    }
+
+    fn vec3(&self, v: &S<[f32; 3]>, key: &str) -> Result<Vec3, SceneError> {
+        let a = *v.get_ref();
+        if a.iter().any(|c| !c.is_finite()) {
+            return Err(self.err(
+                v.span(),
+                key,
+                format!("must be three finite numbers, got {a:?}"),
+            ));
+        }
+        Ok(v3(a))
+    }
+
+    fn direction(&self, v: &S<[f32; 3]>, key: &str) -> Result<Vec3, SceneError> {
+        let d = self.vec3(v, key)?;
+        if d.length_squared() < 1e-12 {
+            return Err(self.err(v.span(), key, "must be a non-zero direction"));
+        }
+        Ok(d.normalize())
+    }
+
+    fn color(&self, v: &S<ColorValue>, key: &str, max: Option<f32>) -> Result<Vec3, SceneError> {
+        let c = v.get_ref().0;
+        if !c.is_finite() || c.min_element() < 0.0 {
+            return Err(self.err(
+                v.span(),
+                key,
+                format!("must be finite and >= 0, got {:?}", c.to_array()),
+            ));
+        }
+        if let Some(m) = max
+            && c.max_element() > m
+        {
+            return Err(self.err(
+                v.span(),
+                key,
+                format!("must be in [0, {m}], got {:?}", c.to_array()),
+            ));
+        }
+        Ok(c)
+    }
+
+    fn float(
+        &self,
+        v: &S<f32>,
+        key: &str,
+        min: f32,
+        max: f32,
+        open_min: bool,
+    ) -> Result<f32, SceneError> {
+        let x = *v.get_ref();
+        let ok = x.is_finite() && x <= max && if open_min { x > min } else { x >= min };
+        if !ok {
+            let lo = if open_min { "(" } else { "[" };
+            return Err(self.err(
+                v.span(),
+                key,
+                format!("must be in {lo}{min}, {max}], got {x}"),
+            ));
+        }
+        Ok(x)
+    }
+
+    pub(crate) fn count(
+        &self,
+        v: &S<i64>,
+        key: &str,
+        min: i64,
+        max: i64,
+    ) -> Result<u32, SceneError> {
+        let x = *v.get_ref();
+        if x < min || x > max {
+            return Err(self.err(
+                v.span(),
+                key,
+                format!("must be an integer in [{min}, {max}], got {x}"),
+            ));
+        }
+        Ok(x as u32)
+    }
+
+    /// Rejects keys set on a table whose type does not use them.
+    fn only(
+        &self,
+        table: Range<usize>,
+        what: &str,
+        kind: &str,
+        keys: &[(&str, bool)],
+        allowed: &[&str],
+    ) -> Result<(), SceneError> {
+        for (name, present) in keys {
+            if *present && !allowed.contains(name) {
+                return Err(self.err(
+                    table.clone(),
+                    format!("{what}.{name}"),
+                    format!(
+                        "is not a key of a {what} of type '{kind}' (it takes: type, {})",
+                        allowed.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn require<'a, T>(
+        &self,
+        v: &'a Option<S<T>>,
+        table: Range<usize>,
+        key: &str,
+        kind: &str,
+    ) -> Result<&'a S<T>, SceneError> {
+        v.as_ref()
+            .ok_or_else(|| self.err(table, key, format!("is required for type '{kind}'")))
+    }
+
+    fn texture(&self, p: &S<String>, key: &str, enc: Encoding) -> Result<Texture, SceneError> {
+        let path = self.path(p);
+        Texture::load(&path, enc).map_err(|e| self.err(p.span(), key, e.to_string()))
+    }
+
+    fn build(&self, doc: SceneFile) -> Result<Scene, SceneError> {
+        let camera = self.camera(&doc.camera)?;
+        let film = self.film(doc.film.as_ref())?;
+        let integrator = self.integrator(doc.integrator.as_ref())?;
+        let sky = doc.sky.as_ref().map(|s| self.sky(s)).transpose()?;
+        let lights = doc
+            .light
+            .iter()
+            .enumerate()
+            .map(|(i, l)| self.light(i, l))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut materials = Vec::new();
+        let mut by_name = HashMap::new();
+        for (i, m) in doc.material.iter().enumerate() {
+            let name = m.get_ref().name.get_ref().clone();
+            if by_name
+                .insert(name.clone(), materials.len() as u32)
+                .is_some()
+            {
+                return Err(self.err(
+                    m.get_ref().name.span(),
+                    format!("material[{i}].name"),
+                    format!("'{name}' is defined twice"),
+                ));
+            }
+            materials.push(self.material(i, m)?);
+        }
+        let mut meshes = Vec::new();
+        for (i, o) in doc.object.iter().enumerate() {
+            meshes.extend(self.object(i, o, &by_name)?);
+        }
+        let scene = Scene {
+            camera,
+            film,
+            integrator,
+            lights,
+            sky,
+            materials,
+            meshes,
+        };
+        Ok(scene)
+    }
+
+    fn camera(&self, t: &S<CameraTable>) -> Result<Camera, SceneError> {
+        let c = t.get_ref();
+        let position = self.vec3(&c.position, "camera.position")?;
+        let look_at = self.vec3(&c.look_at, "camera.look_at")?;
+        let forward = look_at - position;
+        if forward.length_squared() < 1e-12 {
+            return Err(self.err(
+                c.look_at.span(),
+                "camera.look_at",
+                "must differ from camera.position",
+            ));
+        }
+        let up = match &c.up {
+            Some(u) => self.direction(u, "camera.up")?,
+            None => Vec3::Y,
+        };
+        if forward.normalize().cross(up).length_squared() < 1e-8 {
+            let span = c.up.as_ref().map_or(t.span(), |u| u.span());
+            return Err(self.err(
+                span,
+                "camera.up",
+                "must not be parallel to the viewing direction (look_at - position)",
+            ));
+        }
+        let fov_deg = c
+            .fov
+            .as_ref()
+            .map(|v| self.float(v, "camera.fov", 0.0, 179.0, true))
+            .transpose()?
+            .unwrap_or(40.0);
+        let aperture_radius = c
+            .aperture_radius
+            .as_ref()
+            .map(|v| self.float(v, "camera.aperture_radius", 0.0, 1e3, false))
+            .transpose()?
+            .unwrap_or(0.0);
+        let focus_distance = c
+            .focus_distance
+            .as_ref()
+            .map(|v| self.float(v, "camera.focus_distance", 0.0, 1e9, true))
+            .transpose()?
+            .unwrap_or(forward.length());
+        Ok(Camera {
+            position,
+            look_at,
+            up,
+            fov_deg,
+            aperture_radius,
+            focus_distance,
+        })
+    }
+
+    fn film(&self, t: Option<&S<FilmTable>>) -> Result<Film, SceneError> {
+        let mut film = Film {
+            width: 640,
+            height: 480,
+            spp: 64,
+            filter: PixelFilter::Gaussian {
+                radius: 1.5,
+                sigma: 0.5,
+            },
+            exposure: 0.0,
+            tonemap: ToneMap::Aces,
+        };
+        let Some(t) = t else { return Ok(film) };
+        let f = t.get_ref();
+        if let Some(v) = &f.width {
+            film.width = self.count(v, "film.width", 1, 16384)?;
+        }
+        if let Some(v) = &f.height {
+            film.height = self.count(v, "film.height", 1, 16384)?;
+        }
+        if let Some(v) = &f.spp {
+            film.spp = self.count(v, "film.spp", 1, 1 << 20)?;
+        }
+        let radius = f
+            .filter_radius
+            .as_ref()
+            .map(|v| self.float(v, "film.filter_radius", 0.0, 8.0, true))
+            .transpose()?;
+        let sigma = f
+            .filter_sigma
+            .as_ref()
+            .map(|v| self.float(v, "film.filter_sigma", 0.0, 8.0, true))
+            .transpose()?;
+        if let Some(v) = &f.filter {
+            film.filter = match v.get_ref().as_str() {
+                "box" => PixelFilter::Box,
+                "tent" => PixelFilter::Tent {
+                    radius: radius.unwrap_or(1.0),
+                },
+                "gaussian" => PixelFilter::Gaussian {
+                    radius: radius.unwrap_or(1.5),
+                    sigma: sigma.unwrap_or(0.5),
+                },
+                other => {
+                    return Err(self.err(
+                        v.span(),
+                        "film.filter",
+                        format!("unknown filter '{other}' (box, tent, gaussian)"),
+                    ));
+                }
+            };
+        } else if radius.is_some() || sigma.is_some() {
+            film.filter = PixelFilter::Gaussian {
+                radius: radius.unwrap_or(1.5),
+                sigma: sigma.unwrap_or(0.5),
+            };
+        }
+        if let Some(v) = &f.exposure {
+            film.exposure = self.float(v, "film.exposure", -30.0, 30.0, false)?;
+        }
+        if let Some(v) = &f.tonemap {
+            film.tonemap = match v.get_ref().as_str() {
+                "clamp" => ToneMap::Clamp,
+                "aces" => ToneMap::Aces,
+                "reinhard" => ToneMap::Reinhard,
+                other => {
+                    return Err(self.err(
+                        v.span(),
+                        "film.tonemap",
+                        format!("unknown tone map '{other}' (clamp, aces, reinhard)"),
+                    ));
+                }
+            };
+        }
+        Ok(film)
+    }
+
+    fn integrator(&self, t: Option<&S<IntegratorTable>>) -> Result<Integrator, SceneError> {
+        let Some(t) = t else {
+            return Ok(Integrator::Path {
+                max_depth: 8,
+                rr_depth: 3,
+            });
+        };
+        let i = t.get_ref();
+        let kind = i.kind.as_ref().map_or("path", |k| k.get_ref().as_str());
+        match kind {
+            "path" => {
+                self.only(
+                    t.span(),
+                    "integrator",
+                    kind,
+                    &[("ambient", i.ambient.is_some())],
+                    &["max_depth", "rr_depth"],
+                )?;
+                let max_depth = i
+                    .max_depth
+                    .as_ref()
+                    .map(|v| self.count(v, "integrator.max_depth", 1, 1024))
+                    .transpose()?
+                    .unwrap_or(8);
+                let rr_depth = i
+                    .rr_depth
+                    .as_ref()
+                    .map(|v| self.count(v, "integrator.rr_depth", 1, 1024))
+                    .transpose()?
+                    .unwrap_or(3);
+                Ok(Integrator::Path {
+                    max_depth,
+                    rr_depth,
+                })
+            }
+            "paper" => {
+                self.only(
+                    t.span(),
+                    "integrator",
+                    kind,
+                    &[
+                        ("max_depth", i.max_depth.is_some()),
+                        ("rr_depth", i.rr_depth.is_some()),
+                    ],
+                    &["ambient"],
+                )?;
+                let ambient = i
+                    .ambient
+                    .as_ref()
+                    .map(|v| self.color(v, "integrator.ambient", None))
+                    .transpose()?;
+                Ok(Integrator::Paper { ambient })
+            }
+            other => {
+                let span = i.kind.as_ref().map_or(t.span(), |k| k.span());
+                Err(self.err(
+                    span,
+                    "integrator.type",
+                    format!("unknown integrator '{other}' (path, paper)"),
+                ))
+            }
+        }
+    }
+
+    fn sky(&self, t: &S<SkyTable>) -> Result<Sky, SceneError> {
+        let s = t.get_ref();
+        let kind = s.kind.get_ref().as_str();
+        let keys = [
+            ("radiance", s.radiance.is_some()),
+            ("file", s.file.is_some()),
+            ("scale", s.scale.is_some()),
+            ("rotation", s.rotation.is_some()),
+        ];
+        match kind {
+            "constant" => {
+                self.only(t.span(), "sky", kind, &keys, &["radiance"])?;
+                let r = self.require(&s.radiance, t.span(), "sky.radiance", kind)?;
+                Ok(Sky::Constant(self.color(r, "sky.radiance", None)?))
+            }
+            "image" => {
+                self.only(t.span(), "sky", kind, &keys, &["file", "scale", "rotation"])?;
+                let file = self.require(&s.file, t.span(), "sky.file", kind)?;
+                let map = self.texture(file, "sky.file", Encoding::Srgb)?;
+                if map
+                    .texels()
+                    .iter()
+                    .any(|t| !t.is_finite() || t.min_element() < 0.0)
+                {
+                    return Err(self.err(
+                        file.span(),
+                        "sky.file",
+                        "the image has negative or non-finite texels",
+                    ));
+                }
+                let scale = s
+                    .scale
+                    .as_ref()
+                    .map(|v| self.float(v, "sky.scale", 0.0, 1e9, false))
+                    .transpose()?
+                    .unwrap_or(1.0);
+                let rotation_deg = s
+                    .rotation
+                    .as_ref()
+                    .map(|v| self.float(v, "sky.rotation", -360.0, 360.0, false))
+                    .transpose()?
+                    .unwrap_or(0.0);
+                Ok(Sky::Image {
+                    map,
+                    scale,
+                    rotation_deg,
+                })
+            }
+            other => Err(self.err(
+                s.kind.span(),
+                "sky.type",
+                format!("unknown sky type '{other}' (constant, image)"),
+            )),
+        }
+    }
+
+    fn light(&self, i: usize, t: &S<LightTable>) -> Result<Light, SceneError> {
+        let l = t.get_ref();
+        let kind = l.kind.get_ref().as_str();
+        let p = format!("light[{i}]");
+        let k = |n: &str| format!("{p}.{n}");
+        let keys = [
+            ("direction", l.direction.is_some()),
+            ("irradiance", l.irradiance.is_some()),
+            ("angular_diameter", l.angular_diameter.is_some()),
+            ("position", l.position.is_some()),
+            ("intensity", l.intensity.is_some()),
+            ("corner", l.corner.is_some()),
+            ("edge_u", l.edge_u.is_some()),
+            ("edge_v", l.edge_v.is_some()),
+            ("radiance", l.radiance.is_some()),
+            ("two_sided", l.two_sided.is_some()),
+            ("center", l.center.is_some()),
+            ("radius", l.radius.is_some()),
+        ];
+        let span = t.span();
+        match kind {
+            "sun" => {
+                self.only(
+                    span.clone(),
+                    &p,
+                    kind,
+                    &keys,
+                    &["direction", "irradiance", "angular_diameter"],
+                )?;
+                let direction = self.direction(
+                    self.require(&l.direction, span.clone(), &k("direction"), kind)?,
+                    &k("direction"),
+                )?;
+                let irradiance = self.color(
+                    self.require(&l.irradiance, span.clone(), &k("irradiance"), kind)?,
+                    &k("irradiance"),
+                    None,
+                )?;
+                let angular_diameter_deg = l
+                    .angular_diameter
+                    .as_ref()
+                    .map(|v| self.float(v, &k("angular_diameter"), 0.0, 90.0, false))
+                    .transpose()?
+                    .unwrap_or(0.53);
+                Ok(Light::Sun {
+                    direction,
+                    irradiance,
+                    angular_diameter_deg,
+                })
+            }
+            "point" => {
+                self.only(span.clone(), &p, kind, &keys, &["position", "intensity"])?;
+                let position = self.vec3(
+                    self.require(&l.position, span.clone(), &k("position"), kind)?,
+                    &k("position"),
+                )?;
+                let intensity = self.color(
+                    self.require(&l.intensity, span.clone(), &k("intensity"), kind)?,
+                    &k("intensity"),
+                    None,
+                )?;
+                Ok(Light::Point {
+                    position,
+                    intensity,
+                })
+            }
+            "quad" => {
+                self.only(
+                    span.clone(),
+                    &p,
+                    kind,
+                    &keys,
+                    &["corner", "edge_u", "edge_v", "radiance", "two_sided"],
+                )?;
+                let corner = self.vec3(
+                    self.require(&l.corner, span.clone(), &k("corner"), kind)?,
+                    &k("corner"),
+                )?;
+                let eu = self.require(&l.edge_u, span.clone(), &k("edge_u"), kind)?;
+                let edge_u = self.vec3(eu, &k("edge_u"))?;
+                let edge_v = self.vec3(
+                    self.require(&l.edge_v, span.clone(), &k("edge_v"), kind)?,
+                    &k("edge_v"),
+                )?;
+                if edge_u.cross(edge_v).length_squared() < 1e-16 {
+                    return Err(self.err(
+                        eu.span(),
+                        k("edge_u"),
+                        "edge_u and edge_v must span a non-zero area",
+                    ));
+                }
+                let radiance = self.color(
+                    self.require(&l.radiance, span.clone(), &k("radiance"), kind)?,
+                    &k("radiance"),
+                    None,
+                )?;
+                let two_sided = l.two_sided.as_ref().is_some_and(|v| *v.get_ref());
+                Ok(Light::Quad {
+                    corner,
+                    edge_u,
+                    edge_v,
+                    radiance,
+                    two_sided,
+                })
+            }
+            "sphere" => {
+                self.only(
+                    span.clone(),
+                    &p,
+                    kind,
+                    &keys,
+                    &["center", "radius", "radiance"],
+                )?;
+                let center = self.vec3(
+                    self.require(&l.center, span.clone(), &k("center"), kind)?,
+                    &k("center"),
+                )?;
+                let radius = self.float(
+                    self.require(&l.radius, span.clone(), &k("radius"), kind)?,
+                    &k("radius"),
+                    0.0,
+                    1e9,
+                    true,
+                )?;
+                let radiance = self.color(
+                    self.require(&l.radiance, span.clone(), &k("radiance"), kind)?,
+                    &k("radiance"),
+                    None,
+                )?;
+                Ok(Light::Sphere {
+                    center,
+                    radius,
+                    radiance,
+                })
+            }
+            other => Err(self.err(
+                l.kind.span(),
+                k("type"),
+                format!("unknown light type '{other}' (sun, point, quad, sphere)"),
+            )),
+        }
+    }
+
+    fn alpha_mask(&self, m: &MaterialTable, key: &str) -> Result<Option<AlphaMask>, SceneError> {
+        let Some(p) = &m.alpha else {
+            if let Some(c) = &m.alpha_cutoff {
+                return Err(self.err(
+                    c.span(),
+                    format!("{key}.alpha_cutoff"),
+                    "needs an alpha map ('alpha = \"matte.png\"')",
+                ));
+            }
+            return Ok(None);
+        };
+        let map = self.texture(p, &format!("{key}.alpha"), Encoding::Linear)?;
+        let cutoff = m
+            .alpha_cutoff
+            .as_ref()
+            .map(|v| self.float(v, &format!("{key}.alpha_cutoff"), 0.0, 1.0, false))
+            .transpose()?
+            .unwrap_or(0.5);
+        // A matte with an alpha channel that is not all opaque is read from that channel.
+        let use_alpha_channel = map.texels().iter().any(|t| t.w < 1.0);
+        Ok(Some(AlphaMask {
+            map,
+            use_alpha_channel,
+            cutoff,
+        }))
+    }
+
+    fn color_input(
+        &self,
+        value: &Option<S<ColorValue>>,
+        map: &Option<S<String>>,
+        key: &str,
+        default: Vec3,
+    ) -> Result<ColorInput, SceneError> {
+        let factor = value
+            .as_ref()
+            .map(|v| self.color(v, key, Some(1.0)))
+            .transpose()?;
+        Ok(match map {
+            Some(p) => ColorInput::Texture {
+                map: self.texture(p, &format!("{key}_map"), Encoding::Srgb)?,
+                factor: factor.unwrap_or(Vec3::ONE),
+            },
+            None => ColorInput::Constant(factor.unwrap_or(default)),
+        })
+    }
+
+    fn material(&self, i: usize, t: &S<MaterialTable>) -> Result<Material, SceneError> {
+        let m = t.get_ref();
+        let name = m.name.get_ref().clone();
+        let kind = m.kind.get_ref().as_str();
+        let p = format!("material[{i}]");
+        let keys = [
+            ("reflectance", m.reflectance.is_some()),
+            ("reflectance_map", m.reflectance_map.is_some()),
+            ("transmittance", m.transmittance.is_some()),
+            ("transmittance_map", m.transmittance_map.is_some()),
+            ("alpha", m.alpha.is_some()),
+            ("alpha_cutoff", m.alpha_cutoff.is_some()),
+            ("file", m.file.is_some()),
+            ("species", m.species.is_some()),
+            ("seed", m.seed.is_some()),
+            ("resolution", m.resolution.is_some()),
+            ("maps", m.maps.is_some()),
+            ("params", m.params.is_some()),
+        ];
+        match kind {
+            "diffuse" => {
+                self.only(
+                    t.span(),
+                    &p,
+                    kind,
+                    &keys,
+                    &[
+                        "name",
+                        "reflectance",
+                        "reflectance_map",
+                        "alpha",
+                        "alpha_cutoff",
+                    ],
+                )?;
+                let reflectance = self.color_input(
+                    &m.reflectance,
+                    &m.reflectance_map,
+                    &format!("{p}.reflectance"),
+                    Vec3::splat(0.5),
+                )?;
+                Ok(Material::Diffuse {
+                    name,
+                    reflectance,
+                    alpha: self.alpha_mask(m, &p)?,
+                })
+            }
+            "diffuse_transmission" => {
+                self.only(
+                    t.span(),
+                    &p,
+                    kind,
+                    &keys,
+                    &[
+                        "name",
+                        "reflectance",
+                        "reflectance_map",
+                        "transmittance",
+                        "transmittance_map",
+                        "alpha",
+                        "alpha_cutoff",
+                    ],
+                )?;
+                let reflectance = self.color_input(
+                    &m.reflectance,
+                    &m.reflectance_map,
+                    &format!("{p}.reflectance"),
+                    Vec3::splat(0.25),
+                )?;
+                let transmittance = self.color_input(
+                    &m.transmittance,
+                    &m.transmittance_map,
+                    &format!("{p}.transmittance"),
+                    Vec3::splat(0.25),
+                )?;
+                if let (ColorInput::Constant(r), ColorInput::Constant(tr)) =
+                    (&reflectance, &transmittance)
+                    && (*r + *tr).max_element() > 1.0 + 1e-6
+                {
+                    let span = m.transmittance.as_ref().map_or(t.span(), |v| v.span());
+                    return Err(self.err(
+                        span,
+                        format!("{p}.transmittance"),
+                        format!("reflectance + transmittance must be <= 1 per channel (energy), got {:?}", (*r + *tr).to_array()),
+                    ));
+                }
+                Ok(Material::DiffuseTransmission {
+                    name,
+                    reflectance,
+                    transmittance,
+                    alpha: self.alpha_mask(m, &p)?,
+                })
+            }
+            "leaf" => {
+                self.only(
+                    t.span(),
+                    &p,
+                    kind,
+                    &keys,
+                    &[
+                        "name",
+                        "file",
+                        "species",
+                        "seed",
+                        "resolution",
+                        "maps",
+                        "params",
+                    ],
+                )?;
+                let leaf = crate::leaf::load_leaf_material(self, &p, m)?;
+                Ok(Material::Leaf {
+                    name,
+                    leaf: Arc::new(leaf),
+                })
+            }
+            other => Err(self.err(
+                m.kind.span(),
+                format!("{p}.type"),
+                format!("unknown material type '{other}' (diffuse, diffuse_transmission, leaf)"),
+            )),
+        }
+    }
+
+    fn transform(&self, t: &Option<S<TransformTable>>, key: &str) -> Result<Transform, SceneError> {
+        let Some(t) = t else {
+            return Ok(Transform::default());
+        };
+        let tt = t.get_ref();
+        let scale = tt.scale.map_or(Vec3::ONE, |s| s.0);
+        let rot = Vec3::new(
+            tt.rotate_x.unwrap_or(0.0),
+            tt.rotate_y.unwrap_or(0.0),
+            tt.rotate_z.unwrap_or(0.0),
+        );
+        let tr = tt.translate.map_or(Vec3::ZERO, Vec3::from);
+        if !(scale.is_finite() && rot.is_finite() && tr.is_finite()) {
+            return Err(self.err(t.span(), key, "values must be finite"));
+        }
+        if scale.abs().min_element() < 1e-12 {
+            return Err(self.err(t.span(), format!("{key}.scale"), "must not be zero"));
+        }
+        Ok(Transform::from_parts(scale, rot, tr))
+    }
+
+    fn object(
+        &self,
+        i: usize,
+        t: &S<ObjectTable>,
+        materials: &HashMap<String, u32>,
+    ) -> Result<Vec<Mesh>, SceneError> {
+        let o = t.get_ref();
+        let kind = o.kind.get_ref().as_str();
+        let p = format!("object[{i}]");
+        let keys = [
+            ("file", o.file.is_some()),
+            ("corner", o.corner.is_some()),
+            ("edge_u", o.edge_u.is_some()),
+            ("edge_v", o.edge_v.is_some()),
+            ("cards", o.cards.is_some()),
+        ];
+        let xf = self.transform(&o.transform, &format!("{p}.transform"))?;
+        let mat_key = format!("{p}.material");
+        let mat = self.require(&o.material, t.span(), &mat_key, kind)?;
+        let material = *materials.get(mat.get_ref()).ok_or_else(|| {
+            let mut names: Vec<_> = materials.keys().cloned().collect();
+            names.sort();
+            self.err(
+                mat.span(),
+                &mat_key,
+                format!(
+                    "no material named '{}' (defined: {})",
+                    mat.get_ref(),
+                    names.join(", ")
+                ),
+            )
+        })?;
+        match kind {
+            "quad" => {
+                self.only(t.span(), &p, kind, &keys, &["corner", "edge_u", "edge_v"])?;
+                let corner = self.vec3(
+                    self.require(&o.corner, t.span(), &format!("{p}.corner"), kind)?,
+                    &format!("{p}.corner"),
+                )?;
+                let eu = self.require(&o.edge_u, t.span(), &format!("{p}.edge_u"), kind)?;
+                let edge_u = self.vec3(eu, &format!("{p}.edge_u"))?;
+                let edge_v = self.vec3(
+                    self.require(&o.edge_v, t.span(), &format!("{p}.edge_v"), kind)?,
+                    &format!("{p}.edge_v"),
+                )?;
+                if edge_u.cross(edge_v).length_squared() < 1e-16 {
+                    return Err(self.err(
+                        eu.span(),
+                        format!("{p}.edge_u"),
+                        "edge_u and edge_v must span a non-zero area",
+                    ));
+                }
+                let mut mesh = quad_mesh(corner, edge_u, edge_v, material);
+                apply_transform(&mut mesh, &xf);
+                Ok(vec![mesh])
+            }
+            "leaf_cards" => {
+                self.only(t.span(), &p, kind, &keys, &["file", "cards"])?;
+                let mut cards: Vec<LeafCard> = Vec::new();
+                if let Some(rows) = &o.cards {
+                    for (j, row) in rows.get_ref().iter().enumerate() {
+                        cards
+                            .push(LeafCard::new(row).map_err(|m| {
+                                self.err(rows.span(), format!("{p}.cards[{j}]"), m)
+                            })?);
+                    }
+                }
+                if let Some(f) = &o.file {
+                    cards.extend(read_card_file(&self.path(f))?);
+                }
+                if o.cards.is_none() && o.file.is_none() {
+                    return Err(self.err(
+                        t.span(),
+                        format!("{p}.cards"),
+                        "a leaf_cards object needs 'cards' or 'file'",
+                    ));
+                }
+                let cards: Vec<LeafCard> = cards.iter().map(|c| c.transformed(&xf)).collect();
+                let mut mesh = Mesh {
+                    material,
+                    ..Default::default()
+                };
+                append_cards(&mut mesh, &cards);
+                Ok(vec![mesh])
+            }
+            "obj" => {
+                self.only(t.span(), &p, kind, &keys, &["file"])?;
+                let f = self.require(&o.file, t.span(), &format!("{p}.file"), kind)?;
+                let mut meshes = crate::obj::load_obj(&self.path(f), material)?;
+                for m in &mut meshes {
+                    apply_transform(m, &xf);
+                }
+                Ok(meshes)
+            }
+            other => Err(self.err(
+                o.kind.span(),
+                format!("{p}.type"),
+                format!("unknown object type '{other}' (quad, leaf_cards, obj)"),
+            )),
+        }
+    }
+}
+
+/// A parallelogram `corner + s·edge_u + t·edge_v` as two triangles, front face along
+/// `edge_u × edge_v`, `uv = (s, t)`.
+pub fn quad_mesh(corner: Vec3, edge_u: Vec3, edge_v: Vec3, material: u32) -> Mesh {
+    Mesh {
+        positions: vec![
+            corner,
+            corner + edge_u,
+            corner + edge_u + edge_v,
+            corner + edge_v,
+        ],
+        normals: Vec::new(),
+        uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        material,
+    }
+}
+
+/// Transforms a mesh in place, keeping its front faces in front.
+pub fn apply_transform(mesh: &mut Mesh, t: &Transform) {
+    if *t == Transform::default() {
+        return;
+    }
+    for p in &mut mesh.positions {
+        *p = t.point(*p);
+    }
+    for n in &mut mesh.normals {
+        *n = t.normal(*n);
+    }
+    if t.flips() {
+        for tri in &mut mesh.indices {
+            tri.swap(1, 2);
+        }
+    }
+}

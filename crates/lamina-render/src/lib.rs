@@ -1,1 +1,38 @@
-//! lamina-render
+//! The lamina offline renderer.
+//!
+//! [`render`] turns a [`lamina_scene::Scene`] into an [`Image`] of linear Rec.709 RGB
+//! radiance (W m⁻² sr⁻¹); [`write_image`] stores it as EXR (linear float, the ground truth)
+//! or PNG (8-bit sRGB after exposure and the scene's tone map).
+//!
+//! Modules, one concept each (pbrt-v4 style):
+//! * [`sampler`]: per-pixel Owen-scrambled, index-shuffled 2D Sobol points (Burley 2020).
+//! * [`camera`]: the pinhole / thin-lens camera.
+//! * [`accel`]: the BVH (obvhs compressed wide BVH8) with the alpha test on every ray.
+//! * [`lights`]: sun, point, quad, sphere and sky (constant or importance-sampled image).
+//! * [`distribution`]: 1D and 2D piecewise-constant distributions.
+//! * [`materials`]: scene materials to a [`materials::SurfaceBsdf`] at a hit.
+//! * [`integrators`]: `path` (unidirectional, NEE + MIS + Russian roulette) and `paper`.
+//! * [`film`]: pixel filters (importance-sampled) and the sample accumulator.
+//! * [`output`]: EXR / PNG writing with tone maps, atomically.
+//! * [`render`](mod@render): tiles, passes, threads, time limit and cancellation.
+
+pub mod accel;
+pub mod camera;
+pub mod distribution;
+pub mod film;
+pub mod integrators;
+pub mod lights;
+pub mod materials;
+pub mod output;
+pub mod render;
+pub mod sampler;
+
+mod error;
+
+pub use accel::{Accel, Hit, Ray};
+pub use error::RenderError;
+pub use output::write_image;
+pub use render::{Image, Progress, RenderOptions, RenderOutput, RenderStats, render};
+
+#[cfg(test)]
+mod tests;

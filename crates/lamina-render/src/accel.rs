@@ -1,0 +1,475 @@
+//! Ray casting: a compressed wide BVH8 (obvhs) over every triangle of every mesh plus the
+//! quad lights, a short list of sphere lights, and the alpha test.
+//!
+//! * **Alpha test on every ray kind**: a triangle whose material has a matte
+//!   ([`lamina_scene::AlphaMask`], or a leaf's [`lamina_leaf::LeafMaterial::opaque`]) is
+//!   hit only where the matte is opaque at the interpolated texture coordinate; the
+//!   traversal rejects the other hits and goes on. [`Accel::intersect`] finds the closest
+//!   opaque hit, [`Accel::occluded`] stops at the first one (any-hit).
+//! * **Self-intersection**: rays leaving a surface skip the triangle they leave (a planar
+//!   triangle cannot be hit again by a ray leaving it) and start a small distance off the
+//!   surface on the side they go (see [`spawn_origin`]), which guards against the
+//!   neighbouring triangles of the same card.
+//! * **Layout**: triangles are stored in BVH leaf order as `v0, e1, e2` (48 bytes) for the
+//!   Möller-Trumbore test; shading data (UVs, unit geometric normal, unit tangent along
+//!   `dP/du`, material / light id and flags) sit in a parallel array indexed by the same
+//!   primitive id, all precomputed at build time.
+
+use crate::error::RenderError;
+use glam::{Vec2, Vec3, Vec3A};
+use lamina_leaf::frame::Frame;
+use lamina_scene::{AlphaMask, Light, Material, Scene};
+use obvhs::{
+    BvhBuildParams,
+    cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
+    ray::{Ray as BvhRay, RayHit},
+    triangle::Triangle,
+};
+use std::sync::Arc;
+
+/// A ray: `origin + t·dir` for `t ∈ (0, tmax)`. `dir` must be unit length for distances to
+/// be in metres (the integrators always pass unit directions).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Origin (m).
+    pub origin: Vec3,
+    /// Direction (unit).
+    pub dir: Vec3,
+    /// Largest distance considered (m); `f32::INFINITY` for none.
+    pub tmax: f32,
+}
+
+/// What a ray hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum HitKind {
+    /// A triangle (a mesh triangle or half of a quad light).
+    Triangle {
+        /// Primitive id (BVH order), for [`Accel::prim`].
+        prim: u32,
+        /// Barycentric coordinates of `v1` and `v2`.
+        bary: Vec2,
+    },
+    /// A sphere light.
+    Sphere {
+        /// Index into [`Scene::lights`].
+        light: u32,
+    },
+}
+
+/// The closest opaque intersection along a ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Distance along the ray (m, for a unit direction).
+    pub t: f32,
+    /// What was hit.
+    pub kind: HitKind,
+}
+
+/// Flag in [`PrimInfo::flags`]: the material has an alpha matte.
+pub const FLAG_ALPHA: u32 = 0x4000_0000;
+/// Flag in [`PrimInfo::flags`]: the triangle belongs to a quad light (id = light index).
+pub const FLAG_EMITTER: u32 = 0x8000_0000;
+/// Mask of the material or light index in [`PrimInfo::flags`].
+pub const ID_MASK: u32 = 0x3fff_ffff;
+/// "No primitive" for the skip argument.
+pub const NO_PRIM: u32 = u32::MAX;
+
+/// Per-triangle shading data, precomputed at build time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrimInfo {
+    /// Texture coordinates at the three vertices (zero when the mesh has none).
+    pub uv: [Vec2; 3],
+    /// Unit geometric normal `(v1 - v0) × (v2 - v0)`, the front (adaxial) side.
+    pub n: Vec3,
+    /// Unit tangent along `dP/du`, orthogonal to `n` (along `v1 - v0` without UVs).
+    pub s: Vec3,
+    /// Material index (or light index for emitters) in the low 30 bits, plus
+    /// [`FLAG_ALPHA`] / [`FLAG_EMITTER`].
+    pub flags: u32,
+}
+
+impl PrimInfo {
+    /// Texture coordinates at barycentric `bary`.
+    #[inline]
+    pub fn uv_at(&self, bary: Vec2) -> Vec2 {
+        self.uv[0] * (1.0 - bary.x - bary.y) + self.uv[1] * bary.x + self.uv[2] * bary.y
+    }
+
+    /// The shading frame: `z` the geometric normal, `x` along `dP/du`.
+    #[inline]
+    pub fn frame(&self) -> Frame {
+        Frame {
+            s: self.s,
+            t: self.n.cross(self.s),
+            n: self.n,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+struct Tri {
+    v0: Vec3A,
+    e1: Vec3A,
+    e2: Vec3A,
+}
+
+#[derive(Clone, Debug)]
+enum AlphaTest {
+    None,
+    Mask(AlphaMask),
+    Leaf(Arc<lamina_leaf::LeafMaterial>),
+}
+
+impl AlphaTest {
+    #[inline]
+    fn opaque(&self, uv: Vec2) -> bool {
+        match self {
+            AlphaTest::None => true,
+            AlphaTest::Mask(m) => m.opaque(uv),
+            AlphaTest::Leaf(l) => l.opaque(uv),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct SphereGeom {
+    center: Vec3,
+    radius: f32,
+    light: u32,
+}
+
+/// The acceleration structure of a scene.
+#[derive(Clone, Debug)]
+pub struct Accel {
+    bvh: Option<CwBvh>,
+    tris: Vec<Tri>,
+    prims: Vec<PrimInfo>,
+    alpha: Vec<AlphaTest>,
+    spheres: Vec<SphereGeom>,
+}
+
+/// Möller-Trumbore: `(t, b1, b2)`, `t = ∞` for a miss or `t ∉ (0, tmax)`.
+#[inline(always)]
+fn intersect_tri(tri: &Tri, o: Vec3A, d: Vec3A, tmax: f32) -> (f32, f32, f32) {
+    const MISS: (f32, f32, f32) = (f32::INFINITY, 0.0, 0.0);
+    let p = d.cross(tri.e2);
+    let det = tri.e1.dot(p);
+    if det == 0.0 {
+        return MISS;
+    }
+    let inv = 1.0 / det;
+    let tv = o - tri.v0;
+    let b1 = tv.dot(p) * inv;
+    if !(0.0..=1.0).contains(&b1) {
+        return MISS;
+    }
+    let q = tv.cross(tri.e1);
+    let b2 = d.dot(q) * inv;
+    if !(b2 >= 0.0 && b1 + b2 <= 1.0) {
+        return MISS;
+    }
+    let t = tri.e2.dot(q) * inv;
+    if t > 0.0 && t < tmax {
+        (t, b1, b2)
+    } else {
+        MISS
+    }
+}
+
+/// Nearest `t ∈ (0, tmax)` where the ray meets the sphere, or `∞`.
+#[inline]
+fn intersect_sphere(s: &SphereGeom, o: Vec3, d: Vec3, tmax: f32) -> f32 {
+    let oc = o - s.center;
+    let b = oc.dot(d);
+    // Distance² from the centre to the line, computed stably (Hearn & Baker / Ray Tracing Gems).
+    let perp = oc - d * b;
+    let disc = s.radius * s.radius - perp.length_squared();
+    if disc < 0.0 {
+        return f32::INFINITY;
+    }
+    let c = oc.length_squared() - s.radius * s.radius;
+    let q = -b - disc.sqrt().copysign(b);
+    let (t0, t1) = if q != 0.0 { (c / q, q) } else { (0.0, 0.0) };
+    let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+    if t0 > 0.0 && t0 < tmax {
+        t0
+    } else if t1 > 0.0 && t1 < tmax {
+        t1
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// A ray origin `offset` off the surface at `p` (unit geometric normal `n`) on the side of
+/// `dir`: `p ± n · 2·10⁻⁵ (1 + max|p|)`, a few hundred ulps of the position.
+#[inline]
+pub fn spawn_origin(p: Vec3, n: Vec3, dir: Vec3) -> Vec3 {
+    let eps = 2e-5 * (1.0 + p.abs().max_element());
+    if dir.dot(n) >= 0.0 {
+        p + n * eps
+    } else {
+        p - n * eps
+    }
+}
+
+impl Accel {
+    /// Builds the BVH over every mesh triangle and quad light of `scene`. Degenerate or
+    /// non-finite triangles are left out. An error for out-of-range vertex or material
+    /// indices.
+    pub fn build(scene: &Scene) -> Result<Self, RenderError> {
+        let alpha: Vec<AlphaTest> = scene
+            .materials
+            .iter()
+            .map(|m| match m {
+                Material::Diffuse { alpha, .. } | Material::DiffuseTransmission { alpha, .. } => {
+                    alpha.clone().map_or(AlphaTest::None, AlphaTest::Mask)
+                }
+                Material::Leaf { leaf, .. } => AlphaTest::Leaf(leaf.clone()),
+            })
+            .collect();
+        let mut tris: Vec<Triangle> = Vec::new();
+        let mut prims: Vec<PrimInfo> = Vec::new();
+        let mut push = |v: [Vec3; 3], uv: [Vec2; 3], flags: u32| {
+            if !v.iter().all(|p| p.is_finite()) {
+                return;
+            }
+            let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
+            let n = e1.cross(e2).normalize_or_zero();
+            if n == Vec3::ZERO {
+                return;
+            }
+            let (du1, du2, dv1, dv2) = (
+                uv[1].x - uv[0].x,
+                uv[2].x - uv[0].x,
+                uv[1].y - uv[0].y,
+                uv[2].y - uv[0].y,
+            );
+            let det = du1 * dv2 - du2 * dv1;
+            let dpdu = if det.abs() > 1e-20 {
+                (e1 * dv2 - e2 * dv1) / det
+            } else {
+                e1
+            };
+            let frame = Frame::from_normal_tangent(n, if dpdu.is_finite() { dpdu } else { e1 });
+            tris.push(Triangle {
+                v0: v[0].into(),
+                v1: v[1].into(),
+                v2: v[2].into(),
+            });
+            prims.push(PrimInfo {
+                uv,
+                n,
+                s: frame.s,
+                flags,
+            });
+        };
+        for (mi, mesh) in scene.meshes.iter().enumerate() {
+            let mat = mesh.material as usize;
+            if mat >= scene.materials.len() || mat > ID_MASK as usize {
+                return Err(RenderError::InvalidScene(format!(
+                    "mesh {mi} uses material {mat}, but there are {} materials",
+                    scene.materials.len()
+                )));
+            }
+            let mut flags = mat as u32;
+            if !matches!(alpha[mat], AlphaTest::None) {
+                flags |= FLAG_ALPHA;
+            }
+            let has_uv = !mesh.uvs.is_empty();
+            for (ti, idx) in mesh.indices.iter().enumerate() {
+                let ok = idx.iter().all(|&i| {
+                    (i as usize) < mesh.positions.len()
+                        && (!has_uv || (i as usize) < mesh.uvs.len())
+                });
+                if !ok {
+                    return Err(RenderError::InvalidScene(format!(
+                        "mesh {mi}, triangle {ti}: vertex index out of range"
+                    )));
+                }
+                let v = idx.map(|i| mesh.positions[i as usize]);
+                let uv = if has_uv {
+                    idx.map(|i| mesh.uvs[i as usize])
+                } else {
+                    [Vec2::ZERO; 3]
+                };
+                push(v, uv, flags);
+            }
+        }
+        let mut spheres = Vec::new();
+        for (li, light) in scene.lights.iter().enumerate() {
+            match light {
+                Light::Quad {
+                    corner,
+                    edge_u,
+                    edge_v,
+                    ..
+                } => {
+                    let (a, b, c, d) = (
+                        *corner,
+                        *corner + *edge_u,
+                        *corner + *edge_u + *edge_v,
+                        *corner + *edge_v,
+                    );
+                    let uv = [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y];
+                    let flags = FLAG_EMITTER | li as u32;
+                    push([a, b, c], [uv[0], uv[1], uv[2]], flags);
+                    push([a, c, d], [uv[0], uv[2], uv[3]], flags);
+                }
+                Light::Sphere { center, radius, .. } if center.is_finite() && *radius > 0.0 => {
+                    spheres.push(SphereGeom {
+                        center: *center,
+                        radius: *radius,
+                        light: li as u32,
+                    });
+                }
+                _ => {}
+            }
+        }
+        let (bvh, tris, prims) = if tris.is_empty() {
+            (None, Vec::new(), Vec::new())
+        } else {
+            let bvh = build_cwbvh_from_tris(
+                &tris,
+                BvhBuildParams::medium_build(),
+                &mut Default::default(),
+            );
+            // Lay the triangles out in BVH leaf order so the traversal indexes them directly.
+            let order = &bvh.primitive_indices;
+            let t: Vec<Tri> = order
+                .iter()
+                .map(|&i| {
+                    let tr = &tris[i as usize];
+                    Tri {
+                        v0: tr.v0,
+                        e1: tr.v1 - tr.v0,
+                        e2: tr.v2 - tr.v0,
+                    }
+                })
+                .collect();
+            let p: Vec<PrimInfo> = order.iter().map(|&i| prims[i as usize]).collect();
+            (Some(bvh), t, p)
+        };
+        Ok(Accel {
+            bvh,
+            tris,
+            prims,
+            alpha,
+            spheres,
+        })
+    }
+
+    /// Number of triangles in the BVH (mesh triangles plus two per quad light).
+    pub fn triangle_count(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// Shading data of primitive `prim` (from a [`HitKind::Triangle`]).
+    #[inline]
+    pub fn prim(&self, prim: u32) -> &PrimInfo {
+        &self.prims[prim as usize]
+    }
+
+    /// World position at barycentric `bary` on triangle `prim` (more precise than
+    /// `origin + t·dir`).
+    #[inline]
+    pub fn position(&self, prim: u32, bary: Vec2) -> Vec3 {
+        let t = &self.tris[prim as usize];
+        (t.v0 + t.e1 * bary.x + t.e2 * bary.y).into()
+    }
+
+    /// The closest opaque hit along `ray`, if any.
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        self.intersect_skip(ray, NO_PRIM)
+    }
+
+    /// Whether any opaque surface lies along `ray` in `(0, tmax)`.
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded_skip(ray, NO_PRIM)
+    }
+
+    #[inline(always)]
+    fn accept(&self, prim: usize, b1: f32, b2: f32) -> bool {
+        let info = &self.prims[prim];
+        if info.flags & FLAG_ALPHA == 0 {
+            return true;
+        }
+        let uv = info.uv_at(Vec2::new(b1, b2));
+        self.alpha[(info.flags & ID_MASK) as usize].opaque(uv)
+    }
+
+    /// [`Accel::intersect`], ignoring triangle `skip` (the one the ray leaves).
+    #[inline]
+    pub fn intersect_skip(&self, ray: &Ray, skip: u32) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        let mut tmax = ray.tmax;
+        if let Some(bvh) = &self.bvh {
+            let o = Vec3A::from(ray.origin);
+            let d = Vec3A::from(ray.dir);
+            let bray = BvhRay::new(o, d, 0.0, tmax);
+            let mut hit = RayHit::none();
+            let mut bary = Vec2::ZERO;
+            let found = bvh.ray_traverse(bray, &mut hit, |r, id| {
+                if id as u32 == skip {
+                    return f32::INFINITY;
+                }
+                // SAFETY-free indexing: ids come from the BVH built over `tris`.
+                let (t, b1, b2) = intersect_tri(&self.tris[id], o, d, r.tmax);
+                if t < r.tmax && self.accept(id, b1, b2) {
+                    bary = Vec2::new(b1, b2);
+                    t
+                } else {
+                    f32::INFINITY
+                }
+            });
+            if found {
+                tmax = hit.t;
+                best = Some(Hit {
+                    t: hit.t,
+                    kind: HitKind::Triangle {
+                        prim: hit.primitive_id,
+                        bary,
+                    },
+                });
+            }
+        }
+        for s in &self.spheres {
+            let t = intersect_sphere(s, ray.origin, ray.dir, tmax);
+            if t < tmax {
+                tmax = t;
+                best = Some(Hit {
+                    t,
+                    kind: HitKind::Sphere { light: s.light },
+                });
+            }
+        }
+        best
+    }
+
+    /// [`Accel::occluded`], ignoring triangle `skip` (the one the ray leaves).
+    #[inline]
+    pub fn occluded_skip(&self, ray: &Ray, skip: u32) -> bool {
+        for s in &self.spheres {
+            if intersect_sphere(s, ray.origin, ray.dir, ray.tmax) < ray.tmax {
+                return true;
+            }
+        }
+        let Some(bvh) = &self.bvh else {
+            return false;
+        };
+        let o = Vec3A::from(ray.origin);
+        let d = Vec3A::from(ray.dir);
+        let bray = BvhRay::new(o, d, 0.0, ray.tmax);
+        !bvh.ray_traverse_miss(bray, |r, id| {
+            if id as u32 == skip {
+                return f32::INFINITY;
+            }
+            let (t, b1, b2) = intersect_tri(&self.tris[id], o, d, r.tmax);
+            if t < r.tmax && self.accept(id, b1, b2) {
+                t
+            } else {
+                f32::INFINITY
+            }
+        })
+    }
+}

@@ -1,0 +1,124 @@
+//! The perspective camera: pinhole or thin lens.
+
+use crate::error::RenderError;
+use glam::{Vec2, Vec3};
+use lamina_leaf::sampling::square_to_disk;
+use lamina_scene::{Camera, Film};
+
+/// A camera prepared for generating rays.
+///
+/// Film coordinates are in pixels: `(0, 0)` is the top-left corner of the image, `x` to the
+/// right, `y` down; the centre of pixel `(i, j)` is `(i + 0.5, j + 0.5)`.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraModel {
+    origin: Vec3,
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+    /// `tan(fov_x / 2)`.
+    tan_half: f32,
+    inv_width: f32,
+    aspect: f32,
+    aperture: f32,
+    focus: f32,
+}
+
+impl CameraModel {
+    /// Prepares `camera` for a film of `film.width x film.height` pixels. An error for
+    /// non-finite values, `look_at == position`, `up` parallel to the view direction, or a
+    /// field of view outside `(0, 180)` degrees.
+    pub fn new(camera: &Camera, film: &Film) -> Result<Self, RenderError> {
+        let bad = |m: &str| Err(RenderError::InvalidScene(format!("camera: {m}")));
+        let forward = (camera.look_at - camera.position).normalize_or_zero();
+        if !camera.position.is_finite() || forward == Vec3::ZERO || !forward.is_finite() {
+            return bad("look_at must differ from position and both be finite");
+        }
+        let right = forward.cross(camera.up).normalize_or_zero();
+        if right == Vec3::ZERO || !right.is_finite() {
+            return bad("up must not be parallel to the view direction");
+        }
+        if !(camera.fov_deg > 0.0 && camera.fov_deg < 180.0) {
+            return bad("fov must be in (0, 180) degrees");
+        }
+        if film.width == 0 || film.height == 0 {
+            return Err(RenderError::InvalidScene(
+                "film size must be positive".into(),
+            ));
+        }
+        let aperture = if camera.aperture_radius.is_finite() {
+            camera.aperture_radius.max(0.0)
+        } else {
+            0.0
+        };
+        let focus = if camera.focus_distance.is_finite() && camera.focus_distance > 0.0 {
+            camera.focus_distance
+        } else {
+            1.0
+        };
+        Ok(CameraModel {
+            origin: camera.position,
+            forward,
+            right,
+            up: right.cross(forward),
+            tan_half: (camera.fov_deg.to_radians() * 0.5).tan(),
+            inv_width: 1.0 / film.width as f32,
+            aspect: film.height as f32 / film.width as f32,
+            aperture,
+            focus,
+        })
+    }
+
+    /// The ray (origin, unit direction) through film position `film` (pixels), using
+    /// `lens ∈ [0, 1)²` to pick a point on the lens.
+    #[inline]
+    pub fn generate_ray(&self, film: Vec2, lens: Vec2) -> (Vec3, Vec3) {
+        let nx = 2.0 * film.x * self.inv_width - 1.0;
+        let ny = self.aspect - 2.0 * film.y * self.inv_width;
+        let d = self.forward + self.right * (nx * self.tan_half) + self.up * (ny * self.tan_half);
+        if self.aperture > 0.0 {
+            let focus_point = self.origin + d * self.focus;
+            let l = square_to_disk(lens) * self.aperture;
+            let o = self.origin + self.right * l.x + self.up * l.y;
+            (o, (focus_point - o).normalize())
+        } else {
+            (self.origin, d.normalize())
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lamina_scene::{PixelFilter, ToneMap};
+
+    #[test]
+    fn centre_ray_looks_at_target_and_corners_match_fov() {
+        let cam = Camera {
+            position: Vec3::ZERO,
+            look_at: Vec3::new(0.0, 0.0, -1.0),
+            up: Vec3::Y,
+            fov_deg: 90.0,
+            aperture_radius: 0.0,
+            focus_distance: 1.0,
+        };
+        let film = Film {
+            width: 200,
+            height: 100,
+            spp: 1,
+            filter: PixelFilter::Box,
+            exposure: 0.0,
+            tonemap: ToneMap::Clamp,
+        };
+        let m = CameraModel::new(&cam, &film).unwrap();
+        let (_, d) = m.generate_ray(Vec2::new(100.0, 50.0), Vec2::ZERO);
+        assert!((d - Vec3::NEG_Z).length() < 1e-6);
+        // Right edge at 45 degrees, top edge at atan(0.5).
+        let (_, d) = m.generate_ray(Vec2::new(200.0, 50.0), Vec2::ZERO);
+        assert!((d - Vec3::new(1.0, 0.0, -1.0).normalize()).length() < 1e-6);
+        let (_, d) = m.generate_ray(Vec2::new(100.0, 0.0), Vec2::ZERO);
+        assert!((d - Vec3::new(0.0, 0.5, -1.0).normalize()).length() < 1e-6);
+        let mut bad = cam;
+        bad.look_at = bad.position;
+        assert!(CameraModel::new(&bad, &film).is_err());
+    }
+}

@@ -1,0 +1,61 @@
+//! Light-transport algorithms and what they share: the prepared scene and the handling of
+//! rays that hit an emitter.
+
+pub mod paper;
+pub mod path;
+
+use crate::accel::{Accel, FLAG_EMITTER, HitKind, ID_MASK, Ray};
+use crate::camera::CameraModel;
+use crate::error::RenderError;
+use crate::film::FilterSampler;
+use crate::lights::{AnyLight, LightSet};
+use glam::Vec3;
+use lamina_scene::Scene;
+
+/// A scene prepared for rendering: BVH, lights, camera and pixel filter.
+pub struct SceneContext<'a> {
+    /// The scene (materials are read from it at every hit).
+    pub scene: &'a Scene,
+    /// The acceleration structure.
+    pub accel: Accel,
+    /// The lights, sky last.
+    pub lights: LightSet,
+    /// The camera.
+    pub camera: CameraModel,
+    /// The pixel filter sampler.
+    pub filter: FilterSampler,
+}
+
+impl<'a> SceneContext<'a> {
+    /// Builds everything a render needs from `scene`.
+    pub fn new(scene: &'a Scene) -> Result<Self, RenderError> {
+        Ok(SceneContext {
+            scene,
+            camera: CameraModel::new(&scene.camera, &scene.film)?,
+            accel: Accel::build(scene)?,
+            lights: LightSet::new(scene)?,
+            filter: FilterSampler::new(scene.film.filter),
+        })
+    }
+
+    /// If `kind` is an emitter (quad or sphere light), its radiance toward the ray and the
+    /// solid-angle density with which next-event estimation from `ray.origin` samples it.
+    #[inline]
+    pub(crate) fn emitter(&self, kind: HitKind, ray: &Ray, t: f32) -> Option<(Vec3, f32)> {
+        let light = match kind {
+            HitKind::Sphere { light } => light,
+            HitKind::Triangle { prim, .. } => {
+                let flags = self.accel.prim(prim).flags;
+                if flags & FLAG_EMITTER == 0 {
+                    return None;
+                }
+                flags & ID_MASK
+            }
+        };
+        Some(match self.lights.lights.get(light as usize) {
+            Some(AnyLight::Quad(q)) => q.hit(ray.dir, t),
+            Some(AnyLight::Sphere(s)) => s.hit(ray.origin, ray.dir, t),
+            _ => (Vec3::ZERO, 0.0),
+        })
+    }
+}

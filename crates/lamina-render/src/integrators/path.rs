@@ -1,0 +1,151 @@
+//! The unidirectional path tracer.
+//!
+//! * **Next-event estimation** at every scattering vertex to *every* light (sun, point,
+//!   quad, sphere, sky), one sample each, with a shadow ray that the alpha test lets through
+//!   holes; opaque geometry blocks it (light *through* leaves arrives by the path's own
+//!   transmission bounces instead).
+//! * **MIS**: light samples and BSDF samples of non-delta lights (area lights, the sun's
+//!   disc, the sky) are combined with the power heuristic (β = 2), each light's density
+//!   against the BSDF's. Delta lights (point, zero-diameter sun) get NEE only, weight 1.
+//! * **Russian roulette** from `rr_depth` scattering events on: survival probability
+//!   `min(1, max channel of the throughput)`, throughput divided by it.
+//! * **max_depth** counts scattering events: 1 is direct light only (with the emission found
+//!   by that vertex's BSDF sample), 0 only what camera rays see directly.
+//! * Emitters end paths (they are black).
+
+use super::SceneContext;
+use crate::accel::{FLAG_EMITTER, HitKind, ID_MASK, NO_PRIM, Ray, spawn_origin};
+use crate::lights::power_heuristic;
+use crate::materials::SurfaceBsdf;
+use crate::sampler::PixelSampler;
+use glam::Vec3;
+use lamina_leaf::Bsdf;
+
+/// Radiance (W m⁻² sr⁻¹) arriving along the camera ray `ray`. Adds the rays it traces
+/// (primary, indirect, shadow) to `rays`.
+pub fn radiance(
+    ctx: &SceneContext,
+    mut ray: Ray,
+    sampler: &mut PixelSampler,
+    max_depth: u32,
+    rr_depth: u32,
+    rays: &mut u64,
+) -> Vec3 {
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let mut prev_pdf = 0.0f32;
+    let mut camera_ray = true;
+    let mut skip = NO_PRIM;
+    let mut bounces = 0u32;
+    let lights = &ctx.lights.lights;
+    loop {
+        *rays += 1;
+        let Some(hit) = ctx.accel.intersect_skip(&ray, skip) else {
+            for light in lights.iter().filter(|l| l.is_infinite()) {
+                let (le, pdf) = light.escaped(ray.dir);
+                if le != Vec3::ZERO {
+                    let w = if camera_ray {
+                        1.0
+                    } else {
+                        power_heuristic(prev_pdf, pdf)
+                    };
+                    l += beta * le * w;
+                }
+            }
+            break;
+        };
+        if let Some((le, pdf)) = ctx.emitter(hit.kind, &ray, hit.t) {
+            let w = if camera_ray {
+                1.0
+            } else {
+                power_heuristic(prev_pdf, pdf)
+            };
+            l += beta * le * w;
+            break;
+        }
+        let HitKind::Triangle { prim, bary } = hit.kind else {
+            break;
+        };
+        if bounces >= max_depth {
+            break;
+        }
+        let info = *ctx.accel.prim(prim);
+        debug_assert!(info.flags & FLAG_EMITTER == 0);
+        let p = ctx.accel.position(prim, bary);
+        let frame = info.frame();
+        let bsdf = SurfaceBsdf::at(
+            &ctx.scene.materials[(info.flags & ID_MASK) as usize],
+            info.uv_at(bary),
+        );
+        let wo = frame.to_local(-ray.dir);
+
+        for light in lights {
+            let u = sampler.next_2d();
+            let Some(ls) = light.sample(p, u) else {
+                continue;
+            };
+            if !(ls.pdf > 0.0) || ls.li == Vec3::ZERO {
+                continue;
+            }
+            let wi = frame.to_local(ls.wi);
+            let f = bsdf.eval(wo, wi);
+            if f == Vec3::ZERO {
+                continue;
+            }
+            let tmax = if ls.dist.is_finite() {
+                ls.dist * (1.0 - 1e-3)
+            } else {
+                f32::INFINITY
+            };
+            let shadow = Ray {
+                origin: spawn_origin(p, info.n, ls.wi),
+                dir: ls.wi,
+                tmax,
+            };
+            *rays += 1;
+            if ctx.accel.occluded_skip(&shadow, prim) {
+                continue;
+            }
+            let w = if ls.delta {
+                1.0
+            } else {
+                power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
+            };
+            l += beta * f * ls.li * (w / ls.pdf);
+        }
+
+        let u1 = sampler.next_1d();
+        let u2 = sampler.next_2d();
+        let Some(bs) = bsdf.sample(wo, Vec3::new(u1, u2.x, u2.y)) else {
+            break;
+        };
+        if !(bs.pdf > 0.0) {
+            break;
+        }
+        beta *= bs.f / bs.pdf;
+        if !(beta.max_element() > 0.0) || !beta.is_finite() {
+            break;
+        }
+        let dir = frame.to_world(bs.wi).normalize();
+        ray = Ray {
+            origin: spawn_origin(p, info.n, dir),
+            dir,
+            tmax: f32::INFINITY,
+        };
+        skip = prim;
+        prev_pdf = bs.pdf;
+        camera_ray = false;
+        bounces += 1;
+        if bounces >= rr_depth {
+            let q = beta.max_element().min(1.0);
+            let u = sampler.next_1d();
+            if q < 1.0 {
+                if u >= q {
+                    break;
+                }
+                beta /= q;
+            }
+        }
+    }
+    l
+}

@@ -1,0 +1,319 @@
+//! The sky: constant, or an equirectangular image importance-sampled with a 2D
+//! piecewise-constant distribution.
+//!
+//! Image orientation (as [`lamina_scene::Sky::Image`]): column coordinate `u ∈ [0, 1)` runs
+//! with azimuth `φ = atan2(d.x, -d.z)` from `u = 0` at `φ = -π` (looking along `+z`) through
+//! `u = 0.5` at `φ = 0` (looking along `-z`); row coordinate `v ∈ [0, 1]` runs with the polar
+//! angle `θ = acos(d.y)` from the zenith (`+y`, top row) to the nadir (bottom row).
+//! `rotation_deg` turns the map about `+y` counter-clockwise seen from above:
+//! `d_world = R_y(rotation) d_map`.
+//!
+//! The radiance of a direction is the value of the texel it falls in (nearest, no
+//! filtering), so the sampling density is exactly proportional to
+//! `mean(rgb) · sin θ_row` per texel and the estimator has no mismatch between what is
+//! sampled and what is evaluated.
+
+use super::LightSample;
+use crate::distribution::Distribution2D;
+use crate::error::RenderError;
+use glam::{Vec2, Vec3};
+use lamina_leaf::sampling::{UNIFORM_SPHERE_PDF, uniform_sphere};
+use lamina_scene::Sky;
+use std::f32::consts::PI;
+
+/// An equirectangular radiance map prepared for lookup and sampling.
+#[derive(Clone, Debug)]
+pub struct EnvMap {
+    width: usize,
+    height: usize,
+    /// Radiance (W m⁻² sr⁻¹, scale applied), row-major, top row (zenith) first.
+    texels: Vec<Vec3>,
+    dist: Distribution2D,
+    /// `cos` and `sin` of the rotation about `+y`.
+    rot: Vec2,
+}
+
+impl EnvMap {
+    /// A map of `width x height` radiance texels (top row = zenith), rotated by
+    /// `rotation_deg` about `+y`. `None` when sizes do not match the texel count.
+    pub fn new(width: usize, height: usize, texels: Vec<Vec3>, rotation_deg: f32) -> Option<Self> {
+        if width == 0 || height == 0 || texels.len() != width * height {
+            return None;
+        }
+        let texels: Vec<Vec3> = texels
+            .into_iter()
+            .map(|t| {
+                if t.is_finite() {
+                    t.max(Vec3::ZERO)
+                } else {
+                    Vec3::ZERO
+                }
+            })
+            .collect();
+        let mut func = Vec::with_capacity(width * height);
+        for y in 0..height {
+            let sin_t = (PI * (y as f32 + 0.5) / height as f32).sin();
+            for x in 0..width {
+                let t = texels[y * width + x];
+                func.push((t.x + t.y + t.z) / 3.0 * sin_t);
+            }
+        }
+        let r = if rotation_deg.is_finite() {
+            rotation_deg.to_radians()
+        } else {
+            0.0
+        };
+        Some(EnvMap {
+            width,
+            height,
+            dist: Distribution2D::new(&func, width, height),
+            texels,
+            rot: Vec2::new(r.cos(), r.sin()),
+        })
+    }
+
+    /// World direction to map coordinates `(u, v)`.
+    #[inline]
+    pub fn dir_to_uv(&self, d: Vec3) -> Vec2 {
+        // d_map = R_y(-rot) d_world.
+        let (c, s) = (self.rot.x, self.rot.y);
+        let m = Vec3::new(d.x * c - d.z * s, d.y, d.x * s + d.z * c);
+        let phi = m.x.atan2(-m.z);
+        let u = (phi + PI) * (0.5 / PI);
+        // atan2 rather than acos: precise near the poles.
+        let v = (m.x * m.x + m.z * m.z).sqrt().atan2(m.y) / PI;
+        Vec2::new(u, v)
+    }
+
+    /// Map coordinates `(u, v)` to the world direction.
+    #[inline]
+    pub fn uv_to_dir(&self, uv: Vec2) -> Vec3 {
+        let phi = 2.0 * PI * uv.x - PI;
+        let theta = PI * uv.y;
+        let (st, ct) = theta.sin_cos();
+        let m = Vec3::new(st * phi.sin(), ct, -st * phi.cos());
+        let (c, s) = (self.rot.x, self.rot.y);
+        Vec3::new(m.x * c + m.z * s, m.y, -m.x * s + m.z * c)
+    }
+
+    #[inline]
+    fn cell(&self, uv: Vec2) -> (usize, usize) {
+        let x = ((uv.x * self.width as f32) as usize).min(self.width - 1);
+        let y = ((uv.y * self.height as f32) as usize).min(self.height - 1);
+        (x, y)
+    }
+
+    /// Radiance toward the viewer from direction `d` (unit, pointing at the sky).
+    #[inline]
+    pub fn le(&self, d: Vec3) -> Vec3 {
+        let (x, y) = self.cell(self.dir_to_uv(d));
+        self.texels[y * self.width + x]
+    }
+
+    /// Solid-angle density of [`EnvMap::sample`] at direction `d`.
+    #[inline]
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        let uv = self.dir_to_uv(d);
+        let sin_t = (PI * uv.y).sin();
+        if sin_t <= 0.0 {
+            return 0.0;
+        }
+        let (x, y) = self.cell(uv);
+        self.dist.pdf_cell(x, y) / (2.0 * PI * PI * sin_t)
+    }
+
+    /// A direction drawn proportionally to radiance (times `sin θ` per row).
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> Option<LightSample> {
+        let (uv, pdf_uv, (x, y)) = self.dist.sample(u);
+        let sin_t = (PI * uv.y).sin();
+        if !(pdf_uv > 0.0 && sin_t > 0.0) {
+            return None;
+        }
+        Some(LightSample {
+            wi: self.uv_to_dir(uv),
+            li: self.texels[y * self.width + x],
+            pdf: pdf_uv / (2.0 * PI * PI * sin_t),
+            dist: f32::INFINITY,
+            delta: false,
+        })
+    }
+
+    /// Mean radiance over the sphere of directions.
+    pub fn mean(&self) -> Vec3 {
+        let mut sum = glam::DVec3::ZERO;
+        for y in 0..self.height {
+            let t0 = PI as f64 * y as f64 / self.height as f64;
+            let t1 = PI as f64 * (y + 1) as f64 / self.height as f64;
+            let omega = 2.0 * std::f64::consts::PI / self.width as f64 * (t0.cos() - t1.cos());
+            for x in 0..self.width {
+                sum += self.texels[y * self.width + x].as_dvec3() * omega;
+            }
+        }
+        (sum / (4.0 * std::f64::consts::PI)).as_vec3()
+    }
+}
+
+/// The sky light.
+#[derive(Clone, Debug)]
+pub enum SkyLight {
+    /// The same radiance from every direction; sampled uniformly over the sphere.
+    Constant(Vec3),
+    /// An importance-sampled radiance map.
+    Image(Box<EnvMap>),
+}
+
+impl SkyLight {
+    /// Prepares the scene's sky.
+    pub fn new(sky: &Sky) -> Result<Self, RenderError> {
+        match sky {
+            Sky::Constant(c) => {
+                if !c.is_finite() {
+                    return Err(RenderError::InvalidScene(
+                        "sky radiance must be finite".into(),
+                    ));
+                }
+                Ok(SkyLight::Constant(*c))
+            }
+            Sky::Image {
+                map,
+                scale,
+                rotation_deg,
+            } => {
+                let scale = if scale.is_finite() { *scale } else { 0.0 };
+                let texels = map.texels().iter().map(|t| t.truncate() * scale).collect();
+                EnvMap::new(
+                    map.width() as usize,
+                    map.height() as usize,
+                    texels,
+                    *rotation_deg,
+                )
+                .map(|m| SkyLight::Image(Box::new(m)))
+                .ok_or_else(|| RenderError::InvalidScene("sky image has no pixels".into()))
+            }
+        }
+    }
+
+    /// Radiance arriving from direction `d`.
+    #[inline]
+    pub fn le(&self, d: Vec3) -> Vec3 {
+        match self {
+            SkyLight::Constant(c) => *c,
+            SkyLight::Image(m) => m.le(d),
+        }
+    }
+
+    /// Solid-angle density of [`SkyLight::sample`] at `d`.
+    #[inline]
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        match self {
+            SkyLight::Constant(_) => UNIFORM_SPHERE_PDF,
+            SkyLight::Image(m) => m.pdf(d),
+        }
+    }
+
+    /// A direction toward the sky.
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> Option<LightSample> {
+        match self {
+            SkyLight::Constant(c) => Some(LightSample {
+                wi: uniform_sphere(u),
+                li: *c,
+                pdf: UNIFORM_SPHERE_PDF,
+                dist: f32::INFINITY,
+                delta: false,
+            }),
+            SkyLight::Image(m) => m.sample(u),
+        }
+    }
+
+    /// Mean radiance over all directions.
+    pub fn mean(&self) -> Vec3 {
+        match self {
+            SkyLight::Constant(c) => *c,
+            SkyLight::Image(m) => m.mean(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::sobol_2d;
+
+    fn test_map() -> EnvMap {
+        let (w, h) = (16, 8);
+        let texels = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let v = 0.1
+                    + ((x * 7 + y * 13) % 11) as f32
+                    + if (x, y) == (3, 2) { 50.0 } else { 0.0 };
+                Vec3::new(v, 0.5 * v, 0.25 * v)
+            })
+            .collect();
+        EnvMap::new(w, h, texels, 30.0).unwrap()
+    }
+
+    #[test]
+    fn directions_round_trip() {
+        let m = test_map();
+        for uv in [
+            Vec2::new(0.1, 0.2),
+            Vec2::new(0.7, 0.9),
+            Vec2::new(0.5, 0.5),
+        ] {
+            let d = m.uv_to_dir(uv);
+            assert!((d.length() - 1.0).abs() < 1e-5);
+            assert!((m.dir_to_uv(d) - uv).length() < 1e-4);
+        }
+        // Top row is the zenith.
+        assert!((m.uv_to_dir(Vec2::new(0.3, 0.0)) - Vec3::Y).length() < 1e-5);
+    }
+
+    #[test]
+    fn sky_pdf_integrates_to_one_and_matches_histogram() {
+        let m = test_map();
+        // ∫ pdf dω over the sphere by a fine midpoint rule in (φ, cos θ).
+        let n = 512;
+        let mut integral = 0.0f64;
+        for i in 0..n {
+            for j in 0..n {
+                let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+                let phi = 2.0 * PI * (j as f32 + 0.5) / n as f32;
+                let r = (1.0 - z * z).sqrt();
+                let d = Vec3::new(r * phi.cos(), z, r * phi.sin());
+                integral += m.pdf(d) as f64 * (4.0 * PI as f64 / (n * n) as f64);
+            }
+        }
+        assert!((integral - 1.0).abs() < 0.01, "∫pdf = {integral}");
+        // Histogram of sampled texels against the probability mass of each texel.
+        let samples = 200_000u32;
+        let mut hist = vec![0u32; 16 * 8];
+        for i in 0..samples {
+            let s = m.sample(sobol_2d(i, 42)).unwrap();
+            assert!(
+                (s.pdf - m.pdf(s.wi)).abs() <= 1e-3 * s.pdf,
+                "{} vs {}",
+                s.pdf,
+                m.pdf(s.wi)
+            );
+            assert_eq!(s.li, m.le(s.wi));
+            let uv = m.dir_to_uv(s.wi);
+            let (x, y) = m.cell(uv);
+            hist[y * 16 + x] += 1;
+        }
+        for y in 0..8 {
+            for x in 0..16 {
+                let mass = m.dist.pdf_cell(x, y) / (16.0 * 8.0);
+                let expect = mass * samples as f32;
+                let got = hist[y * 16 + x] as f32;
+                // 4 sigma of a binomial count, plus one for rounding.
+                assert!(
+                    (got - expect).abs() <= 4.0 * expect.sqrt() + 1.0,
+                    "cell {x},{y}: {got} vs {expect}"
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,82 @@
+//! From a scene [`Material`] to the BSDF at one surface point.
+//!
+//! All materials are two-sided and evaluated in the local frame of
+//! [`crate::accel::PrimInfo::frame`]: `z` the triangle's geometric normal as wound (for
+//! leaves the adaxial side), `x` along `dP/du`. Shading normals of meshes are not used: the
+//! leaf model handles its bump map internally, and the reference materials are flat.
+
+use glam::{Vec2, Vec3};
+use lamina_leaf::{Bsdf, BsdfSample, DiffuseTransmission, Lambertian, LeafBsdf};
+use lamina_scene::Material;
+
+/// The BSDF at a surface point: a closed enum (no allocation, no dynamic dispatch).
+#[derive(Clone, Copy, Debug)]
+pub enum SurfaceBsdf {
+    /// [`Material::Diffuse`].
+    Diffuse(Lambertian),
+    /// [`Material::DiffuseTransmission`].
+    DiffuseTransmission(DiffuseTransmission),
+    /// [`Material::Leaf`].
+    Leaf(LeafBsdf),
+}
+
+impl SurfaceBsdf {
+    /// The BSDF of `material` at texture coordinates `uv`.
+    #[inline]
+    pub fn at(material: &Material, uv: Vec2) -> Self {
+        match material {
+            Material::Diffuse { reflectance, .. } => SurfaceBsdf::Diffuse(Lambertian {
+                reflectance: reflectance.at(uv),
+            }),
+            Material::DiffuseTransmission {
+                reflectance,
+                transmittance,
+                ..
+            } => SurfaceBsdf::DiffuseTransmission(DiffuseTransmission {
+                reflectance: reflectance.at(uv),
+                transmittance: transmittance.at(uv),
+            }),
+            Material::Leaf { leaf, .. } => SurfaceBsdf::Leaf(leaf.bsdf(uv)),
+        }
+    }
+
+    /// Diffuse hemispherical (reflectance, transmittance), linear RGB: what the paper
+    /// integrator's ambient multiple-scattering term multiplies.
+    #[inline]
+    pub fn diffuse_albedo(&self) -> (Vec3, Vec3) {
+        match self {
+            SurfaceBsdf::Diffuse(b) => (b.reflectance, Vec3::ZERO),
+            SurfaceBsdf::DiffuseTransmission(b) => (b.reflectance, b.transmittance),
+            SurfaceBsdf::Leaf(b) => b.diffuse_albedo(),
+        }
+    }
+}
+
+impl Bsdf for SurfaceBsdf {
+    #[inline]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        match self {
+            SurfaceBsdf::Diffuse(b) => b.eval(wo, wi),
+            SurfaceBsdf::DiffuseTransmission(b) => b.eval(wo, wi),
+            SurfaceBsdf::Leaf(b) => b.eval(wo, wi),
+        }
+    }
+
+    #[inline]
+    fn sample(&self, wo: Vec3, u: Vec3) -> Option<BsdfSample> {
+        match self {
+            SurfaceBsdf::Diffuse(b) => b.sample(wo, u),
+            SurfaceBsdf::DiffuseTransmission(b) => b.sample(wo, u),
+            SurfaceBsdf::Leaf(b) => b.sample(wo, u),
+        }
+    }
+
+    #[inline]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            SurfaceBsdf::Diffuse(b) => b.pdf(wo, wi),
+            SurfaceBsdf::DiffuseTransmission(b) => b.pdf(wo, wi),
+            SurfaceBsdf::Leaf(b) => b.pdf(wo, wi),
+        }
+    }
+}

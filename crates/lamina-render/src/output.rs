@@ -1,0 +1,130 @@
+//! Image output: EXR (linear float RGB, the ground truth) and PNG (8-bit sRGB for display).
+//!
+//! * **EXR**: the linear Rec.709 radiance exactly as rendered, 32-bit float RGB, no exposure,
+//!   no tone map.
+//! * **PNG**: per channel, `x = radiance · 2^exposure`, then the film's tone map:
+//!   - `Clamp`: `min(max(x, 0), 1)`;
+//!   - `Aces`: Narkowicz's (2015) fit of the ACES filmic curve
+//!     `x (2.51 x + 0.03) / (x (2.43 x + 0.59) + 0.14)`, clamped to `[0, 1]`;
+//!   - `Reinhard`: `x / (1 + x)`;
+//!
+//!   then the sRGB transfer curve (IEC 61966-2-1) and rounding to 8 bits. NaNs become 0.
+//!
+//! Both are written atomically: the encoder writes `<name>.tmp-<pid>` in the target
+//! directory, which is then renamed over `<name>`; on any failure the temporary file is
+//! removed and no output file appears.
+
+use crate::error::RenderError;
+use crate::render::Image;
+use lamina_leaf::texture::linear_to_srgb;
+use lamina_scene::{Film, ToneMap};
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+/// Tone-maps one linear channel value already multiplied by the exposure, to `[0, 1]`
+/// (before the sRGB curve).
+#[inline]
+pub fn tonemap(x: f32, op: ToneMap) -> f32 {
+    if !x.is_finite() {
+        return if x == f32::INFINITY { 1.0 } else { 0.0 };
+    }
+    let x = x.max(0.0);
+    match op {
+        ToneMap::Clamp => x.min(1.0),
+        ToneMap::Aces => ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0),
+        ToneMap::Reinhard => x / (1.0 + x),
+    }
+}
+
+/// The 8-bit sRGB PNG bytes (RGB, row-major) of `image` under `film`'s exposure and tone map.
+pub fn to_srgb8(image: &Image, film: &Film) -> Vec<u8> {
+    let scale = if film.exposure.is_finite() {
+        2f32.powf(film.exposure)
+    } else {
+        1.0
+    };
+    image
+        .pixels
+        .iter()
+        .flat_map(|p| p.to_array())
+        .map(|c| {
+            (linear_to_srgb(tonemap(c * scale, film.tonemap)) * 255.0 + 0.5).clamp(0.0, 255.0) as u8
+        })
+        .collect()
+}
+
+/// Writes `image` to `path`: `.exr` (linear float) or `.png` (sRGB, exposure and tone map
+/// of `film`), by extension, case-insensitive. Atomic (see the module docs). Errors name
+/// the file and the step that failed.
+pub fn write_image(path: &Path, image: &Image, film: &Film) -> Result<(), RenderError> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    let format = match ext.as_str() {
+        "exr" => image::ImageFormat::OpenExr,
+        "png" => image::ImageFormat::Png,
+        _ => {
+            return Err(RenderError::UnsupportedFormat {
+                path: path.to_owned(),
+            });
+        }
+    };
+    let (w, h) = (image.width, image.height);
+    if w == 0 || h == 0 || image.pixels.len() != w as usize * h as usize {
+        return Err(RenderError::BadImage {
+            path: path.to_owned(),
+            len: image.pixels.len(),
+            width: w,
+            height: h,
+        });
+    }
+    let Some(name) = path.file_name() else {
+        return Err(RenderError::Io {
+            path: path.to_owned(),
+            what: "the path names no file",
+            source: std::io::Error::from(std::io::ErrorKind::InvalidInput),
+        });
+    };
+    let mut tmp_name = name.to_owned();
+    tmp_name.push(format!(".tmp-{}", std::process::id()));
+    let tmp: PathBuf = path.with_file_name(tmp_name);
+    let io = |what: &'static str| {
+        move |source| RenderError::Io {
+            path: path.to_owned(),
+            what,
+            source,
+        }
+    };
+    let file = File::create(&tmp).map_err(io("cannot create the temporary file"))?;
+    let result = (|| {
+        let mut out = BufWriter::new(file);
+        let encoded = match format {
+            image::ImageFormat::OpenExr => {
+                let data: Vec<f32> = image.pixels.iter().flat_map(|p| p.to_array()).collect();
+                image::Rgb32FImage::from_raw(w, h, data)
+                    .expect("size checked above")
+                    .write_to(&mut out, format)
+            }
+            _ => image::RgbImage::from_raw(w, h, to_srgb8(image, film))
+                .expect("size checked above")
+                .write_to(&mut out, format),
+        };
+        encoded.map_err(|source| RenderError::Encode {
+            path: path.to_owned(),
+            source,
+        })?;
+        let file = out
+            .into_inner()
+            .map_err(|e| io("cannot write")(e.into_error()))?;
+        file.sync_all().map_err(io("cannot flush"))?;
+        drop(file);
+        std::fs::rename(&tmp, path).map_err(io("cannot rename the temporary file into place"))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}

@@ -1,0 +1,300 @@
+//! Rendering: tiles over a dedicated thread pool, progressive passes, time limit and
+//! cancellation, determinism.
+//!
+//! The image is cut into 32x32 tiles. Each *pass* adds a fixed number of samples to every
+//! pixel (1, 1, 2, 4, 8, then 16 per pass, the last pass what remains), all tiles of the pass
+//! in parallel. The final image is the mean of the samples of the *completed* passes, so a
+//! time limit or a cancel flag stops the render at a pass boundary (the interrupted pass is
+//! dropped) and still returns a valid image. The first pass always completes unless
+//! cancelled.
+//!
+//! Sample `i` of pixel `(x, y)` draws all its numbers from a [`PixelSampler`] seeded by the
+//! render seed, the pixel and `i`; per-pixel sums are added in sample order and passes in
+//! pass order, so the image is bit-identical for a seed whatever the thread count.
+
+use crate::accel::Ray;
+use crate::error::RenderError;
+use crate::film::Accumulator;
+use crate::integrators::{SceneContext, paper, path};
+use crate::sampler::{PixelSampler, fold_seed};
+use glam::{Vec2, Vec3};
+use lamina_scene::{Integrator, Scene};
+use rayon::prelude::*;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// Tile edge in pixels.
+const TILE: u32 = 32;
+/// Largest number of samples per pixel in one pass.
+const MAX_PASS_SPP: u32 = 16;
+/// Largest image rendered (pixels), to fail cleanly rather than run out of memory.
+const MAX_PIXELS: u64 = 1 << 28;
+
+/// How to render: overrides of the scene's settings and controls.
+#[derive(Clone, Default)]
+pub struct RenderOptions {
+    /// Samples per pixel; overrides `film.spp` when set. Must be > 0.
+    pub spp: Option<u32>,
+    /// Worker threads; `None` uses all cores. Must be > 0.
+    pub threads: Option<usize>,
+    /// Seed of all random numbers: the same seed gives the same image.
+    pub seed: u64,
+    /// Stop after the pass running when this much time (from the call) has passed.
+    pub time_limit: Option<Duration>,
+    /// Set to `true` (e.g. on Ctrl-C) to stop at the next tile.
+    pub cancel: Option<Arc<AtomicBool>>,
+    /// Called after every completed pass.
+    pub progress: Option<Arc<dyn Fn(Progress) + Send + Sync>>,
+}
+
+/// Where a render stands, reported after every pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    /// Passes completed.
+    pub passes_done: u32,
+    /// Passes planned.
+    pub passes_total: u32,
+    /// Samples per pixel completed.
+    pub spp_done: u32,
+    /// Samples per pixel planned.
+    pub spp_total: u32,
+    /// Time since the render started.
+    pub elapsed: Duration,
+}
+
+/// An image of linear Rec.709 RGB radiance (W m⁻² sr⁻¹), before exposure and tone mapping.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Row-major pixels, top row first, `width * height` of them.
+    pub pixels: Vec<Vec3>,
+}
+
+impl Image {
+    /// The pixel at column `x`, row `y` (0 = top).
+    pub fn at(&self, x: u32, y: u32) -> Vec3 {
+        self.pixels[(y * self.width + x) as usize]
+    }
+}
+
+/// Counters of a finished render.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderStats {
+    /// Wall-clock time of the whole call, BVH build included.
+    pub elapsed: Duration,
+    /// Samples per pixel in the image (completed passes).
+    pub spp_done: u32,
+    /// Camera samples in the image (`spp_done · width · height`).
+    pub samples: u64,
+    /// All rays traced (camera, indirect and shadow), interrupted pass included.
+    pub rays: u64,
+    /// Whether the time limit or the cancel flag stopped the render before `spp`.
+    pub stopped_early: bool,
+}
+
+/// The result of [`render`].
+#[derive(Clone, Debug)]
+pub struct RenderOutput {
+    /// The image (mean of the completed samples).
+    pub image: Image,
+    /// Counters.
+    pub stats: RenderStats,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Tile {
+    x0: u32,
+    y0: u32,
+    w: u32,
+    h: u32,
+}
+
+/// Pass boundaries `[s0, s1)` for `spp` samples: 1, 1, 2, 4, 8, 16, 16, ...
+fn pass_schedule(spp: u32) -> Vec<(u32, u32)> {
+    let mut passes = Vec::new();
+    let (mut s, mut size) = (0u32, 1u32);
+    while s < spp {
+        let e = s.saturating_add(size).min(spp);
+        passes.push((s, e));
+        s = e;
+        if passes.len() > 1 {
+            size = (size * 2).min(MAX_PASS_SPP);
+        }
+    }
+    passes
+}
+
+/// Renders `scene` with `opts`. Errors for invalid scenes (bad camera, out-of-range
+/// indices, non-finite lights) and invalid options (zero samples or threads).
+pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, RenderError> {
+    let start = Instant::now();
+    let film = scene.film;
+    let spp_total = opts.spp.unwrap_or(film.spp);
+    if spp_total == 0 {
+        return Err(RenderError::InvalidOptions(
+            "samples per pixel must be at least 1".into(),
+        ));
+    }
+    if film.width == 0 || film.height == 0 || film.width as u64 * film.height as u64 > MAX_PIXELS {
+        return Err(RenderError::InvalidScene(format!(
+            "film size {}x{} must be positive and at most {MAX_PIXELS} pixels",
+            film.width, film.height
+        )));
+    }
+    let threads = match opts.threads {
+        Some(0) => {
+            return Err(RenderError::InvalidOptions(
+                "thread count must be at least 1".into(),
+            ));
+        }
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|source| RenderError::ThreadPool { threads, source })?;
+    let ctx = SceneContext::new(scene)?;
+    let seed = fold_seed(opts.seed);
+    let deadline = opts.time_limit.map(|d| start + d);
+    let cancelled = || {
+        opts.cancel
+            .as_ref()
+            .is_some_and(|c| c.load(Ordering::Relaxed))
+    };
+
+    let mut tiles = Vec::new();
+    for y0 in (0..film.height).step_by(TILE as usize) {
+        for x0 in (0..film.width).step_by(TILE as usize) {
+            tiles.push(Tile {
+                x0,
+                y0,
+                w: TILE.min(film.width - x0),
+                h: TILE.min(film.height - y0),
+            });
+        }
+    }
+    let passes = pass_schedule(spp_total);
+    let mut acc = Accumulator::new(film.width, film.height);
+    let (mut spp_done, mut rays, mut stopped_early) = (0u32, 0u64, false);
+    for (pi, &(s0, s1)) in passes.iter().enumerate() {
+        let first = pi == 0;
+        let stop = || cancelled() || (!first && deadline.is_some_and(|d| Instant::now() >= d));
+        if stop() {
+            stopped_early = true;
+            break;
+        }
+        let results: Vec<Option<(Vec<Vec3>, u64)>> = pool.install(|| {
+            tiles
+                .par_iter()
+                .map(|t| {
+                    if stop() {
+                        None
+                    } else {
+                        Some(render_tile(&ctx, t, s0, s1, seed))
+                    }
+                })
+                .collect()
+        });
+        rays += results.iter().flatten().map(|r| r.1).sum::<u64>();
+        if results.iter().any(Option::is_none) {
+            stopped_early = true;
+            break;
+        }
+        for (t, r) in tiles.iter().zip(&results) {
+            if let Some((sums, _)) = r {
+                acc.add_tile(t.x0, t.y0, t.w, sums);
+            }
+        }
+        spp_done = s1;
+        if let Some(cb) = &opts.progress {
+            cb(Progress {
+                passes_done: pi as u32 + 1,
+                passes_total: passes.len() as u32,
+                spp_done,
+                spp_total,
+                elapsed: start.elapsed(),
+            });
+        }
+    }
+    Ok(RenderOutput {
+        image: Image {
+            width: film.width,
+            height: film.height,
+            pixels: acc.mean(spp_done),
+        },
+        stats: RenderStats {
+            elapsed: start.elapsed(),
+            spp_done,
+            samples: spp_done as u64 * film.width as u64 * film.height as u64,
+            rays,
+            stopped_early,
+        },
+    })
+}
+
+/// Samples `[s0, s1)` of every pixel of `tile`: per-pixel sums (row-major) and rays traced.
+fn render_tile(ctx: &SceneContext, tile: &Tile, s0: u32, s1: u32, seed: u32) -> (Vec<Vec3>, u64) {
+    let mut sums = Vec::with_capacity((tile.w * tile.h) as usize);
+    let mut rays = 0u64;
+    let integrator = ctx.scene.integrator;
+    let ambient = match integrator {
+        Integrator::Paper { ambient } => ambient.unwrap_or(ctx.lights.sky_mean),
+        Integrator::Path { .. } => Vec3::ZERO,
+    };
+    for y in tile.y0..tile.y0 + tile.h {
+        for x in tile.x0..tile.x0 + tile.w {
+            let mut sum = Vec3::ZERO;
+            for i in s0..s1 {
+                let mut sampler = PixelSampler::new(seed, x, y, i);
+                let film_u = sampler.next_2d();
+                let lens_u = sampler.next_2d();
+                let pos = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + ctx.filter.sample(film_u);
+                let (origin, dir) = ctx.camera.generate_ray(pos, lens_u);
+                let ray = Ray {
+                    origin,
+                    dir,
+                    tmax: f32::INFINITY,
+                };
+                let l = match integrator {
+                    Integrator::Path {
+                        max_depth,
+                        rr_depth,
+                    } => path::radiance(ctx, ray, &mut sampler, max_depth, rr_depth, &mut rays),
+                    Integrator::Paper { .. } => {
+                        paper::radiance(ctx, ray, &mut sampler, ambient, &mut rays)
+                    }
+                };
+                // A NaN or infinite sample (a numerical accident) counts as black.
+                if l.is_finite() {
+                    sum += l;
+                }
+            }
+            sums.push(sum);
+        }
+    }
+    (sums, rays)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn passes_cover_all_samples() {
+        for spp in [1, 2, 3, 7, 64, 100] {
+            let p = pass_schedule(spp);
+            assert_eq!(p[0].0, 0);
+            assert_eq!(p.last().unwrap().1, spp);
+            assert!(p.windows(2).all(|w| w[0].1 == w[1].0));
+        }
+        assert_eq!(
+            pass_schedule(64)[..6],
+            [(0, 1), (1, 2), (2, 4), (4, 8), (8, 16), (16, 32)]
+        );
+    }
+}

@@ -1,0 +1,479 @@
+//! End-to-end tests of the renderer on small scenes built in code.
+
+use crate::{Image, RenderOptions, render, write_image};
+use glam::{Vec2, Vec3, Vec4};
+use lamina_leaf::{Texture, Wrap};
+use lamina_scene::{
+    AlphaMask, Camera, ColorInput, Film, Integrator, Light, Material, Mesh, PixelFilter, Scene,
+    Sky, ToneMap,
+};
+use std::f32::consts::PI;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+/// A `2·half` square card in the plane `z = z0`, front (counter-clockwise) facing `+z`,
+/// UVs over `[0, 1]²` with `u` along `+x`.
+fn card(half: f32, z0: f32, material: u32) -> Mesh {
+    Mesh {
+        positions: vec![
+            Vec3::new(-half, -half, z0),
+            Vec3::new(half, -half, z0),
+            Vec3::new(half, half, z0),
+            Vec3::new(-half, half, z0),
+        ],
+        normals: vec![],
+        uvs: vec![
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.0, 1.0),
+        ],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        material,
+    }
+}
+
+fn film(w: u32, h: u32, spp: u32) -> Film {
+    Film {
+        width: w,
+        height: h,
+        spp,
+        filter: PixelFilter::Box,
+        exposure: 0.0,
+        tonemap: ToneMap::Clamp,
+    }
+}
+
+fn camera_at(z: f32, fov_deg: f32) -> Camera {
+    Camera {
+        position: Vec3::new(0.0, 0.0, z),
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        fov_deg,
+        aperture_radius: 0.0,
+        focus_distance: 1.0,
+    }
+}
+
+fn diffuse(r: f32) -> Material {
+    Material::Diffuse {
+        name: "d".into(),
+        reflectance: ColorInput::Constant(Vec3::splat(r)),
+        alpha: None,
+    }
+}
+
+fn diffuse_transmission(r: Vec3, t: Vec3) -> Material {
+    Material::DiffuseTransmission {
+        name: "dt".into(),
+        reflectance: ColorInput::Constant(r),
+        transmittance: ColorInput::Constant(t),
+        alpha: None,
+    }
+}
+
+fn opts(spp: u32, threads: usize) -> RenderOptions {
+    RenderOptions {
+        spp: Some(spp),
+        threads: Some(threads),
+        seed: 7,
+        ..Default::default()
+    }
+}
+
+fn mean(img: &Image) -> Vec3 {
+    img.pixels.iter().copied().sum::<Vec3>() / img.pixels.len() as f32
+}
+
+/// (a) A Lambertian card filling the view under a sun at θ from the normal: every pixel is
+/// `R cos θ E / π` lit from the front and `T cos θ E / π` lit from behind.
+///
+/// Tolerance: with a zero-diameter sun the estimator has no variance at all (one delta light
+/// sample, no sky, nothing else to bounce off), so the check is 1e-4 relative (float
+/// rounding). With the real sun's 0.53° disc the light sample is a cone sample and BSDF
+/// samples hit the disc with probability ~1e-5 at negligible MIS weight. The average cosine
+/// over the disc differs from `cos θ` by ~θmax² ≈ 2e-5, but one sample's cosine differs from
+/// it by up to `tan θ · θmax` (0.8 % at 60°, θmax = 0.265°): per pixel (4 stratified samples)
+/// the tolerance is 0.5 %, and the image mean (768 samples) must be within 1e-3.
+#[test]
+fn lambertian_card_matches_analytic_sun_value() {
+    let e = Vec3::new(1000.0, 800.0, 600.0);
+    let (r, t) = (Vec3::new(0.3, 0.5, 0.1), Vec3::new(0.2, 0.4, 0.05));
+    for theta_deg in [0.0f32, 30.0, 60.0] {
+        let th = theta_deg.to_radians();
+        for diameter in [0.0f32, 0.53] {
+            for integrator in [
+                Integrator::Path {
+                    max_depth: 4,
+                    rr_depth: 2,
+                },
+                Integrator::Paper {
+                    ambient: Some(Vec3::ZERO),
+                },
+            ] {
+                for (mat, refl, trans) in [
+                    (diffuse(0.3), Vec3::splat(0.3), Vec3::ZERO),
+                    (diffuse_transmission(r, t), r, t),
+                ] {
+                    for front in [true, false] {
+                        let dir =
+                            Vec3::new(th.sin(), 0.0, if front { th.cos() } else { -th.cos() });
+                        let scene = Scene {
+                            camera: camera_at(1.0, 60.0),
+                            film: film(16, 12, 4),
+                            integrator,
+                            lights: vec![Light::Sun {
+                                direction: dir,
+                                irradiance: e,
+                                angular_diameter_deg: diameter,
+                            }],
+                            sky: None,
+                            materials: vec![mat.clone()],
+                            meshes: vec![card(4.0, 0.0, 0)],
+                        };
+                        let out = render(&scene, &opts(4, 2)).unwrap();
+                        let expect = if front { refl } else { trans } * th.cos() * e / PI;
+                        let tol = if diameter == 0.0 { 1e-4 } else { 5e-3 };
+                        let m = mean(&out.image);
+                        assert!(
+                            (m - expect).abs().max_element()
+                                <= 1e-3 * expect.max_element().max(1e-3),
+                            "mean {m} vs {expect}"
+                        );
+                        for p in &out.image.pixels {
+                            let err = (*p - expect).abs().max_element();
+                            assert!(
+                                err <= tol * expect.max_element().max(1e-3),
+                                "θ={theta_deg} d={diameter} front={front} {integrator:?}: {p} vs {expect}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// (b) Furnace: white surfaces (opaque R = 1, and R + T = 1 cards) in a constant sky of
+/// radiance 1: every pixel converges to 1 (no energy created or lost).
+#[test]
+fn furnace_is_energy_conserving() {
+    let mut tilted = card(0.6, 0.0, 1);
+    for p in &mut tilted.positions {
+        *p = Vec3::new(p.x, p.y * 0.6, p.z + p.y * 0.8 + 0.3);
+    }
+    let mut upright = card(0.5, 0.0, 2);
+    for p in &mut upright.positions {
+        *p = Vec3::new(p.z - 0.2, p.y, p.x);
+    }
+    let scene = Scene {
+        camera: camera_at(2.5, 50.0),
+        film: film(24, 24, 256),
+        integrator: Integrator::Path {
+            max_depth: 100,
+            rr_depth: 3,
+        },
+        lights: vec![],
+        sky: Some(Sky::Constant(Vec3::ONE)),
+        materials: vec![
+            diffuse(1.0),
+            diffuse_transmission(Vec3::new(0.6, 0.5, 0.9), Vec3::new(0.4, 0.5, 0.1)),
+            diffuse_transmission(Vec3::splat(0.5), Vec3::splat(0.5)),
+        ],
+        meshes: vec![card(0.8, -0.3, 0), tilted, upright],
+    };
+    let out = render(&scene, &opts(256, 2)).unwrap();
+    let m = mean(&out.image);
+    assert!(
+        (m - Vec3::ONE).abs().max_element() < 0.005,
+        "image mean {m}"
+    );
+    for p in &out.image.pixels {
+        assert!((*p - Vec3::ONE).abs().max_element() < 0.15, "pixel {p}");
+    }
+}
+
+/// (c) A card whose matte is transparent on its left half (`u < 0.5`) over an opaque ground,
+/// under a delta sun at 45°: camera rays see the ground through the left half, shadow rays
+/// from the ground pass the left half and are blocked by the right half.
+#[test]
+fn alpha_matte_lets_camera_and_shadow_rays_through() {
+    let matte = Texture::from_texels(2, 1, vec![Vec4::ZERO, Vec4::ONE], Wrap::Clamp);
+    let card_mat = Material::Diffuse {
+        name: "matte".into(),
+        reflectance: ColorInput::Constant(Vec3::splat(0.5)),
+        alpha: Some(AlphaMask {
+            map: matte,
+            use_alpha_channel: false,
+            cutoff: 0.5,
+        }),
+    };
+    let e = 100.0;
+    let scene = Scene {
+        camera: camera_at(20.0, 4.0), // ±0.7 m at the ground, nearly orthographic
+        film: film(40, 8, 4),
+        integrator: Integrator::Path {
+            max_depth: 1,
+            rr_depth: 5,
+        },
+        lights: vec![Light::Sun {
+            direction: Vec3::new(1.0, 0.0, 1.0),
+            irradiance: Vec3::splat(e),
+            angular_diameter_deg: 0.0,
+        }],
+        sky: None,
+        materials: vec![diffuse(0.8), card_mat],
+        meshes: vec![card(5.0, 0.0, 0), card(1.0, 0.5, 1)],
+    };
+    let out = render(&scene, &opts(4, 2)).unwrap();
+    let row = 4;
+    let c = (PI / 4.0).cos() * e / PI;
+    // Pixel column x covers world x ≈ (x + 0.5 - 20) / 20 · 0.7 at the card.
+    let lit_ground = out.image.at(3, row).x; // x ≈ -0.6: seen through the hole, lit through it
+    let shadowed_ground = out.image.at(15, row).x; // x ≈ -0.17: through the hole, in the shadow of the right half
+    let card_px = out.image.at(32, row).x; // x ≈ 0.43: the opaque half
+    assert!(
+        (lit_ground - 0.8 * c).abs() < 1e-3 * c,
+        "lit ground {lit_ground}"
+    );
+    assert!(
+        shadowed_ground.abs() < 1e-6,
+        "shadowed ground {shadowed_ground}"
+    );
+    assert!((card_px - 0.5 * c).abs() < 1e-3 * c, "card {card_px}");
+}
+
+fn small_canopy_scene() -> Scene {
+    let mut meshes = Vec::new();
+    for i in 0..12 {
+        let mut m = card(0.3, 0.0, (i % 2) as u32);
+        let a = i as f32 * 0.9;
+        for p in &mut m.positions {
+            let q = Vec3::new(p.x * a.cos(), p.y, p.x * a.sin() + p.y * 0.3);
+            *p = q + Vec3::new(
+                (i as f32 * 0.37).sin() * 0.6,
+                (i as f32 * 0.61).cos() * 0.6,
+                0.0,
+            );
+        }
+        meshes.push(m);
+    }
+    Scene {
+        camera: camera_at(3.0, 50.0),
+        film: Film {
+            filter: PixelFilter::Gaussian {
+                radius: 1.5,
+                sigma: 0.5,
+            },
+            ..film(40, 30, 8)
+        },
+        integrator: Integrator::Path {
+            max_depth: 6,
+            rr_depth: 2,
+        },
+        lights: vec![
+            Light::Sun {
+                direction: Vec3::new(0.3, 1.0, 0.5),
+                irradiance: Vec3::splat(500.0),
+                angular_diameter_deg: 0.53,
+            },
+            Light::Quad {
+                corner: Vec3::new(-1.0, 1.5, -1.0),
+                edge_u: Vec3::new(2.0, 0.0, 0.0),
+                edge_v: Vec3::new(0.0, 0.0, 2.0),
+                radiance: Vec3::splat(5.0),
+                two_sided: false,
+            },
+            Light::Sphere {
+                center: Vec3::new(1.0, -1.0, 1.0),
+                radius: 0.2,
+                radiance: Vec3::new(20.0, 10.0, 5.0),
+            },
+            Light::Point {
+                position: Vec3::new(-1.0, 0.0, 1.5),
+                intensity: Vec3::splat(3.0),
+            },
+        ],
+        sky: Some(Sky::Constant(Vec3::new(0.2, 0.3, 0.5))),
+        materials: vec![
+            diffuse_transmission(Vec3::new(0.1, 0.3, 0.05), Vec3::new(0.1, 0.4, 0.05)),
+            diffuse(0.6),
+        ],
+        meshes,
+    }
+}
+
+/// (d) Same seed → bit-identical image with 1 and 2 threads; another seed differs.
+#[test]
+fn deterministic_across_thread_counts() {
+    let scene = small_canopy_scene();
+    let a = render(&scene, &opts(8, 1)).unwrap();
+    let b = render(&scene, &opts(8, 2)).unwrap();
+    assert!(a.image.pixels.iter().all(|p| p.is_finite()));
+    assert_eq!(a.image, b.image);
+    assert_eq!(a.stats.rays, b.stats.rays);
+    let c = render(
+        &scene,
+        &RenderOptions {
+            seed: 8,
+            ..opts(8, 2)
+        },
+    )
+    .unwrap();
+    assert_ne!(a.image, c.image);
+    assert!(mean(&a.image).max_element() > 0.0);
+}
+
+/// (e) A time limit or the cancel flag returns a valid image of the completed passes.
+#[test]
+fn time_limit_and_cancel_return_valid_images() {
+    let scene = small_canopy_scene();
+    let out = render(
+        &scene,
+        &RenderOptions {
+            time_limit: Some(Duration::from_millis(300)),
+            ..opts(1_000_000, 2)
+        },
+    )
+    .unwrap();
+    assert!(out.stats.stopped_early);
+    assert!(out.stats.spp_done >= 1 && out.stats.spp_done < 1_000_000);
+    assert!(out.stats.elapsed < Duration::from_secs(5));
+    assert!(out.image.pixels.iter().all(|p| p.is_finite()));
+    assert!(mean(&out.image).max_element() > 0.0);
+
+    let cancel = Arc::new(AtomicBool::new(false));
+    let flag = cancel.clone();
+    let out = render(
+        &scene,
+        &RenderOptions {
+            cancel: Some(cancel),
+            progress: Some(Arc::new(move |p| {
+                if p.passes_done == 2 {
+                    flag.store(true, Ordering::Relaxed);
+                }
+            })),
+            ..opts(64, 2)
+        },
+    )
+    .unwrap();
+    assert!(out.stats.stopped_early);
+    assert_eq!(out.stats.spp_done, 2);
+    assert!(out.image.pixels.iter().all(|p| p.is_finite()));
+    // The two-pass image equals a plain 2-spp render.
+    assert_eq!(out.image, render(&scene, &opts(2, 2)).unwrap().image);
+}
+
+/// Bad options fail cleanly.
+#[test]
+fn bad_options_are_errors() {
+    let scene = small_canopy_scene();
+    assert!(render(&scene, &opts(0, 2)).is_err());
+    assert!(render(&scene, &opts(1, 0)).is_err());
+    let mut bad = scene.clone();
+    bad.camera.look_at = bad.camera.position;
+    assert!(render(&bad, &opts(1, 1)).is_err());
+    let mut bad = scene;
+    bad.meshes[0].material = 99;
+    assert!(render(&bad, &opts(1, 1)).is_err());
+}
+
+/// (f, in the renderer) An image sky of constant radiance renders like the constant sky: the
+/// importance sampling is unbiased.
+#[test]
+fn image_sky_furnace() {
+    let tex = Texture::from_texels(8, 4, vec![Vec4::new(0.5, 0.5, 0.5, 1.0); 32], Wrap::Repeat);
+    let scene = Scene {
+        camera: camera_at(2.0, 40.0),
+        film: film(12, 12, 32),
+        integrator: Integrator::Path {
+            max_depth: 20,
+            rr_depth: 3,
+        },
+        lights: vec![],
+        sky: Some(Sky::Image {
+            map: tex,
+            scale: 2.0,
+            rotation_deg: 10.0,
+        }),
+        materials: vec![diffuse_transmission(Vec3::splat(0.7), Vec3::splat(0.3))],
+        meshes: vec![card(0.5, 0.0, 0)],
+    };
+    let out = render(&scene, &opts(32, 2)).unwrap();
+    for p in &out.image.pixels {
+        assert!((*p - Vec3::ONE).abs().max_element() < 0.1, "{p}");
+    }
+    assert!((mean(&out.image) - Vec3::ONE).abs().max_element() < 0.01);
+}
+
+fn temp_dir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("lamina-render-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// (g) EXR and PNG are valid, hold the right values, leave no temporary file; an unwritable
+/// directory is a clean error that leaves nothing behind.
+#[test]
+fn output_files_are_valid_and_atomic() {
+    let dir = temp_dir("out");
+    let img = Image {
+        width: 3,
+        height: 2,
+        pixels: vec![
+            Vec3::new(0.0, 0.5, 1.0),
+            Vec3::new(2.0, 0.25, 0.01),
+            Vec3::ZERO,
+            Vec3::ONE,
+            Vec3::new(0.1, 0.2, 0.3),
+            Vec3::splat(100.0),
+        ],
+    };
+    let f = film(3, 2, 1);
+    let exr = dir.join("a.exr");
+    write_image(&exr, &img, &f).unwrap();
+    let back = image::open(&exr).unwrap().into_rgb32f();
+    assert_eq!((back.width(), back.height()), (3, 2));
+    for (p, q) in back.pixels().zip(&img.pixels) {
+        assert_eq!(Vec3::from_array(p.0), *q);
+    }
+    let png = dir.join("b.PNG");
+    write_image(&png, &img, &f).unwrap();
+    let back = image::open(&png).unwrap().into_rgb8();
+    assert_eq!(back.get_pixel(0, 0).0, [0, 188, 255]);
+    assert_eq!(back.get_pixel(2, 1).0, [255, 255, 255]);
+    let names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 2, "{names:?}");
+
+    // Tone maps and exposure.
+    let mut fr = f;
+    fr.tonemap = ToneMap::Reinhard;
+    fr.exposure = 1.0;
+    write_image(&png, &img, &fr).unwrap();
+    let back = image::open(&png).unwrap().into_rgb8();
+    // 0.5 · 2 = 1 → 1/2 → sRGB 0.735 → 188.
+    assert_eq!(back.get_pixel(0, 0).0[1], 188);
+
+    let missing = dir.join("no/such/dir/c.png");
+    let err = write_image(&missing, &img, &f).unwrap_err().to_string();
+    assert!(err.contains("c.png"), "{err}");
+    let file_as_dir = exr.join("d.exr");
+    assert!(write_image(&file_as_dir, &img, &f).is_err());
+    assert!(write_image(&dir.join("e.jpg"), &img, &f).is_err());
+    let bad = Image {
+        width: 4,
+        ..img.clone()
+    };
+    assert!(write_image(&dir.join("f.png"), &bad, &f).is_err());
+    let names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 2, "{names:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -191,4 +191,5 @@ pub struct ObjectTable {
     pub edge_u: Option<S<[f32; 3]>>,
     pub edge_v: Option<S<[f32; 3]>>,
     pub cards: Option<S<Vec<CardRow>>>,
+    pub materials: Option<S<toml::Table>>,
 }

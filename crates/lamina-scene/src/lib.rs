@@ -5,6 +5,7 @@ pub mod builtin;
 pub mod cards;
 pub mod error;
 pub mod file;
+pub mod gltf_import;
 mod leaf;
 pub mod load;
 pub mod obj;

@@ -216,7 +216,7 @@ impl Ctx {
         }
         let mut meshes = Vec::new();
         for (i, o) in doc.object.iter().enumerate() {
-            meshes.extend(self.object(i, o, &by_name)?);
+            meshes.extend(self.object(i, o, &by_name, &mut materials)?);
         }
         let scene = Scene {
             camera,
@@ -817,6 +817,7 @@ impl Ctx {
         i: usize,
         t: &S<ObjectTable>,
         materials: &HashMap<String, u32>,
+        scene_materials: &mut Vec<Material>,
     ) -> Result<Vec<Mesh>, SceneError> {
         let o = t.get_ref();
         let kind = o.kind.get_ref().as_str();
@@ -829,21 +830,38 @@ impl Ctx {
             ("cards", o.cards.is_some()),
         ];
         let xf = self.transform(&o.transform, &format!("{p}.transform"))?;
+        let lookup = |name: &S<String>, key: &str| -> Result<u32, SceneError> {
+            materials.get(name.get_ref()).copied().ok_or_else(|| {
+                let mut names: Vec<_> = materials.keys().cloned().collect();
+                names.sort();
+                self.err(
+                    name.span(),
+                    key,
+                    format!(
+                        "no material named '{}' (defined: {})",
+                        name.get_ref(),
+                        names.join(", ")
+                    ),
+                )
+            })
+        };
         let mat_key = format!("{p}.material");
-        let mat = self.require(&o.material, t.span(), &mat_key, kind)?;
-        let material = *materials.get(mat.get_ref()).ok_or_else(|| {
-            let mut names: Vec<_> = materials.keys().cloned().collect();
-            names.sort();
-            self.err(
-                mat.span(),
-                &mat_key,
-                format!(
-                    "no material named '{}' (defined: {})",
-                    mat.get_ref(),
-                    names.join(", ")
-                ),
-            )
-        })?;
+        if kind == "gltf" {
+            self.only(t.span(), &p, kind, &keys, &["file", "materials"])?;
+            let f = self.require(&o.file, t.span(), &format!("{p}.file"), kind)?;
+            return self.gltf(&p, f, o, &xf, scene_materials, &lookup);
+        }
+        if let Some(m) = &o.materials {
+            return Err(self.err(
+                m.span(),
+                format!("{p}.materials"),
+                "only gltf objects take 'materials'; use 'material'",
+            ));
+        }
+        let material = lookup(
+            self.require(&o.material, t.span(), &mat_key, kind)?,
+            &mat_key,
+        )?;
         match kind {
             "quad" => {
                 self.only(t.span(), &p, kind, &keys, &["corner", "edge_u", "edge_v"])?;
@@ -909,9 +927,82 @@ impl Ctx {
             other => Err(self.err(
                 o.kind.span(),
                 format!("{p}.type"),
-                format!("unknown object type '{other}' (quad, leaf_cards, obj)"),
+                format!("unknown object type '{other}' (quad, leaf_cards, obj, gltf)"),
             )),
         }
+    }
+
+    /// A glTF object: its meshes, with its materials appended to the scene's unless the
+    /// object's `material` (all) or `materials` (by glTF material name) maps them to scene
+    /// materials.
+    fn gltf(
+        &self,
+        p: &str,
+        file: &S<String>,
+        o: &ObjectTable,
+        xf: &Transform,
+        scene_materials: &mut Vec<Material>,
+        lookup: &dyn Fn(&S<String>, &str) -> Result<u32, SceneError>,
+    ) -> Result<Vec<Mesh>, SceneError> {
+        let imported = crate::gltf_import::load_gltf(&self.path(file), xf)?;
+        for w in &imported.warnings {
+            eprintln!("warning: {}: {w}", self.path(file).display());
+        }
+        let all = o
+            .material
+            .as_ref()
+            .map(|m| lookup(m, &format!("{p}.material")))
+            .transpose()?;
+        let mut by_name: HashMap<&str, u32> = HashMap::new();
+        if let Some(table) = &o.materials {
+            for (gltf_name, v) in table.get_ref() {
+                let key = format!("{p}.materials.{gltf_name}");
+                let toml::Value::String(scene_name) = v else {
+                    return Err(self.err(
+                        table.span(),
+                        key,
+                        "must be the name of a scene material (a string)",
+                    ));
+                };
+                if !imported.material_names.iter().any(|n| n == gltf_name) {
+                    let have = imported.material_names.join(", ");
+                    return Err(self.err(
+                        table.span(),
+                        key,
+                        format!("the glTF file has no material '{gltf_name}' (it has: {have})"),
+                    ));
+                }
+                let target = lookup(&S::new(table.span(), scene_name.clone()), &key)?;
+                by_name.insert(gltf_name.as_str(), target);
+            }
+        }
+        // glTF materials that are not overridden become new scene materials.
+        let mut used = vec![false; imported.materials.len()];
+        for m in &imported.meshes {
+            used[m.material as usize] = true;
+        }
+        let mut remap: Vec<u32> = Vec::with_capacity(imported.materials.len());
+        for (i, (mat, name)) in imported
+            .materials
+            .into_iter()
+            .zip(&imported.material_names)
+            .enumerate()
+        {
+            let target = all.or_else(|| by_name.get(name.as_str()).copied());
+            remap.push(match target {
+                Some(t) => t,
+                None if used[i] => {
+                    scene_materials.push(mat);
+                    scene_materials.len() as u32 - 1
+                }
+                None => u32::MAX,
+            });
+        }
+        let mut meshes = imported.meshes;
+        for m in &mut meshes {
+            m.material = remap[m.material as usize];
+        }
+        Ok(meshes)
     }
 }
 

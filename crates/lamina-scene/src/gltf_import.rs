@@ -1,0 +1,452 @@
+//! glTF 2.0 import (`.gltf` with its buffers, or `.glb`), via the `gltf` crate.
+//!
+//! What is read: the default scene's node hierarchy with its transforms; triangle
+//! primitives with positions, normals and the first texture-coordinate set (with the base
+//! colour's `KHR_texture_transform` applied); metallic-roughness materials mapped onto
+//! lamina's materials:
+//!
+//! | glTF | lamina |
+//! |---|---|
+//! | base colour (factor × texture) | `diffuse` reflectance |
+//! | `alphaMode` `MASK` + `alphaCutoff` | alpha test on the base colour's alpha channel |
+//! | `alphaMode` `BLEND` | alpha test at 0.5 (a path tracer has no order-dependent blending) |
+//! | `KHR_materials_diffuse_transmission` (factor `t`, colour `c`) | `diffuse_transmission`, `R = base·(1 − t)`, `T = c·t` (the extension's own mix) |
+//! | `KHR_materials_volume` `thicknessFactor` with diffuse transmission | a lamina `leaf`: front map = base colour, alpha = its alpha, blade thickness from the thickness (mesh units, taken as metres) |
+//!
+//! Metallic, roughness and normal maps have no counterpart in these materials and are
+//! ignored (a scene can override any glTF material by name with a lamina `leaf`, which has
+//! its own bump and roughness). glTF is `+y` up in metres, as lamina is; texture `v` is
+//! flipped to lamina's `v`-up convention. Each mesh instance becomes world-space triangles.
+
+use crate::error::SceneError;
+use crate::scene::{AlphaMask, ColorInput, Material, Mesh};
+use crate::transform::Transform;
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+use lamina_leaf::texture::srgb_to_linear;
+use lamina_leaf::{Texture, Wrap};
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Extensions whose absence changes nothing we render, so a file may require them.
+const UNDERSTOOD: &[&str] = &[
+    "KHR_texture_transform",
+    "KHR_materials_diffuse_transmission",
+    "KHR_materials_volume",
+    "KHR_mesh_quantization",
+];
+
+/// The largest number of vertices or triangles we accept in one primitive.
+const MAX_ELEMENTS: usize = 1 << 28;
+
+/// A glTF file converted to lamina meshes and materials.
+#[derive(Debug, Default)]
+pub struct GltfScene {
+    /// World-space meshes; `material` indexes [`GltfScene::materials`].
+    pub meshes: Vec<Mesh>,
+    /// Materials in glTF order, then one default material (grey diffuse) at the end.
+    pub materials: Vec<Material>,
+    /// glTF material names, parallel to `materials` (the default one is `"default"`).
+    pub material_names: Vec<String>,
+    /// Things that were approximated or ignored, for the user.
+    pub warnings: Vec<String>,
+}
+
+/// Loads a glTF or GLB file and applies `xf` after the file's own node transforms.
+pub fn load_gltf(path: &Path, xf: &Transform) -> Result<GltfScene, SceneError> {
+    let fail = |key: &str, msg: String| SceneError::new(path, None, key, msg);
+    let gltf = gltf::Gltf::open(path).map_err(|e| fail("", format!("cannot read glTF: {e}")))?;
+    for ext in gltf.extensions_required() {
+        if !UNDERSTOOD.contains(&ext) {
+            return Err(fail(
+                "extensionsRequired",
+                format!("extension '{ext}' is required by the file but not supported"),
+            ));
+        }
+    }
+    let base = path.parent().unwrap_or(Path::new(""));
+    let doc = gltf.document;
+    let buffers = gltf::import_buffers(&doc, Some(base), gltf.blob)
+        .map_err(|e| fail("buffers", format!("cannot load buffers: {e}")))?;
+    let mut out = GltfScene::default();
+    let mut images: HashMap<(usize, bool), Texture> = HashMap::new();
+    for (i, m) in doc.materials().enumerate() {
+        let name = m
+            .name()
+            .map_or_else(|| format!("material{i}"), str::to_owned);
+        let mat = convert_material(
+            path,
+            &doc,
+            &buffers,
+            &m,
+            &name,
+            &mut images,
+            &mut out.warnings,
+        )?;
+        out.materials.push(mat);
+        out.material_names.push(name);
+    }
+    let default_material = out.materials.len() as u32;
+    out.materials.push(Material::Diffuse {
+        name: "default".into(),
+        reflectance: ColorInput::Constant(Vec3::splat(0.5)),
+        alpha: None,
+    });
+    out.material_names.push("default".into());
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| fail("scenes", "the file has no scene".into()))?;
+    let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, xf.m)).collect();
+    let mut visited = 0usize;
+    while let Some((node, parent)) = stack.pop() {
+        visited += 1;
+        if visited > 1 << 24 {
+            return Err(fail(
+                "nodes",
+                "the node hierarchy is too deep or cyclic".into(),
+            ));
+        }
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * local;
+        if !world.is_finite() {
+            return Err(fail(
+                &format!("nodes[{}]", node.index()),
+                "transform is not finite".into(),
+            ));
+        }
+        if let Some(mesh) = node.mesh() {
+            for (pi, prim) in mesh.primitives().enumerate() {
+                let key = format!("meshes[{}].primitives[{pi}]", mesh.index());
+                if prim.mode() != gltf::mesh::Mode::Triangles {
+                    out.warnings.push(format!(
+                        "{key}: mode {:?} skipped (only triangles are rendered)",
+                        prim.mode()
+                    ));
+                    continue;
+                }
+                let material = prim
+                    .material()
+                    .index()
+                    .map_or(default_material, |i| i as u32);
+                let uv_xf = prim
+                    .material()
+                    .pbr_metallic_roughness()
+                    .base_color_texture()
+                    .and_then(|t| t.texture_transform())
+                    .map(uv_transform);
+                if let Some(m) = read_primitive(
+                    path,
+                    &key,
+                    &prim,
+                    &buffers,
+                    Transform::from_matrix(world),
+                    material,
+                    uv_xf,
+                )? {
+                    out.meshes.push(m);
+                }
+            }
+        }
+        stack.extend(node.children().map(|c| (c, world)));
+    }
+    if out.meshes.is_empty() {
+        return Err(fail("meshes", "the file has no triangles to render".into()));
+    }
+    Ok(out)
+}
+
+/// `KHR_texture_transform` as a matrix on `(u, v, 1)` in glTF's `v`-down convention.
+fn uv_transform(t: gltf::texture::TextureTransform) -> Mat3 {
+    let [ox, oy] = t.offset();
+    let [sx, sy] = t.scale();
+    let r = t.rotation();
+    let translation = Mat3::from_cols(Vec3::X, Vec3::Y, Vec3::new(ox, oy, 1.0));
+    let rotation = Mat3::from_cols(
+        Vec3::new(r.cos(), -r.sin(), 0.0),
+        Vec3::new(r.sin(), r.cos(), 0.0),
+        Vec3::Z,
+    );
+    let scale = Mat3::from_diagonal(Vec3::new(sx, sy, 1.0));
+    translation * rotation * scale
+}
+
+fn read_primitive(
+    path: &Path,
+    key: &str,
+    prim: &gltf::Primitive,
+    buffers: &[gltf::buffer::Data],
+    xf: Transform,
+    material: u32,
+    uv_xf: Option<Mat3>,
+) -> Result<Option<Mesh>, SceneError> {
+    let fail = |msg: String| SceneError::new(path, None, key, msg);
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .ok_or_else(|| fail("has no POSITION attribute".into()))?
+        .map(Vec3::from)
+        .collect();
+    if positions.len() > MAX_ELEMENTS {
+        return Err(fail(format!(
+            "{} vertices is more than the {MAX_ELEMENTS} supported",
+            positions.len()
+        )));
+    }
+    if let Some(bad) = positions
+        .iter()
+        .position(|p| !p.is_finite() || p.abs().max_element() > 1e12)
+    {
+        return Err(fail(format!(
+            "vertex {bad} is not finite or absurdly large: {:?}",
+            positions[bad]
+        )));
+    }
+    let normals: Vec<Vec3> = reader
+        .read_normals()
+        .map(|n| n.map(Vec3::from).collect())
+        .unwrap_or_default();
+    let uvs: Vec<Vec2> = reader
+        .read_tex_coords(0)
+        .map(|t| {
+            t.into_f32()
+                .map(|[u, v]| {
+                    let p = uv_xf.map_or(Vec3::new(u, v, 1.0), |m| m * Vec3::new(u, v, 1.0));
+                    Vec2::new(p.x, 1.0 - p.y)
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let n = positions.len();
+    if (!normals.is_empty() && normals.len() != n) || (!uvs.is_empty() && uvs.len() != n) {
+        return Err(fail(
+            "attribute counts differ from the POSITION count".into(),
+        ));
+    }
+    let flat: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..n as u32).collect(),
+    };
+    if flat.len() / 3 > MAX_ELEMENTS {
+        return Err(fail(format!(
+            "{} triangles is more than the {MAX_ELEMENTS} supported",
+            flat.len() / 3
+        )));
+    }
+    if let Some(bad) = flat.iter().find(|&&i| i as usize >= n) {
+        return Err(fail(format!("index {bad} is out of range ({n} vertices)")));
+    }
+    let flips = xf.flips();
+    let indices: Vec<[u32; 3]> = flat
+        .chunks_exact(3)
+        .map(|t| {
+            if flips {
+                [t[0], t[2], t[1]]
+            } else {
+                [t[0], t[1], t[2]]
+            }
+        })
+        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+        .collect();
+    if indices.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(Mesh {
+        positions: positions.iter().map(|&p| xf.point(p)).collect(),
+        normals: normals.iter().map(|&v| xf.normal(v)).collect(),
+        uvs,
+        indices,
+        material,
+    }))
+}
+
+/// Decodes glTF image `index` to a texture (sRGB-decoded when `srgb`), cached.
+fn image(
+    path: &Path,
+    doc: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+    tex: gltf::Texture,
+    srgb: bool,
+    cache: &mut HashMap<(usize, bool), Texture>,
+) -> Result<Texture, SceneError> {
+    let img = tex.source();
+    let key = (img.index(), srgb);
+    if let Some(t) = cache.get(&key) {
+        return Ok(t.clone());
+    }
+    let fail = |msg: String| SceneError::new(path, None, format!("images[{}]", img.index()), msg);
+    let bytes: Vec<u8> = match img.source() {
+        gltf::image::Source::View { view, .. } => {
+            let data = buffers
+                .get(view.buffer().index())
+                .ok_or_else(|| fail("its buffer is missing".into()))?;
+            let (start, len) = (view.offset(), view.length());
+            data.0
+                .get(start..start + len)
+                .ok_or_else(|| fail("its buffer view is out of range".into()))?
+                .to_vec()
+        }
+        gltf::image::Source::Uri { uri, .. } => {
+            if uri.starts_with("data:") {
+                return Err(fail(
+                    "data-URI images are not supported; use a .glb or an image file".into(),
+                ));
+            }
+            let file = path.parent().unwrap_or(Path::new("")).join(uri);
+            std::fs::read(&file)
+                .map_err(|e| fail(format!("cannot read '{}': {e}", file.display())))?
+        }
+    };
+    let decoded =
+        image::load_from_memory(&bytes).map_err(|e| fail(format!("cannot decode: {e}")))?;
+    let is_float = matches!(
+        decoded.color(),
+        image::ColorType::Rgb32F | image::ColorType::Rgba32F
+    );
+    let rgba = decoded.into_rgba32f();
+    let (w, h) = rgba.dimensions();
+    if w == 0 || h == 0 {
+        return Err(fail("the image is empty".into()));
+    }
+    let texels = rgba
+        .pixels()
+        .map(|p| {
+            let [r, g, b, a] = p.0;
+            if srgb && !is_float {
+                Vec4::new(srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b), a)
+            } else {
+                Vec4::new(r, g, b, a)
+            }
+        })
+        .collect();
+    let wrap = match tex.sampler().wrap_s() {
+        gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
+        _ => Wrap::Repeat,
+    };
+    let t = Texture::from_texels(w, h, texels, wrap);
+    let _ = doc;
+    cache.insert(key, t.clone());
+    Ok(t)
+}
+
+fn ext_f32(v: Option<&serde_json::Value>, name: &str, default: f32) -> f32 {
+    v.and_then(|v| v.get(name))
+        .and_then(|x| x.as_f64())
+        .map_or(default, |x| x as f32)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn convert_material(
+    path: &Path,
+    doc: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+    m: &gltf::Material,
+    name: &str,
+    cache: &mut HashMap<(usize, bool), Texture>,
+    warnings: &mut Vec<String>,
+) -> Result<Material, SceneError> {
+    let pbr = m.pbr_metallic_roughness();
+    let factor = Vec4::from(pbr.base_color_factor());
+    let base_tex = pbr
+        .base_color_texture()
+        .map(|t| image(path, doc, buffers, t.texture(), true, cache))
+        .transpose()?;
+    let alpha = match m.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => None,
+        mode => {
+            let cutoff = if mode == gltf::material::AlphaMode::Mask {
+                m.alpha_cutoff().unwrap_or(0.5)
+            } else {
+                0.5
+            };
+            if mode == gltf::material::AlphaMode::Blend {
+                warnings.push(format!(
+                    "material '{name}': alphaMode BLEND rendered as a cut-out at 0.5"
+                ));
+            }
+            match &base_tex {
+                // The cut-out compares texture alpha times the factor's alpha with the cutoff.
+                Some(t) => Some(AlphaMask {
+                    map: t.clone(),
+                    use_alpha_channel: true,
+                    cutoff: (cutoff / factor.w.max(1e-6)).min(1.0),
+                }),
+                None if factor.w < cutoff => Some(AlphaMask {
+                    map: Texture::constant(Vec4::ZERO),
+                    use_alpha_channel: true,
+                    cutoff: 0.5,
+                }),
+                None => None,
+            }
+        }
+    };
+    let base = match &base_tex {
+        Some(t) => ColorInput::Texture {
+            map: t.clone(),
+            factor: factor.truncate(),
+        },
+        None => ColorInput::Constant(factor.truncate()),
+    };
+    let ext = m.extensions();
+    let dt = ext.and_then(|e| e.get("KHR_materials_diffuse_transmission"));
+    let volume = ext.and_then(|e| e.get("KHR_materials_volume"));
+    if ext.is_some_and(|e| e.contains_key("KHR_materials_translucency")) {
+        warnings.push(format!(
+            "material '{name}': KHR_materials_translucency (not a ratified extension) ignored"
+        ));
+    }
+    let Some(dt) = dt else {
+        return Ok(Material::Diffuse {
+            name: name.into(),
+            reflectance: base,
+            alpha,
+        });
+    };
+    let t = ext_f32(Some(dt), "diffuseTransmissionFactor", 0.0).clamp(0.0, 1.0);
+    let c = dt
+        .get("diffuseTransmissionColorFactor")
+        .and_then(|v| serde_json::from_value::<[f32; 3]>(v.clone()).ok())
+        .map_or(Vec3::ONE, Vec3::from)
+        .clamp(Vec3::ZERO, Vec3::ONE);
+    if dt.get("diffuseTransmissionTexture").is_some()
+        || dt.get("diffuseTransmissionColorTexture").is_some()
+    {
+        warnings.push(format!(
+            "material '{name}': diffuse-transmission textures ignored; their factors are used"
+        ));
+    }
+    if let Some(v) = volume {
+        let thickness_m = ext_f32(Some(v), "thicknessFactor", 0.0);
+        if thickness_m > 0.0 {
+            let params = lamina_leaf::LeafParams {
+                thickness_mm: (thickness_m * 1000.0).clamp(0.01, 5.0),
+                ..Default::default()
+            };
+            let maps = lamina_leaf::LeafMaps {
+                front: base_tex.clone(),
+                alpha: alpha.as_ref().map(|a| a.map.clone()),
+                ..Default::default()
+            };
+            let leaf = lamina_leaf::LeafMaterial::new(maps, params).map_err(|e| {
+                SceneError::new(path, None, format!("material '{name}'"), e.to_string())
+            })?;
+            return Ok(Material::Leaf {
+                name: name.into(),
+                leaf: Arc::new(leaf),
+            });
+        }
+    }
+    let reflectance = match base {
+        ColorInput::Constant(b) => ColorInput::Constant(b * (1.0 - t)),
+        ColorInput::Texture { map, factor } => ColorInput::Texture {
+            map,
+            factor: factor * (1.0 - t),
+        },
+    };
+    Ok(Material::DiffuseTransmission {
+        name: name.into(),
+        reflectance,
+        transmittance: ColorInput::Constant(c * t),
+        alpha,
+    })
+}

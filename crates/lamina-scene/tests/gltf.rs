@@ -1,0 +1,218 @@
+//! glTF import: a small hand-made file, bad files, and the real plant when ../shared exists.
+
+use lamina_scene::gltf_import::load_gltf;
+use lamina_scene::transform::Transform;
+use lamina_scene::{Material, parse_scene};
+use std::path::{Path, PathBuf};
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lamina-gltf-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Base64 of little-endian f32s and u16s.
+fn b64(bytes: &[u8]) -> String {
+    const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::new();
+    for c in bytes.chunks(3) {
+        let n = (c[0] as u32) << 16
+            | (*c.get(1).unwrap_or(&0) as u32) << 8
+            | *c.get(2).unwrap_or(&0) as u32;
+        for i in 0..4 {
+            if i <= c.len() {
+                s.push(T[(n >> (18 - 6 * i) & 63) as usize] as char);
+            } else {
+                s.push('=');
+            }
+        }
+    }
+    s
+}
+
+/// A one-triangle glTF with two nodes instancing the same mesh, the second translated by
+/// +2 in x, and a diffuse-transmission material.
+fn triangle_gltf(positions: [[f32; 3]; 3], extra: &str) -> String {
+    let mut bytes = Vec::new();
+    for p in positions {
+        for c in p {
+            bytes.extend(c.to_le_bytes());
+        }
+    }
+    let uri = format!("data:application/octet-stream;base64,{}", b64(&bytes));
+    format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  {extra}
+  "scene": 0,
+  "scenes": [{{"nodes": [0, 1]}}],
+  "nodes": [{{"mesh": 0}}, {{"mesh": 0, "translation": [2, 0, 0]}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "material": 0}}]}}],
+  "materials": [{{"name": "leafy", "pbrMetallicRoughness": {{"baseColorFactor": [0.2, 0.4, 0.1, 1]}},
+                 "extensions": {{"KHR_materials_diffuse_transmission": {{"diffuseTransmissionFactor": 0.5,
+                   "diffuseTransmissionColorFactor": [0.5, 1.0, 0.2]}}}}}}],
+  "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                  "min": [-10, -10, -10], "max": [10, 10, 10]}}],
+  "bufferViews": [{{"buffer": 0, "byteLength": 36}}],
+  "buffers": [{{"byteLength": 36, "uri": "{uri}"}}]
+}}"#
+    )
+}
+
+const TRI: [[f32; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+
+#[test]
+fn hierarchy_instances_and_diffuse_transmission() {
+    let d = scratch("ok");
+    let p = d.join("t.gltf");
+    std::fs::write(&p, triangle_gltf(TRI, "")).unwrap();
+    let g = load_gltf(&p, &Transform::default()).unwrap();
+    assert_eq!(g.meshes.len(), 2, "the mesh is used by two nodes");
+    let xs: Vec<f32> = g.meshes.iter().map(|m| m.positions[1].x).collect();
+    assert!(xs.contains(&1.0) && xs.contains(&3.0), "{xs:?}");
+    match &g.materials[0] {
+        Material::DiffuseTransmission {
+            reflectance,
+            transmittance,
+            ..
+        } => {
+            let r = reflectance.at(glam::Vec2::ZERO);
+            let t = transmittance.at(glam::Vec2::ZERO);
+            assert!(
+                (r - glam::Vec3::new(0.1, 0.2, 0.05)).length() < 1e-6,
+                "R = base (1 - t): {r}"
+            );
+            assert!(
+                (t - glam::Vec3::new(0.25, 0.5, 0.1)).length() < 1e-6,
+                "T = colour t: {t}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn scene_file_overrides_gltf_material_by_name() {
+    let d = scratch("override");
+    std::fs::write(d.join("t.gltf"), triangle_gltf(TRI, "")).unwrap();
+    let text = r#"
+[camera]
+position = [0, 0, 5]
+look_at = [0, 0, 0]
+[[material]]
+name = "mine"
+type = "leaf"
+[[object]]
+type = "gltf"
+file = "t.gltf"
+materials = { leafy = "mine" }
+transform = { translate = [0, 1, 0] }
+"#;
+    let s = parse_scene(text, &d.join("s.toml")).unwrap();
+    assert_eq!(s.meshes.len(), 2);
+    assert!(s.meshes.iter().all(|m| m.material == 0));
+    assert_eq!(
+        s.materials.len(),
+        1,
+        "the overridden glTF material is not added"
+    );
+    assert!(
+        (s.meshes[0].positions[0].y - 1.0).abs() < 1e-6,
+        "{:?}",
+        s.meshes[0].positions
+    );
+    let bad = text.replace("leafy = ", "nosuch = ");
+    let e = parse_scene(&bad, &d.join("s.toml")).unwrap_err();
+    assert!(
+        e.to_string().contains("no material 'nosuch'") && e.to_string().contains("leafy"),
+        "{e}"
+    );
+}
+
+#[test]
+fn bad_gltf_files_give_clear_errors() {
+    let d = scratch("bad");
+    let cases = [
+        (
+            "nan.gltf",
+            triangle_gltf([[f32::NAN, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], ""),
+            "not finite",
+        ),
+        (
+            "huge.gltf",
+            triangle_gltf([[1e30, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], ""),
+            "absurdly large",
+        ),
+        (
+            "req.gltf",
+            triangle_gltf(
+                TRI,
+                r#""extensionsRequired": ["EXT_meshopt_compression"], "extensionsUsed": ["EXT_meshopt_compression"],"#,
+            ),
+            "EXT_meshopt_compression",
+        ),
+        (
+            "missing.gltf",
+            triangle_gltf(TRI, "")
+                .replace(&format!("data:application/octet-stream;base64,{}", ""), "")
+                .replacen("\"uri\": \"data:", "\"uri\": \"nothere.bin\", \"x\": \"", 1),
+            "buffers",
+        ),
+        (
+            "empty.gltf",
+            r#"{"asset": {"version": "2.0"}, "scenes": [{"nodes": []}], "scene": 0}"#.to_string(),
+            "no triangles",
+        ),
+        ("garbage.gltf", "not json".to_string(), "cannot read glTF"),
+    ];
+    for (name, text, words) in cases {
+        let p = d.join(name);
+        std::fs::write(&p, text).unwrap();
+        let e = load_gltf(&p, &Transform::default())
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(name), "{name}: {e}");
+        assert!(e.contains(words), "{name}: expected '{words}' in: {e}");
+    }
+}
+
+#[test]
+fn real_plant_when_shared_data_exists() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/plants/potted_plant_02/potted_plant_02.glb");
+    if !path.exists() {
+        eprintln!("skipped: {} not present", path.display());
+        return;
+    }
+    let g = load_gltf(&path, &Transform::default()).unwrap();
+    let tris: usize = g.meshes.iter().map(|m| m.indices.len()).sum();
+    assert!(tris > 60_000, "{tris} triangles");
+    let leaves = g
+        .material_names
+        .iter()
+        .position(|n| n == "potted_plant_02_leaves")
+        .expect("leaf material");
+    match &g.materials[leaves] {
+        Material::Diffuse { alpha: Some(a), .. } => assert_eq!(a.cutoff, 0.5),
+        other => panic!("leaves should be a cut-out diffuse material: {other:?}"),
+    }
+    let (lo, hi) = g
+        .meshes
+        .iter()
+        .flat_map(|m| &m.positions)
+        .fold((glam::Vec3::MAX, glam::Vec3::MIN), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let size = hi - lo;
+    assert!(
+        size.y > 0.6 && size.y < 1.0 && size.x > 0.4 && size.x < 1.0,
+        "plant size {size} m"
+    );
+    assert!(
+        g.warnings
+            .iter()
+            .any(|w| w.contains("KHR_materials_translucency"))
+    );
+}

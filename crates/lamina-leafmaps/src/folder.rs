@@ -1,0 +1,305 @@
+//! The seven maps as planes, the derivations shared by `generate` and `prepare`
+//! (extinction and thickness from the through-light colour), and the atomic writing of a
+//! leaf folder.
+
+use crate::LeafMapsError;
+use crate::plane::{Gray, Plane, Rgb, gaussian_blur};
+use glam::Vec4;
+use image::{ImageBuffer, Luma, Rgb as ImgRgb};
+use lamina_leaf::texture::linear_to_srgb;
+use lamina_leaf::{LeafDescription, LeafMapPaths, LeafMaps, LeafParams, Texture, Wrap};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// The seven maps of one leaf, all of the same size, row 0 at the top of the card.
+#[derive(Clone, Debug)]
+pub struct MapPlanes {
+    /// Adaxial (upper side) diffuse reflectance, **linear** RGB in `[0, 1]`.
+    pub front: Rgb,
+    /// Abaxial (lower side) diffuse reflectance, linear RGB, same texel layout as `front`
+    /// (not mirrored).
+    pub back: Rgb,
+    /// Diffuse transmittance (through-light colour), linear RGB.
+    pub translucency: Rgb,
+    /// Coverage in `[0, 1]`; the leaf model treats `>= 0.5` as opaque.
+    pub alpha: Gray,
+    /// Thickness map in `[0, 1]`, 0.5 = the nominal blade thickness
+    /// ([`LeafParams::thickness_mm`]).
+    pub thickness: Gray,
+    /// Extinction map in `[0, 1]`, `1 - Y'(translucency)` (0.5 = nominal absorption).
+    pub extinction: Gray,
+    /// Bump height along the adaxial normal in `[0, 1]`, 0.5 = flat; one unit of map value
+    /// is [`LeafParams::bump_scale`] texture-space units.
+    pub bump: Gray,
+}
+
+/// File names of the maps inside a leaf folder.
+pub const MAP_FILES: [&str; 7] = [
+    "front.png",
+    "back.png",
+    "translucency.png",
+    "alpha.png",
+    "thickness.png",
+    "extinction.png",
+    "bump.png",
+];
+
+impl MapPlanes {
+    /// Width and height in pixels.
+    pub fn size(&self) -> (usize, usize) {
+        (self.front.width, self.front.height)
+    }
+
+    /// The maps as [`Texture`]s for [`lamina_leaf::LeafMaterial::new`] (clamped addressing:
+    /// a leaf card does not tile).
+    pub fn to_leaf_maps(&self) -> LeafMaps {
+        let rgb = |p: &Rgb| {
+            let t = p
+                .data
+                .iter()
+                .map(|c| Vec4::new(c[0], c[1], c[2], 1.0))
+                .collect();
+            Texture::from_texels(p.width as u32, p.height as u32, t, Wrap::Clamp)
+        };
+        let grey = |p: &Gray| {
+            let t = p.data.iter().map(|&v| Vec4::new(v, v, v, 1.0)).collect();
+            Texture::from_texels(p.width as u32, p.height as u32, t, Wrap::Clamp)
+        };
+        LeafMaps {
+            front: Some(rgb(&self.front)),
+            back: Some(rgb(&self.back)),
+            translucency: Some(rgb(&self.translucency)),
+            alpha: Some(grey(&self.alpha)),
+            thickness: Some(grey(&self.thickness)),
+            extinction: Some(grey(&self.extinction)),
+            bump: Some(grey(&self.bump)),
+        }
+    }
+}
+
+/// Rec. 709 luma of sRGB-*encoded* values: the grey a scanner's grey-scale mode gives.
+#[inline]
+pub fn luma_encoded(lin: [f32; 3]) -> f32 {
+    0.2126 * linear_to_srgb(lin[0].clamp(0.0, 1.0))
+        + 0.7152 * linear_to_srgb(lin[1].clamp(0.0, 1.0))
+        + 0.0722 * linear_to_srgb(lin[2].clamp(0.0, 1.0))
+}
+
+/// Extinction from the through-light colour (the paper: "a grey-scale version of the image
+/// is directly used as an extinction map"; `LEAF_MODEL.md`: darker = more extinction):
+/// `e = 1 - Y'` with `Y'` the Rec. 709 luma of the sRGB-encoded scan, i.e. the grey value
+/// a scanner's grey-scale mode stores. A mid-grey scan gives the nominal 0.5.
+pub fn extinction_from_translucency(translucency: &Rgb) -> Gray {
+    translucency.map(|c| (1.0 - luma_encoded(c)).clamp(0.0, 1.0))
+}
+
+/// Thickness from extinction (the paper: "the thickness map is a blurred version of this
+/// image"): a Gaussian blur of standard deviation `sigma_px`, normalised by the blurred
+/// alpha (so the background outside the leaf does not bleed into its rim), then re-centred
+/// so that the *median* inside the leaf is 0.5, the nominal blade thickness, with the
+/// deviations scaled by `gain` (veins, which absorb more, come out thicker) and clamped to
+/// `[0, 1]`. Outside the leaf the value is 0.5.
+pub fn thickness_from_extinction(
+    extinction: &Gray,
+    alpha: &Gray,
+    sigma_px: f32,
+    gain: f32,
+) -> Gray {
+    let ea = Plane {
+        width: extinction.width,
+        height: extinction.height,
+        data: extinction
+            .data
+            .par_iter()
+            .zip(alpha.data.par_iter())
+            .map(|(e, a)| e * a)
+            .collect(),
+    };
+    let be = gaussian_blur(&ea, sigma_px);
+    let ba = gaussian_blur(alpha, sigma_px);
+    let raw: Vec<f32> = be
+        .data
+        .par_iter()
+        .zip(ba.data.par_iter())
+        .map(|(e, a)| if *a > 1e-3 { e / a } else { f32::NAN })
+        .collect();
+    // Median inside the leaf from a 1024-bin histogram (values lie in [0, 1]).
+    let mut hist = vec![0u64; 1024];
+    let mut n = 0u64;
+    for (v, a) in raw.iter().zip(&alpha.data) {
+        if *a >= 0.5 && v.is_finite() {
+            hist[(v.clamp(0.0, 1.0) * 1023.0) as usize] += 1;
+            n += 1;
+        }
+    }
+    let mut median = 0.5;
+    let mut acc = 0;
+    for (i, c) in hist.iter().enumerate() {
+        acc += c;
+        if n > 0 && acc * 2 >= n {
+            median = i as f32 / 1023.0;
+            break;
+        }
+    }
+    Plane {
+        width: extinction.width,
+        height: extinction.height,
+        data: raw
+            .par_iter()
+            .zip(alpha.data.par_iter())
+            .map(|(v, a)| {
+                if *a > 0.0 && v.is_finite() {
+                    (0.5 + gain * (v - median)).clamp(0.0, 1.0)
+                } else {
+                    0.5
+                }
+            })
+            .collect(),
+    }
+}
+
+fn encode_err(path: &Path, source: image::ImageError) -> LeafMapsError {
+    LeafMapsError::Encode {
+        path: path.to_owned(),
+        source,
+    }
+}
+
+/// Writes linear RGB as an 8-bit sRGB PNG.
+pub fn write_srgb_png(path: &Path, p: &Rgb) -> Result<(), LeafMapsError> {
+    let mut buf = vec![0u8; p.width * p.height * 3];
+    buf.par_chunks_mut(3)
+        .zip(p.data.par_iter())
+        .for_each(|(o, c)| {
+            for k in 0..3 {
+                o[k] = (linear_to_srgb(c[k].clamp(0.0, 1.0)) * 255.0 + 0.5) as u8;
+            }
+        });
+    let img: ImageBuffer<ImgRgb<u8>, _> =
+        ImageBuffer::from_raw(p.width as u32, p.height as u32, buf).expect("buffer size");
+    img.save(path).map_err(|e| encode_err(path, e))
+}
+
+/// Writes a grey plane with values in `[0, 1]` as a 16-bit linear PNG.
+pub fn write_gray16_png(path: &Path, p: &Gray) -> Result<(), LeafMapsError> {
+    let buf: Vec<u16> = p
+        .data
+        .par_iter()
+        .map(|v| (v.clamp(0.0, 1.0) * 65535.0 + 0.5) as u16)
+        .collect();
+    let img: ImageBuffer<Luma<u16>, _> =
+        ImageBuffer::from_raw(p.width as u32, p.height as u32, buf).expect("buffer size");
+    img.save(path).map_err(|e| encode_err(path, e))
+}
+
+fn write_err(path: &Path) -> impl FnOnce(std::io::Error) -> LeafMapsError + '_ {
+    move |source| LeafMapsError::Write {
+        path: path.to_owned(),
+        source,
+    }
+}
+
+/// Writes a leaf folder atomically: the seven maps ([`MAP_FILES`]) and `leaf.toml`, whose
+/// first lines are `comments` (each written as a `# ` line; use them to say which maps were
+/// derived and how) followed by the serialised [`LeafDescription`] with relative paths and
+/// clamped addressing.
+///
+/// Everything is written into a temporary sibling folder (`.NAME.tmp-PID-N`), which is then
+/// renamed to `dir`. An existing `dir` is first moved aside and deleted only after the
+/// rename succeeded, so at every moment `dir` is either the old complete folder or the new
+/// one; on any error the temporary folder is removed and the old folder is left as it was.
+pub fn write_leaf_folder(
+    dir: &Path,
+    maps: &MapPlanes,
+    params: &LeafParams,
+    comments: &[String],
+) -> Result<PathBuf, LeafMapsError> {
+    params.validate()?;
+    let name = dir
+        .file_name()
+        .ok_or_else(|| LeafMapsError::Write {
+            path: dir.to_owned(),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "no folder name"),
+        })?
+        .to_string_lossy()
+        .into_owned();
+    let parent = match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_owned(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent).map_err(write_err(&parent))?;
+    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = parent.join(format!(".{name}.tmp-{}-{n}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir(&tmp).map_err(write_err(&tmp))?;
+    let result = (|| -> Result<(), LeafMapsError> {
+        let [f, b, t, a, th, e, bu] = MAP_FILES;
+        // Encode the seven maps in parallel (PNG compression dominates the write time).
+        let jobs: Vec<Box<dyn Fn() -> Result<(), LeafMapsError> + Send + Sync>> = vec![
+            Box::new(|| write_srgb_png(&tmp.join(f), &maps.front)),
+            Box::new(|| write_srgb_png(&tmp.join(b), &maps.back)),
+            Box::new(|| write_srgb_png(&tmp.join(t), &maps.translucency)),
+            Box::new(|| write_gray16_png(&tmp.join(a), &maps.alpha)),
+            Box::new(|| write_gray16_png(&tmp.join(th), &maps.thickness)),
+            Box::new(|| write_gray16_png(&tmp.join(e), &maps.extinction)),
+            Box::new(|| write_gray16_png(&tmp.join(bu), &maps.bump)),
+        ];
+        jobs.par_iter()
+            .map(|j| j())
+            .collect::<Result<Vec<()>, _>>()?;
+        let desc = LeafDescription {
+            maps: LeafMapPaths {
+                front: Some(f.into()),
+                back: Some(b.into()),
+                translucency: Some(t.into()),
+                alpha: Some(a.into()),
+                thickness: Some(th.into()),
+                extinction: Some(e.into()),
+                bump: Some(bu.into()),
+                wrap: Wrap::Clamp,
+            },
+            params: *params,
+        };
+        let mut text = String::new();
+        for c in comments {
+            for line in c.lines() {
+                text.push_str("# ");
+                text.push_str(line);
+                text.push('\n');
+            }
+        }
+        text.push('\n');
+        text.push_str(&toml::to_string(&desc)?);
+        let toml_path = tmp.join("leaf.toml");
+        std::fs::write(&toml_path, text).map_err(write_err(&toml_path))?;
+        Ok(())
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(e);
+    }
+    let old = parent.join(format!(".{name}.old-{}-{n}", std::process::id()));
+    let had_old = dir.exists();
+    if had_old && let Err(source) = std::fs::rename(dir, &old) {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(LeafMapsError::Write {
+            path: dir.to_owned(),
+            source,
+        });
+    }
+    if let Err(source) = std::fs::rename(&tmp, dir) {
+        if had_old {
+            let _ = std::fs::rename(&old, dir);
+        }
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(LeafMapsError::Write {
+            path: dir.to_owned(),
+            source,
+        });
+    }
+    if had_old {
+        let _ = std::fs::remove_dir_all(&old);
+    }
+    Ok(dir.to_owned())
+}

@@ -164,7 +164,7 @@ def main():
         exr = out / f"lamina_s{seed}.exr"
         wall, summ, err = common.run_lamina(lamina, scene_toml, [exr, out / f"lamina_s{seed}.png"],
                                             args.spp, args.threads, seed)
-        print(f"lamina seed {seed}: {wall:.2f} s wall; {err.splitlines()[-1] if err else ''}")
+        print(f"lamina seed {seed}: {wall:.2f} s wall; {next((l for l in err.splitlines() if 'samples/s' in l), err)}")
         lam_imgs.append(common.load_exr(exr))
         npix = args.size * args.size * args.spp
         rows.append([f"lamina (run {seed + 1})", "%.2f" % wall,

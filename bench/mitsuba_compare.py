@@ -198,7 +198,7 @@ def main():
         exr = out / f"lamina_s{seed}.exr"
         wall, summ, err = common.run_lamina(lamina, scene_toml, [exr, out / f"lamina_s{seed}.png"],
                                             args.spp, args.threads, seed)
-        print(f"lamina seed {seed}: {wall:.2f} s wall; {err.splitlines()[-1] if err else ''}")
+        print(f"lamina seed {seed}: {wall:.2f} s wall; {next((l for l in err.splitlines() if 'samples/s' in l), err)}")
         lam.append((common.load_exr(exr), wall, summ))
 
     if args.depth_check:
@@ -255,6 +255,13 @@ def main():
         c = common.compare(a, b)
         rows.append([name, "%.4f" % c["mean_rel"], "%+.3f%%" % (100 * c["means_rel"]),
                      "%.5f (%.2f%%)" % (c["rmse"], 100 * c["rmse_rel"])])
+    # If both render the same image, lamina - Mitsuba is the difference of two independent noisy
+    # estimates: its expected squared RMSE is the mean of the two same-renderer squared RMSEs
+    # (each of those is the difference of two independent runs of one renderer).
+    ll = common.compare(lam[0][0], lam[1][0])
+    mm = common.compare(mit[0][0], mit[1][0])
+    pred = math.sqrt(0.5 * (ll["rmse"] ** 2 + mm["rmse"] ** 2))
+    rows.append(["expected from noise alone", "-", "-", "%.5f (%.2f%%)" % (pred, 100 * pred / mm["mean_b"])])
     print()
     print(f"Image statistics ({args.size}x{args.size}, {args.spp} spp; mean rel. diff = mean |a-b| / "
           f"max(b, 0.05 x mean b); image means: lamina {common.image_mean(lam[0][0]):.5f}, "

@@ -53,7 +53,7 @@ def colour(v, default):
     return common.rgb(v)
 
 
-def convert(scene_path, out, integrator, spp_override=None):
+def convert(scene_path, out, integrator, spp_override=None, sampler="independent"):
     """The lamina scene at `scene_path` as a Mitsuba scene dict (only what the bush uses:
     sun/constant sky, diffuse/diffuse_transmission with optional alpha, leaf_cards/obj/quad,
     no transforms)."""
@@ -73,7 +73,7 @@ def convert(scene_path, out, integrator, spp_override=None):
         "integrator": {"type": integrator, "max_depth": int(integ.get("max_depth", 8)) + 1,
                        "rr_depth": int(integ.get("rr_depth", 3))},
         "sensor": common.mitsuba_sensor(cam["position"], cam["look_at"], cam.get("up", [0, 1, 0]),
-                                        cam.get("fov", 40.0), width, height, spp),
+                                        cam.get("fov", 40.0), width, height, spp, sampler),
     }
     if cam.get("aperture_radius", 0) > 0:
         sys.exit("thin-lens cameras are not converted")
@@ -144,6 +144,8 @@ def main():
     ap.add_argument("--integrators", default="volpath,path",
                     help="Mitsuba integrators to time (volpath: same image as lamina; path: mask "
                          "ignored by shadow rays)")
+    ap.add_argument("--mitsuba-sampler", default="independent",
+                    help="Mitsuba sampler (independent, stratified, multijitter, orthogonal, ldsampler)")
     ap.add_argument("--out", default=str(common.DEFAULT_OUT / "bush_compare"))
     ap.add_argument("--warm-disk-cache", action="store_true",
                     help="reuse Dr.Jit's on-disk kernel cache (default: fresh, so run 1 includes the JIT compile)")
@@ -176,7 +178,7 @@ def main():
     mit_imgs = {}
     ncards = 0
     for integ in [s.strip() for s in args.integrators.split(",") if s.strip()]:
-        d, (w, h, spp, ncards) = convert(scene_toml, out, integ, args.spp)
+        d, (w, h, spp, ncards) = convert(scene_toml, out, integ, args.spp, args.mitsuba_sampler)
         t0 = time.perf_counter()
         scene = mi.load_dict(d)
         load_s = time.perf_counter() - t0
@@ -194,7 +196,7 @@ def main():
 
     print()
     print(f"Demo bush ({ncards} alpha-matted leaf cards + branches + ground), {args.size}x{args.size}, "
-          f"{args.spp} spp, lamina max_depth 8 (Mitsuba 9), {args.threads} threads; {ncpu} cores, {model}; "
+          f"{args.spp} spp, lamina max_depth 8 (Mitsuba 9), {args.threads} threads, Mitsuba sampler {args.mitsuba_sampler}; {ncpu} cores, {model}; "
           f"a compile was {'RUNNING' if busy else 'not running'}")
     print(fmt_table(rows, ["run", "wall s", "render s", "M samples/s (wall)", "M samples/s (render)",
                            "M rays/s"]))

@@ -168,7 +168,7 @@ def rgb(v):
     return {"type": "rgb", "value": [float(x) for x in v]}
 
 
-def mitsuba_sensor(position, look_at, up, fov_deg, width, height, spp):
+def mitsuba_sensor(position, look_at, up, fov_deg, width, height, spp, sampler="independent"):
     return {
         "type": "perspective",
         "fov": float(fov_deg),
@@ -176,7 +176,7 @@ def mitsuba_sensor(position, look_at, up, fov_deg, width, height, spp):
         "near_clip": 1e-3,
         "far_clip": 1e5,
         "to_world": mi.ScalarTransform4f().look_at(origin=position, target=look_at, up=up),
-        "sampler": {"type": "independent", "sample_count": int(spp)},
+        "sampler": {"type": sampler, "sample_count": int(spp)},
         "film": {
             "type": "hdrfilm",
             "width": int(width),

@@ -125,7 +125,8 @@ edge_v = {a(GROUND['edge_v'])}
 """
 
 
-def mitsuba_scene(width, height, spp, lamina_max_depth, cards_obj, ground_obj, mitsuba_depth=None):
+def mitsuba_scene(width, height, spp, lamina_max_depth, cards_obj, ground_obj, mitsuba_depth=None,
+                  sampler="independent"):
     mi = common.mi
     return mi.load_dict({
         "type": "scene",
@@ -136,7 +137,7 @@ def mitsuba_scene(width, height, spp, lamina_max_depth, cards_obj, ground_obj, m
             "rr_depth": 3,
         },
         "sensor": common.mitsuba_sensor(CAMERA["position"], CAMERA["look_at"], CAMERA["up"],
-                                        CAMERA["fov"], width, height, spp),
+                                        CAMERA["fov"], width, height, spp, sampler),
         "sun": common.mitsuba_sun(SUN_DIR, SUN_E),
         "sky": common.mitsuba_sky(SKY),
         "leaves": {
@@ -168,6 +169,8 @@ def main():
     ap.add_argument("--warm-disk-cache", action="store_true",
                     help="let Dr.Jit reuse its on-disk kernel cache (~/.drjit); by default a fresh "
                          "cache is used so that the first Mitsuba run includes the JIT compile")
+    ap.add_argument("--mitsuba-sampler", default="independent",
+                    help="Mitsuba sampler (independent, stratified, multijitter, orthogonal, ldsampler)")
     ap.add_argument("--depth-check", action="store_true",
                     help="instead: lamina max_depth 1 against Mitsuba max_depth 1, 2, 3")
     ap.add_argument("--exposure", type=float, default=None,
@@ -189,7 +192,7 @@ def main():
     common.quad_to_obj(GROUND["corner"], GROUND["edge_u"], GROUND["edge_v"], out / "ground.obj")
     model, ncpu = common.cpu_info()
     print(f"scene: {len(cards)} leaf cards + ground, {args.size}x{args.size}, {args.spp} spp, "
-          f"lamina max_depth {depth}, {args.threads} threads; machine: {ncpu} cores, {model}")
+          f"lamina max_depth {depth}, {args.threads} threads, Mitsuba sampler {args.mitsuba_sampler}; machine: {ncpu} cores, {model}")
     busy = common.compile_running()
 
     # ---- lamina, two seeds
@@ -219,7 +222,8 @@ def main():
 
     # ---- Mitsuba: scene load, first render (JIT compile included), second render (warm)
     t0 = time.perf_counter()
-    scene = mitsuba_scene(args.size, args.size, args.spp, depth, out / "cards.obj", out / "ground.obj")
+    scene = mitsuba_scene(args.size, args.size, args.spp, depth, out / "cards.obj", out / "ground.obj",
+                          sampler=args.mitsuba_sampler)
     load_s = time.perf_counter() - t0
     mit = []
     for seed in (0, 1):

@@ -161,7 +161,7 @@ pub fn thickness_from_extinction(
 fn encode_err(path: &Path, source: image::ImageError) -> LeafMapsError {
     LeafMapsError::Encode {
         path: path.to_owned(),
-        source,
+        cause: source,
     }
 }
 
@@ -195,7 +195,7 @@ pub fn write_gray16_png(path: &Path, p: &Gray) -> Result<(), LeafMapsError> {
 fn write_err(path: &Path) -> impl FnOnce(std::io::Error) -> LeafMapsError + '_ {
     move |source| LeafMapsError::Write {
         path: path.to_owned(),
-        source,
+        cause: source,
     }
 }
 
@@ -219,7 +219,7 @@ pub fn write_leaf_folder(
         .file_name()
         .ok_or_else(|| LeafMapsError::Write {
             path: dir.to_owned(),
-            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "no folder name"),
+            cause: std::io::Error::new(std::io::ErrorKind::InvalidInput, "no folder name"),
         })?
         .to_string_lossy()
         .into_owned();
@@ -285,7 +285,7 @@ pub fn write_leaf_folder(
         let _ = std::fs::remove_dir_all(&tmp);
         return Err(LeafMapsError::Write {
             path: dir.to_owned(),
-            source,
+            cause: source,
         });
     }
     if let Err(source) = std::fs::rename(&tmp, dir) {
@@ -295,7 +295,7 @@ pub fn write_leaf_folder(
         let _ = std::fs::remove_dir_all(&tmp);
         return Err(LeafMapsError::Write {
             path: dir.to_owned(),
-            source,
+            cause: source,
         });
     }
     if had_old {

@@ -132,6 +132,9 @@ struct Shape {
     bend: f32,
 }
 
+/// Forward shear of pinnate lobes (change of `t` per unit of lateral distance).
+const SINUS_SHEAR: f32 = 0.45;
+
 #[inline]
 fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
     let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
@@ -183,15 +186,17 @@ fn smin(a: f32, b: f32, k: f32) -> f32 {
 }
 
 impl Shape {
-    /// Half-width of lobe `l` at `t` on `side` (0 left, 1 right), design units.
-    fn half_width(&self, i: usize, t: f32, side: usize) -> f32 {
+    /// Half-width of lobe `l` at `t` on `side` (0 left, 1 right), design units. `lat` is
+    /// the lateral distance of the point asked about: pinnate lobes are sheared toward the
+    /// apex by it (they point forward, as oak lobes do).
+    fn half_width(&self, i: usize, t: f32, side: usize, lat: f32) -> f32 {
         let l = &self.lobes[i];
         let pr = profile(l.profile, t);
         let mut hw = l.len * l.hw * pr * l.asym[side];
         if i == 0
             && let Some(s) = self.sinuses
         {
-            let tt = (t - 0.08) / 0.86;
+            let tt = (t - SINUS_SHEAR * lat.abs() / l.len - 0.08) / 0.86;
             if (0.0..1.0).contains(&tt) {
                 let x = s.count * tt + l.sinus_phase[side];
                 let lobe = (std::f32::consts::PI * x).sin().abs();
@@ -199,7 +204,7 @@ impl Shape {
                 let k = x.floor() as i32;
                 let size = 0.8
                     + 0.35 * crate::noise::unit(crate::noise::hash2(k, side as i32, l.sinus_seed));
-                hw *= ((1.0 - s.depth) + s.depth * size * lobe.powf(0.6)).min(1.15);
+                hw *= ((1.0 - s.depth) + s.depth * size * lobe.powf(0.7)).min(1.15);
             }
         }
         if let Some(th) = &self.teeth {
@@ -222,7 +227,7 @@ impl Shape {
         if t >= 1.0 {
             return (q - l.dir * l.len).length();
         }
-        lat.abs() - self.half_width(i, t, usize::from(lat < 0.0))
+        lat.abs() - self.half_width(i, t, usize::from(lat < 0.0), lat)
     }
 
     /// Signed outline function of the whole leaf with petiole (negative inside).
@@ -296,7 +301,7 @@ fn build_shape(p: &Preset, rng: &mut Rng, petiole_r: f32) -> Shape {
                 tooth_phase: [rng.next_f32(), rng.next_f32()],
                 sinus_phase: {
                     let a = rng.range(0.0, 0.15);
-                    [a, a + rng.range(0.25, 0.5)]
+                    [a, a + rng.range(0.35, 0.6)]
                 },
                 sinus_seed: (rng.next_f32() * 1.0e6) as u32,
             }
@@ -452,8 +457,10 @@ fn build_veins(shape: &Shape, p: &Preset, midrib_r: f32, rng: &mut Rng) -> Vec<S
                         continue;
                     }
                     let tc = 0.08 + 0.86 * tt;
-                    let hw = shape.half_width(0, tc, si);
-                    let tip = l.dir * (tc * l.len) + l.perp * (side * hw);
+                    let hw0 = shape.half_width(0, tc, si, 0.0);
+                    let tc = tc + SINUS_SHEAR * 0.8 * hw0 / l.len;
+                    let hw = shape.half_width(0, tc, si, 0.8 * hw0).max(0.5 * hw0);
+                    let tip = l.dir * (tc * l.len) + l.perp * (side * 0.95 * hw);
                     let ts = (tc - 0.55 * hw / l.len).max(0.03);
                     let start = l.dir * (ts * l.len);
                     starts.push((ts, (tip - start).normalize(), 0.3));
@@ -734,7 +741,9 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
             let l = &shape.lobes[0];
             let t = (q.dot(l.dir) / l.len).clamp(0.0, 1.0);
             let lat = q.dot(l.perp);
-            let hw = shape.half_width(0, t, usize::from(lat < 0.0)).max(1e-6);
+            let hw = shape
+                .half_width(0, t, usize::from(lat < 0.0), 0.0)
+                .max(1e-6);
             let u = lat / hw;
             let n = count as f32;
             let k = ((u + 1.0) * 0.5 * n - 0.5).round().clamp(0.0, n - 1.0);
@@ -790,7 +799,7 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
         tr *= (1.0 - 0.6 * vm - 0.32 * vt - 0.18 * vq).max(0.05);
         tr *= 1.0 + 0.25 * rim;
         // Bump: veins are grooves from the adaxial side (raised on the abaxial side).
-        let h_mm = -(hm + 0.05 * vt + 0.025 * vq) + 0.02 * bulge + 0.008 * grain;
+        let h_mm = -(hm + 0.02 * vt + 0.008 * vq) + 0.012 * bulge + 0.004 * grain;
         let bump = if alpha > 0.0 {
             (0.5 + h_mm / (2.0 * range_mm)).clamp(0.0, 1.0)
         } else {

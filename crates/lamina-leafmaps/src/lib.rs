@@ -46,13 +46,12 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum LeafMapsError {
     /// An input image could not be opened or decoded.
-    #[error("cannot read image '{path}': {source}")]
+    #[error("cannot read image '{path}': {cause}")]
     Read {
         /// The file.
         path: PathBuf,
-        /// What the decoder said.
-        #[source]
-        source: image::ImageError,
+        /// What the decoder said (part of the message, so not repeated as a source).
+        cause: image::ImageError,
     },
     /// An input was read but cannot be used (empty, all black, a matte that keeps nothing...).
     #[error("unusable input '{path}': {reason}")]
@@ -63,22 +62,20 @@ pub enum LeafMapsError {
         reason: String,
     },
     /// A file or folder could not be written.
-    #[error("cannot write '{path}': {source}")]
+    #[error("cannot write '{path}': {cause}")]
     Write {
         /// The file or folder.
         path: PathBuf,
-        /// The I/O error.
-        #[source]
-        source: std::io::Error,
+        /// The I/O error (part of the message).
+        cause: std::io::Error,
     },
     /// An image could not be encoded.
-    #[error("cannot encode '{path}': {source}")]
+    #[error("cannot encode '{path}': {cause}")]
     Encode {
         /// The file.
         path: PathBuf,
-        /// What the encoder said.
-        #[source]
-        source: image::ImageError,
+        /// What the encoder said (part of the message).
+        cause: image::ImageError,
     },
     /// The leaf model rejected the description or a map.
     #[error(transparent)]

@@ -128,17 +128,17 @@ fn load_stored(path: &Path) -> Result<Stored, LeafMapsError> {
     let img = image::ImageReader::open(path)
         .map_err(|e| LeafMapsError::Read {
             path: path.to_owned(),
-            source: image::ImageError::IoError(e),
+            cause: image::ImageError::IoError(e),
         })?
         .with_guessed_format()
         .map_err(|e| LeafMapsError::Read {
             path: path.to_owned(),
-            source: image::ImageError::IoError(e),
+            cause: image::ImageError::IoError(e),
         })?
         .decode()
         .map_err(|source| LeafMapsError::Read {
             path: path.to_owned(),
-            source,
+            cause: source,
         })?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     if w == 0 || h == 0 {

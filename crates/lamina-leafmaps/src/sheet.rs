@@ -56,12 +56,12 @@ pub fn save_rgb(out: &Path, img: &RgbImage) -> Result<(), LeafMapsError> {
     {
         std::fs::create_dir_all(p).map_err(|source| LeafMapsError::Write {
             path: p.to_owned(),
-            source,
+            cause: source,
         })?;
     }
     img.save(out).map_err(|source| LeafMapsError::Encode {
         path: out.to_owned(),
-        source,
+        cause: source,
     })
 }
 
@@ -90,7 +90,7 @@ pub fn sheet_image(dir: &Path, opts: &SheetOptions) -> Result<RgbImage, LeafMaps
                 let img = image::open(&path)
                     .map_err(|source| LeafMapsError::Read {
                         path: path.clone(),
-                        source,
+                        cause: source,
                     })?
                     .into_rgb32f();
                 let (w, h) = (img.width() as usize, img.height() as usize);

@@ -1,0 +1,185 @@
+//! `lamina leaf ...`: make leaf folders (the seven maps and `leaf.toml`) procedurally or from
+//! captures, and contact sheets of them. The work is done by `lamina-leafmaps`.
+
+use anyhow::Context;
+use lamina_leafmaps::sheet::SheetOptions;
+use lamina_leafmaps::{LeafSpec, PrepareInput, Species, generate, prepare, sheet};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Leaf map tools.
+#[derive(clap::Subcommand, Debug)]
+pub enum LeafCommand {
+    /// Generate a procedural leaf folder (seven maps + leaf.toml) from a species preset.
+    Generate {
+        /// Species preset: beech, maple, oak, birch, ivy, grass, willow.
+        #[arg(short, long, default_value = "beech", value_parser = parse_species)]
+        species: Species,
+        /// Random seed (the same seed gives the same leaf).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Pixels along the longer side of the card.
+        #[arg(short, long, default_value_t = 1024)]
+        resolution: u32,
+        /// Output leaf folder (replaced atomically if it exists).
+        #[arg(short, long)]
+        out: PathBuf,
+        /// Also write a contact sheet PNG of the result.
+        #[arg(long)]
+        sheet: Option<PathBuf>,
+    },
+    /// Make a leaf folder from captures: a front photo and optionally a back photo, a
+    /// through-light scan, a matte and a normal or bump map. Missing maps are derived and
+    /// leaf.toml says how.
+    Prepare {
+        /// Adaxial (upper side) photograph, sRGB. Sets the output size.
+        #[arg(long)]
+        front: PathBuf,
+        /// Abaxial (lower side) photograph, same layout as the front (not mirrored).
+        #[arg(long)]
+        back: Option<PathBuf>,
+        /// Through-light (translucency) scan.
+        #[arg(long)]
+        translucency: Option<PathBuf>,
+        /// Alpha matte (white = leaf); without it the leaf is segmented from the background.
+        #[arg(long)]
+        alpha: Option<PathBuf>,
+        /// Tangent-space normal map (OpenGL convention, green up).
+        #[arg(long, conflicts_with = "bump")]
+        normal: Option<PathBuf>,
+        /// Bump (height) map, grey, white = up.
+        #[arg(long)]
+        bump: Option<PathBuf>,
+        /// Resolution of the capture in dots per inch (makes --blur-radius millimetres).
+        #[arg(long)]
+        dpi: Option<f32>,
+        /// Thickness blur (Gaussian sigma): mm with --dpi, else pixels [default: 0.5 mm, or
+        /// 0.5 % of the image without --dpi].
+        #[arg(long)]
+        blur_radius: Option<f32>,
+        /// Take the leaf model parameters from this species preset (default: a generic green leaf).
+        #[arg(short, long, value_parser = parse_species)]
+        species: Option<Species>,
+        /// Output leaf folder (replaced atomically if it exists).
+        #[arg(short, long)]
+        out: PathBuf,
+        /// Also write a contact sheet PNG of the result.
+        #[arg(long)]
+        sheet: Option<PathBuf>,
+    },
+    /// Contact sheet of a leaf folder: its seven maps and renders lit from the front and
+    /// from behind.
+    Sheet {
+        /// The leaf folder (holding leaf.toml).
+        dir: PathBuf,
+        /// Output PNG.
+        #[arg(short, long)]
+        out: PathBuf,
+        /// Tile size in pixels.
+        #[arg(long, default_value_t = 256)]
+        tile: u32,
+        /// Exposure multiplier of the back-lit render.
+        #[arg(long, default_value_t = 1.0)]
+        backlit_exposure: f32,
+    },
+}
+
+fn parse_species(s: &str) -> Result<Species, String> {
+    s.parse::<Species>().map_err(|e| e.to_string())
+}
+
+fn write_sheet(dir: &std::path::Path, out: &std::path::Path) -> anyhow::Result<()> {
+    sheet(dir, out, &SheetOptions::default())
+        .with_context(|| format!("contact sheet of '{}'", dir.display()))?;
+    eprintln!("wrote {}", out.display());
+    Ok(())
+}
+
+/// Runs a `lamina leaf` subcommand. Warnings go to stderr; errors name the file concerned.
+pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
+    match cmd {
+        LeafCommand::Generate {
+            species,
+            seed,
+            resolution,
+            out,
+            sheet: sheet_png,
+        } => {
+            let t = Instant::now();
+            let leaf = generate(&LeafSpec::new(species, seed, resolution));
+            let (w, h) = leaf.planes.size();
+            leaf.write_folder(&out)
+                .with_context(|| format!("writing leaf folder '{}'", out.display()))?;
+            eprintln!(
+                "wrote {} ({species}, seed {seed}, {w}x{h} px, card {:.3} x {:.3} m) in {:.2} s",
+                out.display(),
+                leaf.size_m.0,
+                leaf.size_m.1,
+                t.elapsed().as_secs_f64()
+            );
+            if let Some(p) = sheet_png {
+                write_sheet(&out, &p)?;
+            }
+        }
+        LeafCommand::Prepare {
+            front,
+            back,
+            translucency,
+            alpha,
+            normal,
+            bump,
+            dpi,
+            blur_radius,
+            species,
+            out,
+            sheet: sheet_png,
+        } => {
+            let t = Instant::now();
+            let mut input = PrepareInput::new(front, &out);
+            input.back = back;
+            input.translucency = translucency;
+            input.alpha = alpha;
+            input.normal = normal;
+            input.bump = bump;
+            input.dpi = dpi;
+            input.blur_radius = blur_radius;
+            if let Some(s) = species {
+                input.params = s.params();
+            }
+            let r = prepare(&input).context("lamina leaf prepare")?;
+            for w in &r.warnings {
+                eprintln!("warning: {w}");
+            }
+            for p in &r.provenance {
+                eprintln!("  {p}");
+            }
+            eprintln!(
+                "wrote {} (alpha keeps {:.1} %) in {:.2} s",
+                r.dir.display(),
+                100.0 * r.alpha_fraction,
+                t.elapsed().as_secs_f64()
+            );
+            if let Some(p) = sheet_png {
+                write_sheet(&out, &p)?;
+            }
+        }
+        LeafCommand::Sheet {
+            dir,
+            out,
+            tile,
+            backlit_exposure,
+        } => {
+            sheet(
+                &dir,
+                &out,
+                &SheetOptions {
+                    tile,
+                    backlit_exposure,
+                },
+            )
+            .with_context(|| format!("contact sheet of '{}'", dir.display()))?;
+            eprintln!("wrote {}", out.display());
+        }
+    }
+    Ok(())
+}

@@ -1,1 +1,41 @@
-fn main() {}
+//! `lamina`: render leaf and plant scenes.
+//!
+//! Errors are reported with their whole chain (`error: ...: ...`) and exit code 1; usage
+//! errors exit with 2 (clap's convention). Nothing here panics on bad input.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod demo;
+mod render_cmd;
+
+/// A renderer for plant leaves and whole plants.
+#[derive(Parser, Debug)]
+#[command(name = "lamina", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render a scene file (TOML) to PNG and/or EXR.
+    Render(render_cmd::RenderArgs),
+    /// Render the built-in demo: a leaf lit from the front and from behind, and a bush.
+    Demo(demo::DemoArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => render_cmd::run(args),
+        Command::Demo(args) => demo::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -111,7 +111,7 @@ pub fn leaf_front_lit(leaf: &BuiltinLeaf, size: (u32, u32), spp: u32) -> Scene {
 pub fn leaf_back_lit(leaf: &BuiltinLeaf, size: (u32, u32), spp: u32) -> Scene {
     leaf_panel(
         leaf,
-        Vec3::new(-0.3, 0.35, -1.0),
+        Vec3::new(-0.35, 0.65, -1.0),
         Vec3::splat(3.0),
         size,
         spp,
@@ -183,7 +183,7 @@ pub fn bush(seed: u64, leaf_size: Vec2) -> (Mesh, Vec<LeafCard>) {
     while let Some((start, dir, len, radius, level)) = stack.pop() {
         let end = start + dir * len;
         cylinder(&mut wood, start, end, radius, radius * 0.7, 6);
-        if level < 2 {
+        if level < 3 {
             for k in 0..3 {
                 let t = 0.45 + 0.25 * k as f32 + 0.05 * rng.next();
                 let p = start + dir * len * t;
@@ -194,14 +194,18 @@ pub fn bush(seed: u64, leaf_size: Vec2) -> (Mesh, Vec<LeafCard>) {
                 stack.push((
                     p,
                     nd,
-                    len * (0.55 + 0.15 * rng.next()),
+                    len * (0.5 + 0.15 * rng.next()),
                     radius * 0.6,
                     level + 1,
                 ));
             }
         }
         // Leaves along the outer part of every branch, in a golden-angle spiral.
-        let count = if level == 0 { 4 } else { 9 };
+        let count = match level {
+            0 => 2,
+            1 => 4,
+            _ => 7,
+        };
         let frame = lamina_leaf::frame::Frame::from_normal(dir);
         for k in 0..count {
             let t = 0.35 + 0.65 * (k as f32 + rng.next() * 0.5) / count as f32;
@@ -250,7 +254,7 @@ pub fn bush_scene(leaf: &BuiltinLeaf, size: (u32, u32), spp: u32) -> Scene {
         reflectance: ColorInput::Constant(Vec3::new(0.09, 0.06, 0.04)),
         alpha: None,
     });
-    let target = Vec3::new(0.0, 0.45, 0.0);
+    let target = Vec3::new(0.0, 0.35, 0.0);
     let elevation = 30f32.to_radians();
     let azimuth = (180.0f32 + 35.0).to_radians();
     let sun_dir = Vec3::new(
@@ -260,12 +264,12 @@ pub fn bush_scene(leaf: &BuiltinLeaf, size: (u32, u32), spp: u32) -> Scene {
     );
     Scene {
         camera: Camera {
-            position: Vec3::new(0.0, 0.75, 2.6),
+            position: Vec3::new(0.0, 0.55, 1.7),
             look_at: target,
             up: Vec3::Y,
             fov_deg: 40.0,
             aperture_radius: 0.0,
-            focus_distance: 2.6,
+            focus_distance: 1.7,
         },
         film: film(size.0, size.1, spp),
         integrator: Integrator::Path {

@@ -1,0 +1,249 @@
+//! `lamina demo`: the built-in scene, needing no files. Three panels side by side: a
+//! procedural leaf lit from the front, the same leaf lit from behind, and a small bush lit
+//! by a low sun from behind.
+
+use crate::render_cmd::{RenderFlags, check_outputs, options, render_scene, write_all};
+use anyhow::{Context, Result};
+use glam::{Vec2, Vec3};
+use lamina_render::Image;
+use lamina_scene::builtin::{self, BuiltinLeaf};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// `lamina demo`.
+#[derive(clap::Args, Debug)]
+pub struct DemoArgs {
+    /// Output image(s), `.png` or `.exr`. Repeatable.
+    #[arg(short, long = "output", value_name = "OUT", default_value = "demo.png")]
+    pub output: Vec<PathBuf>,
+    /// Height of each of the three square panels, in pixels.
+    #[arg(long, default_value_t = 384, value_parser = clap::value_parser!(u32).range(16..=4096))]
+    pub size: u32,
+    /// The species of the procedural leaf.
+    #[arg(long, default_value = "beech")]
+    pub species: String,
+    /// Instead of rendering, write the demo bush as a scene folder (TOML, CSV cards, OBJ
+    /// branches, alpha PNG) with diffuse-transmission leaves, for other renderers.
+    #[arg(long, value_name = "DIR")]
+    pub export_bush: Option<PathBuf>,
+    #[command(flatten)]
+    pub flags: RenderFlags,
+}
+
+/// The demo's leaf: a procedural leaf of the given species, 512x512 maps.
+pub fn demo_leaf(species: &str, seed: u64) -> Result<BuiltinLeaf> {
+    let species: lamina_leafmaps::Species = species.parse().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let spec = lamina_leafmaps::LeafSpec::new(species, seed, 512);
+    let leaf = lamina_leafmaps::generate(&spec);
+    let (w, h) = leaf.size_m;
+    let material =
+        lamina_leaf::LeafMaterial::new(leaf.maps, leaf.params).context("building the demo leaf")?;
+    Ok(BuiltinLeaf {
+        material: Arc::new(material),
+        size_m: Vec2::new(w, h),
+    })
+}
+
+/// Places images side by side (all the same height).
+pub fn side_by_side(images: &[Image]) -> Image {
+    let height = images.iter().map(|i| i.height).max().unwrap_or(0);
+    let width = images.iter().map(|i| i.width).sum();
+    let mut pixels = vec![Vec3::ZERO; (width * height) as usize];
+    let mut x0 = 0;
+    for img in images {
+        for y in 0..img.height {
+            for x in 0..img.width {
+                pixels[(y * width + x0 + x) as usize] = img.pixels[(y * img.width + x) as usize];
+            }
+        }
+        x0 += img.width;
+    }
+    Image {
+        width,
+        height,
+        pixels,
+    }
+}
+
+pub fn run(args: DemoArgs) -> Result<()> {
+    let leaf = demo_leaf(&args.species, 1)?;
+    let spp = args.flags.spp.unwrap_or(64);
+    if let Some(dir) = &args.export_bush {
+        return export_bush(dir, &leaf, args.size, spp);
+    }
+    check_outputs(&args.output)?;
+    let size = (args.size, args.size);
+    let panels = [
+        ("front-lit leaf", builtin::leaf_front_lit(&leaf, size, spp)),
+        ("back-lit leaf", builtin::leaf_back_lit(&leaf, size, spp)),
+        ("bush", builtin::bush_scene(&leaf, size, spp)),
+    ];
+    let mut images = Vec::new();
+    for (label, scene) in &panels {
+        let (opts, bar) = options(&args.flags, label)?;
+        images.push(render_scene(scene, &opts, bar, label)?.image);
+    }
+    write_all(&args.output, &side_by_side(&images), &panels[0].1.film)
+}
+
+/// Writes the demo bush as an ordinary scene folder (for other renderers and benchmarks):
+/// `bush.toml`, `bush_cards.csv`, `bush_wood.obj` and `leaf_alpha.png`. Leaves become
+/// `diffuse_transmission` cards with the procedural leaf's alpha matte, since other
+/// renderers do not have lamina's leaf model; the sun is a delta light (angular diameter
+/// 0) so that it matches a directional light elsewhere.
+pub fn export_bush(dir: &std::path::Path, leaf: &BuiltinLeaf, size: u32, spp: u32) -> Result<()> {
+    use std::fmt::Write as _;
+    let scene = builtin::bush_scene(leaf, (size, size), spp);
+    let (wood, cards) = builtin::bush(7, leaf.size_m);
+    std::fs::create_dir_all(dir).with_context(|| format!("creating '{}'", dir.display()))?;
+    // The alpha matte as an 8-bit grey PNG.
+    let alpha = leaf
+        .material
+        .maps()
+        .alpha
+        .as_ref()
+        .context("the demo leaf has no alpha map")?;
+    let (w, h) = (alpha.width(), alpha.height());
+    let grey: Vec<u8> = alpha
+        .texels()
+        .iter()
+        .map(|t| (t.x.clamp(0.0, 1.0) * 255.0).round() as u8)
+        .collect();
+    let img = image::GrayImage::from_raw(w, h, grey).context("alpha size")?;
+    write_atomic(&dir.join("leaf_alpha.png"), |p| {
+        img.save(p).map_err(anyhow::Error::from)
+    })?;
+    let mut csv = String::from("cx,cy,cz,nx,ny,nz,ux,uy,uz,width,height\n");
+    for c in &cards {
+        let v = [c.center.to_array(), c.normal.to_array(), c.up.to_array()].concat();
+        let nums: Vec<String> = v
+            .iter()
+            .chain(&[c.width, c.height])
+            .map(|x| format!("{x:.6}"))
+            .collect();
+        writeln!(csv, "{}", nums.join(","))?;
+    }
+    write_atomic(&dir.join("bush_cards.csv"), |p| {
+        Ok(std::fs::write(p, &csv)?)
+    })?;
+    let mut obj = String::from("# lamina demo bush: branches (m)\n");
+    for p in &wood.positions {
+        writeln!(obj, "v {} {} {}", p.x, p.y, p.z)?;
+    }
+    for n in &wood.normals {
+        writeln!(obj, "vn {} {} {}", n.x, n.y, n.z)?;
+    }
+    for t in &wood.indices {
+        let [a, b, c] = t.map(|i| i + 1);
+        writeln!(obj, "f {a}//{a} {b}//{b} {c}//{c}")?;
+    }
+    write_atomic(&dir.join("bush_wood.obj"), |p| Ok(std::fs::write(p, &obj)?))?;
+    let cam = &scene.camera;
+    let (sun_dir, sun_e) = match &scene.lights[0] {
+        lamina_scene::Light::Sun {
+            direction,
+            irradiance,
+            ..
+        } => (*direction, *irradiance),
+        _ => unreachable!("the bush scene is lit by a sun"),
+    };
+    let sky = match &scene.sky {
+        Some(lamina_scene::Sky::Constant(c)) => *c,
+        _ => Vec3::ZERO,
+    };
+    let a = |v: Vec3| format!("[{}, {}, {}]", v.x, v.y, v.z);
+    let toml = format!(
+        r#"# The lamina demo bush, exported by `lamina demo --export-bush`.
+# Leaves are diffuse_transmission cards with the procedural leaf's alpha matte.
+
+[camera]
+position = {pos}
+look_at = {look}
+fov = {fov}
+
+[film]
+width = {size}
+height = {size}
+spp = {spp}
+filter = "box"
+
+[integrator]
+type = "path"
+max_depth = 8
+rr_depth = 3
+
+[sky]
+type = "constant"
+radiance = {sky}
+
+[[light]]
+type = "sun"
+direction = {sun_dir}
+irradiance = {sun_e}
+angular_diameter = 0.0
+
+[[material]]
+name = "leaf"
+type = "diffuse_transmission"
+reflectance = [0.06, 0.12, 0.03]
+transmittance = [0.05, 0.16, 0.02]
+alpha = "leaf_alpha.png"
+
+[[material]]
+name = "bark"
+type = "diffuse"
+reflectance = [0.09, 0.06, 0.04]
+
+[[material]]
+name = "soil"
+type = "diffuse"
+reflectance = [0.12, 0.09, 0.06]
+
+[[object]]
+type = "leaf_cards"
+material = "leaf"
+file = "bush_cards.csv"
+
+[[object]]
+type = "obj"
+material = "bark"
+file = "bush_wood.obj"
+
+[[object]]
+type = "quad"
+material = "soil"
+corner = [-6.0, 0.0, 6.0]
+edge_u = [12.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, -12.0]
+"#,
+        pos = a(cam.position),
+        look = a(cam.look_at),
+        fov = cam.fov_deg,
+        sky = a(sky),
+        sun_dir = a(sun_dir),
+        sun_e = a(sun_e),
+    );
+    write_atomic(&dir.join("bush.toml"), |p| Ok(std::fs::write(p, &toml)?))?;
+    eprintln!(
+        "wrote {} ({} leaf cards, {} branch triangles)",
+        dir.join("bush.toml").display(),
+        cards.len(),
+        wood.indices.len()
+    );
+    Ok(())
+}
+
+/// Writes a file through a temporary name in the same directory, then renames it.
+fn write_atomic(
+    path: &std::path::Path,
+    write: impl FnOnce(&std::path::Path) -> Result<()>,
+) -> Result<()> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("tmp");
+    let tmp = path.with_extension(format!("tmp-{}.{ext}", std::process::id()));
+    let result =
+        write(&tmp).and_then(|()| std::fs::rename(&tmp, path).map_err(anyhow::Error::from));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.with_context(|| format!("writing '{}'", path.display()))
+}

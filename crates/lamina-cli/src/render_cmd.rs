@@ -1,0 +1,176 @@
+//! `lamina render`: load a scene file, render it with a progress bar, write the images.
+
+use anyhow::{Context, Result, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use lamina_render::{Image, RenderOptions, RenderOutput, RenderStats};
+use lamina_scene::{Film, Scene};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+/// Options shared by every command that renders.
+#[derive(clap::Args, Debug, Clone)]
+pub struct RenderFlags {
+    /// Samples per pixel (overrides the scene's film.spp).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub spp: Option<u32>,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<u32>,
+    /// Random seed: the same scene, seed and sample count give the same image.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Stop after this many seconds and write what is done (whole passes).
+    #[arg(long, value_name = "SECONDS")]
+    pub time_limit: Option<f64>,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// `lamina render SCENE`.
+#[derive(clap::Args, Debug)]
+pub struct RenderArgs {
+    /// The scene file (TOML; see docs/scene-format.md).
+    pub scene: PathBuf,
+    /// Output image(s): `.png` (tone-mapped sRGB) or `.exr` (linear float). Repeatable.
+    /// Default: the scene's name with `.png`, in the current directory.
+    #[arg(short, long = "output", value_name = "OUT")]
+    pub output: Vec<PathBuf>,
+    #[command(flatten)]
+    pub flags: RenderFlags,
+}
+
+/// Checks output paths before any work: known extension, existing directory.
+pub fn check_outputs(outputs: &[PathBuf]) -> Result<()> {
+    for out in outputs {
+        let ext = out
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        if ext != "png" && ext != "exr" {
+            bail!(
+                "output '{}': unknown image type (use .png or .exr)",
+                out.display()
+            );
+        }
+        let dir = match out.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if !dir.is_dir() {
+            bail!(
+                "output '{}': directory '{}' does not exist",
+                out.display(),
+                dir.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Builds render options from flags, with Ctrl-C wired to cancellation and an optional bar.
+pub fn options(flags: &RenderFlags, label: &str) -> Result<(RenderOptions, Option<ProgressBar>)> {
+    let time_limit = match flags.time_limit {
+        None => None,
+        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
+        Some(s) => bail!("--time-limit must be a positive number of seconds, got {s}"),
+    };
+    let cancel = Arc::new(AtomicBool::new(false));
+    {
+        let cancel = cancel.clone();
+        // A second handler cannot be installed (the demo renders several scenes): ignore that.
+        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::SeqCst));
+    }
+    let bar = (!flags.quiet).then(|| {
+        let bar = ProgressBar::new(1);
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} spp (ETA {eta})",
+            )
+            .expect("static template")
+            .progress_chars("=> "),
+        );
+        bar.set_message(label.to_string());
+        bar
+    });
+    let progress: Option<Arc<dyn Fn(lamina_render::Progress) + Send + Sync>> =
+        bar.clone().map(|bar| {
+            Arc::new(move |p: lamina_render::Progress| {
+                bar.set_length(p.spp_total as u64);
+                bar.set_position(p.spp_done as u64);
+            }) as Arc<dyn Fn(lamina_render::Progress) + Send + Sync>
+        });
+    let opts = RenderOptions {
+        spp: flags.spp,
+        threads: flags.threads.map(|t| t as usize),
+        seed: flags.seed,
+        time_limit,
+        cancel: Some(cancel),
+        progress,
+    };
+    Ok((opts, bar))
+}
+
+/// Renders with a progress bar and prints the summary line.
+pub fn render_scene(
+    scene: &Scene,
+    opts: &RenderOptions,
+    bar: Option<ProgressBar>,
+    label: &str,
+) -> Result<RenderOutput> {
+    let out = lamina_render::render(scene, opts).with_context(|| format!("rendering {label}"))?;
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    print_summary(label, &out.stats, scene.film.width, scene.film.height);
+    Ok(out)
+}
+
+/// One line: time, samples per second, rays per second.
+pub fn print_summary(label: &str, s: &RenderStats, width: u32, height: u32) {
+    let secs = s.elapsed.as_secs_f64().max(1e-9);
+    eprintln!(
+        "{label}: {width}x{height}, {} spp in {:.2} s: {:.2} M samples/s, {:.2} M rays/s{}",
+        s.spp_done,
+        secs,
+        s.samples as f64 / secs / 1e6,
+        s.rays as f64 / secs / 1e6,
+        if s.stopped_early {
+            " (stopped early: partial image)"
+        } else {
+            ""
+        }
+    );
+}
+
+/// Writes `image` to every output.
+pub fn write_all(outputs: &[PathBuf], image: &Image, film: &Film) -> Result<()> {
+    for out in outputs {
+        lamina_render::write_image(out, image, film)
+            .with_context(|| format!("writing '{}'", out.display()))?;
+        eprintln!("wrote {}", out.display());
+    }
+    Ok(())
+}
+
+pub fn run(args: RenderArgs) -> Result<()> {
+    let outputs = if args.output.is_empty() {
+        let stem = args
+            .scene
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "render".into());
+        vec![PathBuf::from(format!("{stem}.png"))]
+    } else {
+        args.output.clone()
+    };
+    check_outputs(&outputs)?;
+    let scene = lamina_scene::load_scene(&args.scene)?;
+    let label = args.scene.display().to_string();
+    let (opts, bar) = options(&args.flags, &label)?;
+    let out = render_scene(&scene, &opts, bar, &label)?;
+    write_all(&outputs, &out.image, &scene.film)
+}

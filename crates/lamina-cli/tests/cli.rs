@@ -1,0 +1,309 @@
+//! The real `lamina` binary on good and bad input: clear messages, non-zero exits, no
+//! panics, no partial output files.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn lamina() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_lamina"))
+}
+
+/// A fresh scratch directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lamina-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Asserts a clean failure: exit code 1, the expected words, no panic, no files left in `dir`
+/// other than the inputs.
+fn assert_fails(o: &Output, words: &[&str], dir: &Path, inputs: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "exit status for:\n{err}");
+    assert!(!err.contains("panicked"), "panic:\n{err}");
+    for w in words {
+        assert!(err.contains(w), "expected '{w}' in:\n{err}");
+    }
+    let mut left: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !inputs.contains(&n.as_str()))
+        .collect();
+    left.sort();
+    assert!(left.is_empty(), "partial output left behind: {left:?}");
+}
+
+const GOOD: &str = r#"
+[camera]
+position = [0, 0, 1]
+look_at = [0, 0, 0]
+fov = 60
+
+[film]
+width = 24
+height = 16
+spp = 4
+
+[sky]
+type = "constant"
+radiance = 0.5
+
+[[light]]
+type = "sun"
+direction = [0.3, 0.5, 1]
+irradiance = 2
+
+[[material]]
+name = "m"
+type = "diffuse_transmission"
+reflectance = 0.3
+transmittance = 0.2
+
+[[object]]
+type = "quad"
+material = "m"
+corner = [-0.5, -0.5, 0]
+edge_u = [1, 0, 0]
+edge_v = [0, 1, 0]
+"#;
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn render(dir: &Path, scene: &Path, extra: &[&str]) -> Output {
+    let mut c = lamina();
+    c.arg("render")
+        .arg(scene)
+        .arg("-o")
+        .arg(dir.join("out.png"))
+        .arg("--quiet")
+        .args(extra);
+    c.output().unwrap()
+}
+
+#[test]
+fn good_scene_writes_png_and_exr_and_nothing_else() {
+    let d = scratch("good");
+    let s = write(&d, "s.toml", GOOD);
+    let o = lamina()
+        .args(["render", "--quiet", "--threads", "2", "--seed", "3"])
+        .arg(&s)
+        .arg("-o")
+        .arg(d.join("a.png"))
+        .arg("-o")
+        .arg(d.join("a.exr"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("rays/s"),
+        "summary line: {}",
+        stderr(&o)
+    );
+    let png = image::open(d.join("a.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (24, 16));
+    let exr = image::open(d.join("a.exr")).unwrap().into_rgb32f();
+    assert!(
+        exr.pixels()
+            .all(|p| p.0.iter().all(|c| c.is_finite() && *c >= 0.0))
+    );
+    let mut names: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        ["a.exr", "a.png", "s.toml"].map(std::ffi::OsString::from)
+    );
+}
+
+#[test]
+fn same_seed_same_image() {
+    let d = scratch("seed");
+    let s = write(&d, "s.toml", GOOD);
+    for name in ["1.exr", "2.exr"] {
+        let o = lamina()
+            .args(["render", "--quiet", "--seed", "9"])
+            .arg(&s)
+            .arg("-o")
+            .arg(d.join(name))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert_eq!(
+        std::fs::read(d.join("1.exr")).unwrap(),
+        std::fs::read(d.join("2.exr")).unwrap()
+    );
+}
+
+#[test]
+fn missing_scene_file() {
+    let d = scratch("missing");
+    let o = render(&d, &d.join("nope.toml"), &[]);
+    assert_fails(&o, &["nope.toml", "cannot read scene file"], &d, &[]);
+}
+
+#[test]
+fn toml_syntax_error() {
+    let d = scratch("syntax");
+    let s = write(&d, "s.toml", "[camera\nposition = [0,0,1]\n");
+    let o = render(&d, &s, &[]);
+    assert_fails(&o, &["s.toml:1"], &d, &["s.toml"]);
+}
+
+#[test]
+fn unknown_key() {
+    let d = scratch("unknown");
+    let s = write(
+        &d,
+        "s.toml",
+        &GOOD.replace("spp = 4", "spp = 4\nsamples = 3"),
+    );
+    let o = render(&d, &s, &[]);
+    assert_fails(
+        &o,
+        &["s.toml:11", "unknown field `samples`"],
+        &d,
+        &["s.toml"],
+    );
+}
+
+#[test]
+fn missing_texture() {
+    let d = scratch("tex");
+    let s = write(
+        &d,
+        "s.toml",
+        &GOOD.replace("reflectance = 0.3", "reflectance_map = \"leaf.png\""),
+    );
+    let o = render(&d, &s, &[]);
+    assert_fails(
+        &o,
+        &["s.toml:24", "material[0].reflectance_map", "leaf.png"],
+        &d,
+        &["s.toml"],
+    );
+}
+
+#[test]
+fn corrupt_texture() {
+    let d = scratch("corrupt");
+    write(&d, "leaf.png", "this is not a png");
+    let s = write(
+        &d,
+        "s.toml",
+        &GOOD.replace("reflectance = 0.3", "reflectance_map = \"leaf.png\""),
+    );
+    let o = render(&d, &s, &[]);
+    assert_fails(
+        &o,
+        &["leaf.png", "cannot read image"],
+        &d,
+        &["s.toml", "leaf.png"],
+    );
+}
+
+#[test]
+fn leaf_card_file_with_bad_row() {
+    let d = scratch("cards");
+    write(
+        &d,
+        "c.csv",
+        "cx,cy,cz,nx,ny,nz,ux,uy,uz,width,height\n0,0,0,0,0,1,0,1,0,0.1,0.1\n0,0,0,0,0,1,0,1,0,-2,0.1\n",
+    );
+    let scene = GOOD.replace(
+        "type = \"quad\"\nmaterial = \"m\"\ncorner = [-0.5, -0.5, 0]\nedge_u = [1, 0, 0]\nedge_v = [0, 1, 0]",
+        "type = \"leaf_cards\"\nmaterial = \"m\"\nfile = \"c.csv\"",
+    );
+    let s = write(&d, "s.toml", &scene);
+    let o = render(&d, &s, &[]);
+    assert_fails(
+        &o,
+        &["c.csv:3", "width and height must be > 0"],
+        &d,
+        &["s.toml", "c.csv"],
+    );
+}
+
+#[test]
+fn zero_and_negative_sizes_and_counts() {
+    let d = scratch("sizes");
+    for (from, to, words) in [
+        ("width = 24", "width = 0", vec!["film.width", "got 0"]),
+        ("height = 16", "height = -3", vec!["film.height", "got -3"]),
+        ("spp = 4", "spp = -1", vec!["film.spp"]),
+        (
+            "irradiance = 2",
+            "irradiance = -2",
+            vec!["light[0].irradiance"],
+        ),
+    ] {
+        let s = write(&d, "s.toml", &GOOD.replace(from, to));
+        let o = render(&d, &s, &[]);
+        assert_fails(&o, &words, &d, &["s.toml"]);
+    }
+    let s = write(&d, "s.toml", GOOD);
+    let o = render(&d, &s, &["--spp", "0"]);
+    assert_eq!(o.status.code(), Some(2), "usage error: {}", stderr(&o));
+    assert!(!d.join("out.png").exists());
+}
+
+#[test]
+fn nan_and_degenerate_vectors() {
+    let d = scratch("nan");
+    for (from, to, words) in [
+        (
+            "look_at = [0, 0, 0]",
+            "look_at = [0, 0, 1]",
+            vec!["camera.look_at", "must differ"],
+        ),
+        (
+            "direction = [0.3, 0.5, 1]",
+            "direction = [nan, 0.5, 1]",
+            vec!["light[0].direction", "finite"],
+        ),
+        (
+            "direction = [0.3, 0.5, 1]",
+            "direction = [0, 0, 0]",
+            vec!["light[0].direction", "non-zero"],
+        ),
+    ] {
+        let s = write(&d, "s.toml", &GOOD.replace(from, to));
+        let o = render(&d, &s, &[]);
+        assert_fails(&o, &words, &d, &["s.toml"]);
+    }
+}
+
+#[test]
+fn unwritable_output() {
+    let d = scratch("out");
+    let s = write(&d, "s.toml", GOOD);
+    write(&d, "file", "");
+    // A "directory" that is a file: nobody can write there, not even root.
+    let o = lamina()
+        .args(["render", "--quiet"])
+        .arg(&s)
+        .arg("-o")
+        .arg(d.join("file/out.png"))
+        .output()
+        .unwrap();
+    assert_fails(&o, &["file/out.png"], &d, &["s.toml", "file"]);
+    let o = lamina()
+        .args(["render", "--quiet"])
+        .arg(&s)
+        .arg("-o")
+        .arg(d.join("out.jpg"))
+        .output()
+        .unwrap();
+    assert_fails(&o, &["out.jpg", ".png or .exr"], &d, &["s.toml", "file"]);
+}

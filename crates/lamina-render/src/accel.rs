@@ -10,10 +10,11 @@
 //!   triangle cannot be hit again by a ray leaving it) and start a small distance off the
 //!   surface on the side they go (see [`spawn_origin`]), which guards against the
 //!   neighbouring triangles of the same card.
-//! * **Layout**: triangles are stored in BVH leaf order as `v0, e1, e2` (48 bytes) for the
-//!   Möller-Trumbore test; shading data (UVs, unit geometric normal, unit tangent along
-//!   `dP/du`, material / light id and flags) sit in a parallel array indexed by the same
-//!   primitive id, all precomputed at build time.
+//! * **Layout**: triangles are stored in BVH leaf order, one 64-byte cache line each:
+//!   `v0, e1, e2` for the Möller-Trumbore test plus the flags and UVs of the alpha test, so
+//!   a candidate costs one cache line. Shading data (UVs, unit geometric normal, unit
+//!   tangent along `dP/du`, material / light id) sit in a parallel array indexed by the same
+//!   primitive id, read once per final hit. All of it is precomputed at build time.
 
 use crate::error::RenderError;
 use glam::{Vec2, Vec3, Vec3A};
@@ -106,12 +107,26 @@ impl PrimInfo {
     }
 }
 
+/// Everything the traversal needs for one triangle, in one 64-byte cache line: the
+/// Möller-Trumbore form (`v0`, `e1 = v1 - v0`, `e2 = v2 - v0`), the flags and the UVs of the
+/// alpha test. Shading data stay in [`PrimInfo`], fetched only for the final hit.
 #[derive(Clone, Copy, Debug)]
-#[repr(C)]
+#[repr(C, align(64))]
 struct Tri {
-    v0: Vec3A,
-    e1: Vec3A,
-    e2: Vec3A,
+    v0: [f32; 3],
+    e1: [f32; 3],
+    e2: [f32; 3],
+    flags: u32,
+    uv: [Vec2; 3],
+}
+
+const _: () = assert!(std::mem::size_of::<Tri>() == 64);
+
+impl Tri {
+    #[inline(always)]
+    fn uv_at(&self, b1: f32, b2: f32) -> Vec2 {
+        self.uv[0] * (1.0 - b1 - b2) + self.uv[1] * b1 + self.uv[2] * b2
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -153,23 +168,28 @@ pub struct Accel {
 #[inline(always)]
 fn intersect_tri(tri: &Tri, o: Vec3A, d: Vec3A, tmax: f32) -> (f32, f32, f32) {
     const MISS: (f32, f32, f32) = (f32::INFINITY, 0.0, 0.0);
-    let p = d.cross(tri.e2);
-    let det = tri.e1.dot(p);
+    let (v0, e1, e2) = (
+        Vec3A::from_array(tri.v0),
+        Vec3A::from_array(tri.e1),
+        Vec3A::from_array(tri.e2),
+    );
+    let p = d.cross(e2);
+    let det = e1.dot(p);
     if det == 0.0 {
         return MISS;
     }
     let inv = 1.0 / det;
-    let tv = o - tri.v0;
+    let tv = o - v0;
     let b1 = tv.dot(p) * inv;
     if !(0.0..=1.0).contains(&b1) {
         return MISS;
     }
-    let q = tv.cross(tri.e1);
+    let q = tv.cross(e1);
     let b2 = d.dot(q) * inv;
     if !(b2 >= 0.0 && b1 + b2 <= 1.0) {
         return MISS;
     }
-    let t = tri.e2.dot(q) * inv;
+    let t = e2.dot(q) * inv;
     if t > 0.0 && t < tmax {
         (t, b1, b2)
     } else {
@@ -339,11 +359,13 @@ impl Accel {
             let t: Vec<Tri> = order
                 .iter()
                 .map(|&i| {
-                    let tr = &tris[i as usize];
+                    let (tr, info) = (&tris[i as usize], &prims[i as usize]);
                     Tri {
-                        v0: tr.v0,
-                        e1: tr.v1 - tr.v0,
-                        e2: tr.v2 - tr.v0,
+                        v0: tr.v0.to_array(),
+                        e1: (tr.v1 - tr.v0).to_array(),
+                        e2: (tr.v2 - tr.v0).to_array(),
+                        flags: info.flags,
+                        uv: info.uv,
                     }
                 })
                 .collect();
@@ -375,7 +397,7 @@ impl Accel {
     #[inline]
     pub fn position(&self, prim: u32, bary: Vec2) -> Vec3 {
         let t = &self.tris[prim as usize];
-        (t.v0 + t.e1 * bary.x + t.e2 * bary.y).into()
+        Vec3::from_array(t.v0) + Vec3::from_array(t.e1) * bary.x + Vec3::from_array(t.e2) * bary.y
     }
 
     /// The closest opaque hit along `ray`, if any.
@@ -389,13 +411,11 @@ impl Accel {
     }
 
     #[inline(always)]
-    fn accept(&self, prim: usize, b1: f32, b2: f32) -> bool {
-        let info = &self.prims[prim];
-        if info.flags & FLAG_ALPHA == 0 {
+    fn accept(&self, tri: &Tri, b1: f32, b2: f32) -> bool {
+        if tri.flags & FLAG_ALPHA == 0 {
             return true;
         }
-        let uv = info.uv_at(Vec2::new(b1, b2));
-        self.alpha[(info.flags & ID_MASK) as usize].opaque(uv)
+        self.alpha[(tri.flags & ID_MASK) as usize].opaque(tri.uv_at(b1, b2))
     }
 
     /// [`Accel::intersect`], ignoring triangle `skip` (the one the ray leaves).
@@ -413,9 +433,9 @@ impl Accel {
                 if id as u32 == skip {
                     return f32::INFINITY;
                 }
-                // SAFETY-free indexing: ids come from the BVH built over `tris`.
-                let (t, b1, b2) = intersect_tri(&self.tris[id], o, d, r.tmax);
-                if t < r.tmax && self.accept(id, b1, b2) {
+                let tri = &self.tris[id];
+                let (t, b1, b2) = intersect_tri(tri, o, d, r.tmax);
+                if t < r.tmax && self.accept(tri, b1, b2) {
                     bary = Vec2::new(b1, b2);
                     t
                 } else {
@@ -464,8 +484,9 @@ impl Accel {
             if id as u32 == skip {
                 return f32::INFINITY;
             }
-            let (t, b1, b2) = intersect_tri(&self.tris[id], o, d, r.tmax);
-            if t < r.tmax && self.accept(id, b1, b2) {
+            let tri = &self.tris[id];
+            let (t, b1, b2) = intersect_tri(tri, o, d, r.tmax);
+            if t < r.tmax && self.accept(tri, b1, b2) {
                 t
             } else {
                 f32::INFINITY

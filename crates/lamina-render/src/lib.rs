@@ -16,6 +16,11 @@
 //! * [`output`]: EXR / PNG writing with tone maps, atomically.
 //! * [`render`](mod@render): tiles, passes, threads, time limit and cancellation.
 
+// `!(x > 0.0)` is used on purpose throughout: it is also true for NaN, which must be
+// rejected the same way as non-positive values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+#![warn(missing_docs)]
+
 pub mod accel;
 pub mod camera;
 pub mod distribution;

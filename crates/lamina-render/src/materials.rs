@@ -10,6 +10,9 @@ use lamina_leaf::{Bsdf, BsdfSample, DiffuseTransmission, Lambertian, LeafBsdf};
 use lamina_scene::Material;
 
 /// The BSDF at a surface point: a closed enum (no allocation, no dynamic dispatch).
+// The leaf variant is larger, but the enum lives on the stack for one vertex: boxing it
+// would allocate per hit.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 pub enum SurfaceBsdf {
     /// [`Material::Diffuse`].

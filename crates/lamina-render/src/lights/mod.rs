@@ -135,9 +135,10 @@ impl LightSet {
                     radius,
                     radiance,
                 } => {
-                    if !center.is_finite()
-                        || !radiance.is_finite()
-                        || !(*radius > 0.0 && radius.is_finite())
+                    if !(center.is_finite()
+                        && radiance.is_finite()
+                        && *radius > 0.0
+                        && radius.is_finite())
                     {
                         return Err(bad("sphere light must be finite with a positive radius"));
                     }

@@ -1,0 +1,140 @@
+//! A procedural canopy of leaf cards shared by the ray benchmark and the preview example:
+//! `n` random cards (two triangles each) with a leaf-shaped alpha matte in a 10 m box.
+
+use glam::{Vec2, Vec3, Vec4};
+use lamina_leaf::{Texture, Wrap};
+use lamina_render::sampler::hash_u32;
+use lamina_scene::{
+    AlphaMask, Camera, ColorInput, Film, Integrator, Light, Material, Mesh, PixelFilter, Scene,
+    Sky, ToneMap,
+};
+
+/// A uniform number in `[0, 1)` from a counter.
+fn rnd(i: u32) -> f32 {
+    (hash_u32(i) >> 8) as f32 / 16_777_216.0
+}
+
+/// A leaf-shaped matte: opaque inside a pointed ellipse along `v`, with a short petiole.
+pub fn leaf_matte(size: u32) -> Texture {
+    let mut texels = Vec::with_capacity((size * size) as usize);
+    for y in 0..size {
+        // Texture rows run top (v = 1) to bottom (v = 0).
+        let v = 1.0 - (y as f32 + 0.5) / size as f32;
+        for x in 0..size {
+            let u = (x as f32 + 0.5) / size as f32;
+            let blade = if v > 0.12 {
+                let s = (v - 0.12) / 0.88;
+                0.46 * (std::f32::consts::PI * s).sin().powf(0.7) * (1.0 - 0.35 * s)
+            } else {
+                0.0
+            };
+            let petiole = v <= 0.12 && (u - 0.5).abs() < 0.02;
+            let a = if (u - 0.5).abs() < blade || petiole {
+                1.0
+            } else {
+                0.0
+            };
+            texels.push(Vec4::new(a, a, a, 1.0));
+        }
+    }
+    Texture::from_texels(size, size, texels, Wrap::Clamp)
+}
+
+/// `n` leaf cards (0.1 x 0.15 m) with random positions in `[-5, 5] x [0, 10] x [-5, 5]` and
+/// random orientations, all in one mesh of material 0; plus a ground quad (material 1).
+pub fn canopy_meshes(n: u32, seed: u32) -> Vec<Mesh> {
+    let mut m = Mesh {
+        material: 0,
+        ..Default::default()
+    };
+    for i in 0..n {
+        let k = hash_u32(seed ^ i.wrapping_mul(0x9e37_79b9)).wrapping_mul(8);
+        let c = Vec3::new(
+            rnd(k) * 10.0 - 5.0,
+            rnd(k + 1) * 10.0,
+            rnd(k + 2) * 10.0 - 5.0,
+        );
+        let z = 1.0 - 2.0 * rnd(k + 3);
+        let phi = 2.0 * std::f32::consts::PI * rnd(k + 4);
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let n = Vec3::new(r * phi.cos(), z, r * phi.sin());
+        let frame = lamina_leaf::frame::Frame::from_normal(n);
+        let a = 2.0 * std::f32::consts::PI * rnd(k + 5);
+        let up = frame.s * a.cos() + frame.t * a.sin();
+        let side = n.cross(up);
+        let (hw, hh) = (0.05, 0.075);
+        let base = m.positions.len() as u32;
+        for (du, dv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            m.positions.push(c + side * (du * hw) + up * (dv * hh));
+            m.uvs.push(Vec2::new((du + 1.0) * 0.5, (dv + 1.0) * 0.5));
+        }
+        m.indices.push([base, base + 1, base + 2]);
+        m.indices.push([base, base + 2, base + 3]);
+    }
+    let ground = Mesh {
+        positions: vec![
+            Vec3::new(-8.0, 0.0, 8.0),
+            Vec3::new(8.0, 0.0, 8.0),
+            Vec3::new(8.0, 0.0, -8.0),
+            Vec3::new(-8.0, 0.0, -8.0),
+        ],
+        normals: vec![],
+        uvs: vec![],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        material: 1,
+    };
+    vec![m, ground]
+}
+
+/// A full scene around [`canopy_meshes`]: sun, blue sky, leaf material with a leaf matte.
+pub fn canopy_scene(n: u32, width: u32, height: u32, spp: u32) -> Scene {
+    Scene {
+        camera: Camera {
+            position: Vec3::new(9.0, 4.0, 14.0),
+            look_at: Vec3::new(0.0, 4.0, 0.0),
+            up: Vec3::Y,
+            fov_deg: 55.0,
+            aperture_radius: 0.0,
+            focus_distance: 1.0,
+        },
+        film: Film {
+            width,
+            height,
+            spp,
+            filter: PixelFilter::Gaussian {
+                radius: 1.5,
+                sigma: 0.5,
+            },
+            exposure: -3.0,
+            tonemap: ToneMap::Aces,
+        },
+        integrator: Integrator::Path {
+            max_depth: 8,
+            rr_depth: 3,
+        },
+        lights: vec![Light::Sun {
+            direction: Vec3::new(-0.4, 0.8, 0.45),
+            irradiance: Vec3::new(1.0, 0.95, 0.85) * 40.0,
+            angular_diameter_deg: 0.53,
+        }],
+        sky: Some(Sky::Constant(Vec3::new(0.25, 0.4, 0.7) * 2.0)),
+        materials: vec![
+            Material::DiffuseTransmission {
+                name: "leaf".into(),
+                reflectance: ColorInput::Constant(Vec3::new(0.06, 0.18, 0.04)),
+                transmittance: ColorInput::Constant(Vec3::new(0.04, 0.2, 0.03)),
+                alpha: Some(AlphaMask {
+                    map: leaf_matte(64),
+                    use_alpha_channel: false,
+                    cutoff: 0.5,
+                }),
+            },
+            Material::Diffuse {
+                name: "ground".into(),
+                reflectance: ColorInput::Constant(Vec3::new(0.3, 0.25, 0.2)),
+                alpha: None,
+            },
+        ],
+        meshes: canopy_meshes(n, 1),
+    }
+}

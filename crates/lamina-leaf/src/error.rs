@@ -25,7 +25,7 @@ pub enum LeafError {
         path: PathBuf,
         /// What went wrong while reading it.
         #[source]
-        source: TextureError,
+        source: Box<TextureError>,
     },
     /// A `leaf.toml` file could not be read.
     #[error("cannot read leaf description '{path}': {source}")]
@@ -34,7 +34,7 @@ pub enum LeafError {
         path: PathBuf,
         /// The I/O error.
         #[source]
-        source: std::io::Error,
+        source: Box<std::io::Error>,
     },
     /// A `leaf.toml` file is not a valid description (unknown key, wrong type, ...).
     #[error("leaf description '{path}' is invalid: {source}")]
@@ -43,6 +43,6 @@ pub enum LeafError {
         path: PathBuf,
         /// What the TOML parser said (names the key).
         #[source]
-        source: toml::de::Error,
+        source: Box<toml::de::Error>,
     },
 }

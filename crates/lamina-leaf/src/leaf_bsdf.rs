@@ -1,49 +1,350 @@
-//! The leaf BSDF at one texel (placeholder body; the layered model follows).
+//! The leaf BSDF at one texel: subsurface light (single scattering plus diffusion, or the
+//! paper's Eq. (1), or the fully diffusing limit) scaled so the maps keep their meaning,
+//! plus the specular surface lobe, with a bump-mapped shading normal.
+//!
+//! # Sides and the shading normal
+//! Reflection versus transmission, and adaxial versus abaxial, are decided by the
+//! *geometric* normal (`+z`): both directions on `+z` is adaxial reflection (front map,
+//! waxy sharp highlight), both on `-z` abaxial reflection (back map, rough highlight),
+//! opposite sides transmission (translucency map, the same lobe from both sides). The bump
+//! map's shading normal `n_s` (always on the `+z` side, `n_s.z >= 0.2`) enters in two places:
+//! the specular lobe lives in the shading frame (flipped to `-n_s` on the abaxial side), and
+//! the subsurface lobes use the shading cosine `max(0, wi . ±n_s)` in place of `|wi.z|`.
+//! Within [`crate::LeafParams::blend_width_deg`] of the leaf plane both blend smoothly
+//! (smoothstep in `|z|`) back to the geometric cosine, which vanishes at the plane, and the
+//! specular lobe fades to zero there: a light crossing the plane changes the value
+//! continuously however the bump map tilts the shading normal.
+//!
+//! # Sampling
+//! One of three lobes is chosen with probabilities proportional to their albedo estimates
+//! (specular: the epidermis Fresnel reflectance at `wo` times `specular`; diffuse
+//! reflection and transmission: luminance of the texel's albedos). Specular: GGX visible
+//! normals; diffuse lobes: cosine-weighted on the respective side. [`Bsdf::pdf`] returns the
+//! mixture density, so `sample`'s weight is exactly `eval / pdf`.
 
+use crate::analytic::single_scatter;
 use crate::bsdf::{Bsdf, BsdfSample};
-use crate::lambert::DiffuseTransmission;
-use glam::Vec3;
+use crate::diffusion::Diffusion;
+use crate::frame::Frame;
+use crate::layers::{LayerStack, fresnel_dielectric, refracted_cos};
+use crate::march::{Pcg32, single_scatter_marched};
+use crate::params::LeafMode;
+use crate::sampling::{cosine_hemisphere, luminance};
+use crate::specular;
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
 
-/// The leaf's BSDF at one texel, in the local frame (`+z` = adaxial side). `Copy`, no
-/// allocation; built by [`crate::LeafMaterial::bsdf`].
+/// The leaf's BSDF at one texel, in the local frame (`+z` = geometric normal on the adaxial
+/// side). `Copy`, no allocation; built by [`crate::LeafMaterial::bsdf`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LeafBsdf {
-    r_front: Vec3,
-    r_back: Vec3,
-    t: Vec3,
+    pub(crate) mode: LeafMode,
+    /// Layers at this texel, adaxial first.
+    pub(crate) stack: LayerStack,
+    /// Kubelka-Munk diffusion of this texel's stack.
+    pub(crate) diffusion: Diffusion,
+    /// Hemispherical Fresnel reflectance of the adaxial / abaxial surface from outside.
+    pub(crate) r_out: [f32; 2],
+    /// Multipliers of the physical subsurface BSDF: adaxial R, abaxial R, T.
+    pub(crate) scale: [Vec3; 3],
+    /// Diffuse albedos at this texel (adaxial R, abaxial R, T), linear RGB.
+    pub(crate) albedo: [Vec3; 3],
+    /// Shading frame (bump-mapped normal, `+z` side).
+    pub(crate) shading: Frame,
+    /// GGX roughness, adaxial / abaxial.
+    pub(crate) alpha: [f32; 2],
+    /// Weight of the specular lobe.
+    pub(crate) specular: f32,
+    /// Sine of the blend width next to the plane.
+    pub(crate) blend: f32,
+}
+
+/// `smoothstep(0, 1, x)`.
+#[inline]
+fn smooth(x: f32) -> f32 {
+    let x = x.clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
 }
 
 impl LeafBsdf {
+    /// A texel BSDF with the physical subsurface model unscaled (maps ignored), no
+    /// specular lobe and a flat normal: the raw layer model. Used to normalise the maps and
+    /// by tests and plots.
+    pub fn physical(
+        mode: LeafMode,
+        stack: LayerStack,
+        diffusion: Diffusion,
+        r_out: [f32; 2],
+    ) -> Self {
+        LeafBsdf {
+            mode,
+            stack,
+            diffusion,
+            r_out,
+            scale: [Vec3::ONE; 3],
+            albedo: [Vec3::ZERO; 3],
+            shading: Frame::from_normal_tangent(Vec3::Z, Vec3::X),
+            alpha: [0.2, 0.5],
+            specular: 0.0,
+            blend: 0.1,
+        }
+    }
+
     /// Hemispherical diffuse reflectance seen from the adaxial side and diffuse
-    /// transmittance, linear RGB.
+    /// transmittance at this texel (linear RGB, white-sky albedos, specular excluded), as
+    /// used by the paper integrator's ambient term.
     pub fn diffuse_albedo(&self) -> (Vec3, Vec3) {
-        (self.r_front, self.t)
+        (self.albedo[0], self.albedo[2])
     }
 
-    pub(crate) fn placeholder(r_front: Vec3, r_back: Vec3, t: Vec3) -> Self {
-        LeafBsdf { r_front, r_back, t }
+    /// Hemispherical diffuse reflectance seen from the abaxial side.
+    pub fn diffuse_albedo_abaxial(&self) -> Vec3 {
+        self.albedo[1]
     }
 
-    fn side(&self, wo: Vec3) -> DiffuseTransmission {
-        DiffuseTransmission {
-            reflectance: if wo.z >= 0.0 {
-                self.r_front
+    /// The layers at this texel, adaxial first.
+    pub fn stack(&self) -> &LayerStack {
+        &self.stack
+    }
+
+    /// The bump-mapped shading normal (local frame, `z > 0`).
+    pub fn shading_normal(&self) -> Vec3 {
+        self.shading.n
+    }
+
+    /// Normalised Fresnel transmission of the outer surface on the side of `w`:
+    /// `(1 - F) / (1 - r_out)`, cosine-weighted mean 1 over the hemisphere.
+    #[inline]
+    fn surface_t(&self, w: Vec3) -> f32 {
+        let (side, n) = if w.z > 0.0 {
+            (0, self.stack.layers[0].ior)
+        } else {
+            (1, self.stack.layers[2].ior)
+        };
+        (1.0 - fresnel_dielectric(w.z.abs(), n)) / (1.0 - self.r_out[side])
+    }
+
+    /// Optical depth of the whole blade along the direction `w` refracted into it.
+    #[inline]
+    fn optical_depth(&self, w: Vec3) -> Vec3 {
+        let c = w.z.abs();
+        self.stack.layers.iter().fold(Vec3::ZERO, |acc, l| {
+            acc + l.sigma_t() * (l.d / refracted_cos(c, l.ior))
+        })
+    }
+
+    /// The diffusion part of the physical model (1/sr, no cosine).
+    #[inline]
+    fn diffusion_term(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        let a = if wo.z * wi.z < 0.0 {
+            self.diffusion.t
+        } else if wo.z > 0.0 {
+            self.diffusion.r_top
+        } else {
+            self.diffusion.r_bottom
+        };
+        a * (self.surface_t(wo) * self.surface_t(wi) * FRAC_1_PI)
+    }
+
+    /// The physical subsurface BSDF of the texel's layers (1/sr, no cosine, maps not
+    /// applied), with the single-scattering part supplied by `single`.
+    #[inline]
+    fn subsurface_with(&self, wo: Vec3, wi: Vec3, single: impl FnOnce() -> Vec3) -> Vec3 {
+        if wo.z == 0.0 || wi.z == 0.0 {
+            return Vec3::ZERO;
+        }
+        match self.mode {
+            LeafMode::Layered => single() + self.diffusion_term(wo, wi),
+            LeafMode::Eq1 => {
+                let ss = (-(self.optical_depth(wo) + self.optical_depth(wi))).exp();
+                (Vec3::ONE + ss) * FRAC_1_PI
+            }
+            LeafMode::Diffuse => {
+                let a = if wo.z * wi.z < 0.0 {
+                    self.diffusion.t
+                } else if wo.z > 0.0 {
+                    self.diffusion.r_top
+                } else {
+                    self.diffusion.r_bottom
+                };
+                a * FRAC_1_PI
+            }
+        }
+    }
+
+    /// The physical subsurface BSDF (1/sr, no cosine, maps not applied) with the
+    /// closed-form single scattering.
+    pub fn subsurface(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.subsurface_with(wo, wi, || self.single(wo, wi))
+    }
+
+    /// Closed-form single scattering; transmission is averaged over the slab and its
+    /// mirror image, so that through-light is the same from both sides (the paper's
+    /// observation, Sec. 4) even when the two epidermis layers differ. Stays reciprocal.
+    #[inline]
+    fn single(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if wo.z * wi.z < 0.0 {
+            let m = Vec3::new(1.0, 1.0, -1.0);
+            0.5 * (single_scatter(&self.stack, wo, wi)
+                + single_scatter(&self.stack, wo * m, wi * m))
+        } else {
+            single_scatter(&self.stack, wo, wi)
+        }
+    }
+
+    /// The cosine the subsurface lobes use for `wi`: the bump-mapped shading cosine away
+    /// from the plane, blended to the geometric `|wi.z|` near it.
+    #[inline]
+    fn cos_eff(&self, wi: Vec3) -> f32 {
+        let cg = wi.z.abs();
+        let n = if wi.z > 0.0 {
+            self.shading.n
+        } else {
+            -self.shading.n
+        };
+        let cs = wi.dot(n).max(0.0);
+        cg + smooth(cg / self.blend) * (cs - cg)
+    }
+
+    /// `wo`, `wi` in the shading frame of `wo`'s side (`+z` = `±n_s`), and the side index.
+    #[inline]
+    fn shading_dirs(&self, wo: Vec3, wi: Vec3) -> (Vec3, Vec3, usize) {
+        let mut lo = self.shading.to_local(wo);
+        let mut li = self.shading.to_local(wi);
+        if wo.z > 0.0 {
+            (lo, li, 0)
+        } else {
+            lo.z = -lo.z;
+            li.z = -li.z;
+            (lo, li, 1)
+        }
+    }
+
+    #[inline]
+    fn shading_to_local(&self, w: Vec3, side: usize) -> Vec3 {
+        let w = if side == 0 {
+            w
+        } else {
+            Vec3::new(w.x, w.y, -w.z)
+        };
+        self.shading.to_world(w)
+    }
+
+    #[inline]
+    fn eta(&self, side: usize) -> f32 {
+        self.stack.layers[if side == 0 { 0 } else { 2 }].ior
+    }
+
+    /// The specular term `f_spec cos` (light on the viewer's side only).
+    #[inline]
+    fn specular_term(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.specular <= 0.0 || wo.z * wi.z <= 0.0 {
+            return 0.0;
+        }
+        let (lo, li, side) = self.shading_dirs(wo, wi);
+        let fade = smooth(wo.z.abs() / self.blend) * smooth(wi.z.abs() / self.blend);
+        self.specular * fade * specular::eval(lo, li, self.alpha[side], self.eta(side))
+    }
+
+    #[inline]
+    fn lobe_scale(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if wo.z * wi.z < 0.0 {
+            self.scale[2]
+        } else if wo.z > 0.0 {
+            self.scale[0]
+        } else {
+            self.scale[1]
+        }
+    }
+
+    #[inline]
+    fn eval_with(&self, wo: Vec3, wi: Vec3, single: impl FnOnce() -> Vec3) -> Vec3 {
+        if wo.z == 0.0 || wi.z == 0.0 {
+            return Vec3::ZERO;
+        }
+        let sub = self.subsurface_with(wo, wi, single) * self.lobe_scale(wo, wi) * self.cos_eff(wi);
+        sub + Vec3::splat(self.specular_term(wo, wi))
+    }
+
+    /// [`Bsdf::eval`] with the single scattering estimated by the paper's ray march
+    /// ([`crate::march`]) with `samples` steps per layer instead of the closed form.
+    pub fn eval_marched(&self, wo: Vec3, wi: Vec3, samples: u32, rng: &mut Pcg32) -> Vec3 {
+        self.eval_with(wo, wi, || {
+            if wo.z * wi.z < 0.0 {
+                let m = Vec3::new(1.0, 1.0, -1.0);
+                let half = samples.div_ceil(2);
+                0.5 * (single_scatter_marched(&self.stack, wo, wi, half, rng)
+                    + single_scatter_marched(&self.stack, wo * m, wi * m, half, rng))
             } else {
-                self.r_back
-            },
-            transmittance: self.t,
+                single_scatter_marched(&self.stack, wo, wi, samples, rng)
+            }
+        })
+    }
+
+    /// Lobe selection probabilities (specular, diffuse reflection, diffuse transmission).
+    #[inline]
+    fn lobe_probabilities(&self, wo: Vec3) -> [f32; 3] {
+        let side = if wo.z > 0.0 { 0 } else { 1 };
+        let lo_z = self.shading.n.dot(wo) * if side == 0 { 1.0 } else { -1.0 };
+        let ps = if self.specular > 0.0 && lo_z > 0.0 {
+            self.specular * fresnel_dielectric(lo_z, self.eta(side)).max(0.02)
+        } else {
+            0.0
+        };
+        let pr = luminance(self.albedo[side]).max(0.0);
+        let pt = luminance(self.albedo[2]).max(0.0);
+        let sum = ps + pr + pt;
+        if sum > 0.0 {
+            [ps / sum, pr / sum, pt / sum]
+        } else {
+            [0.0; 3]
         }
     }
 }
 
 impl Bsdf for LeafBsdf {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        self.side(wo).eval(wo, wi)
+        self.eval_with(wo, wi, || self.single(wo, wi))
     }
+
     fn sample(&self, wo: Vec3, u: Vec3) -> Option<BsdfSample> {
-        self.side(wo).sample(wo, u)
+        if wo.z == 0.0 {
+            return None;
+        }
+        let [ps, pr, _] = self.lobe_probabilities(wo);
+        let wi = if u.x < ps {
+            let (lo, _, side) = self.shading_dirs(wo, wo);
+            let li = specular::sample(lo, self.alpha[side], Vec2::new(u.y, u.z))?;
+            self.shading_to_local(li, side)
+        } else {
+            let mut wi = cosine_hemisphere(Vec2::new(u.y, u.z));
+            let reflect = u.x < ps + pr;
+            if (wo.z < 0.0) == reflect {
+                wi.z = -wi.z;
+            }
+            wi
+        };
+        if wi.z == 0.0 {
+            return None;
+        }
+        let pdf = self.pdf(wo, wi);
+        (pdf > 0.0).then(|| BsdfSample {
+            wi,
+            f: self.eval(wo, wi),
+            pdf,
+        })
     }
+
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        self.side(wo).pdf(wo, wi)
+        if wo.z == 0.0 || wi.z == 0.0 {
+            return 0.0;
+        }
+        let [ps, pr, pt] = self.lobe_probabilities(wo);
+        let mut p = if wo.z * wi.z > 0.0 { pr } else { pt } * wi.z.abs() * FRAC_1_PI;
+        if ps > 0.0 {
+            let (lo, li, side) = self.shading_dirs(wo, wi);
+            p += ps * specular::pdf(lo, li, self.alpha[side]);
+        }
+        p
     }
 }

@@ -13,15 +13,20 @@
 //!   as Mitsuba 3 does, so that bump-mapped shading normals stay an internal affair of each
 //!   model and the integrator never needs them.
 
+pub mod analytic;
 pub mod bsdf;
+pub mod diffusion;
 pub mod error;
 pub mod frame;
 pub mod lambert;
+pub mod layers;
 pub mod leaf_bsdf;
 pub mod maps;
+pub mod march;
 pub mod material;
 pub mod params;
 pub mod sampling;
+pub mod specular;
 pub mod texture;
 
 pub use bsdf::{Bsdf, BsdfSample};

@@ -59,11 +59,11 @@ impl LeafDescription {
     pub fn from_toml_file(path: &Path) -> Result<Self, LeafError> {
         let text = std::fs::read_to_string(path).map_err(|source| LeafError::Io {
             path: path.to_owned(),
-            source,
+            source: Box::new(source),
         })?;
         toml::from_str(&text).map_err(|source| LeafError::Parse {
             path: path.to_owned(),
-            source,
+            source: Box::new(source),
         })
     }
 }
@@ -100,7 +100,7 @@ impl LeafMaps {
             let mut t = Texture::load(&path, enc).map_err(|source| LeafError::Map {
                 map,
                 path: path.clone(),
-                source,
+                source: Box::new(source),
             })?;
             t.wrap = paths.wrap;
             Ok(Some(t))

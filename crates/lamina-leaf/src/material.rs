@@ -1,11 +1,71 @@
 //! A leaf material: the seven maps plus the parameters, queried per texel.
+//!
+//! # How the maps and the layer physics combine
+//! The colour maps are photographs taken under diffuse, specular-free light (the paper
+//! photographs leaves under water with an area light), so they are read as **white-sky
+//! albedos**: `front` is the adaxial diffuse reflectance, `back` the abaxial one,
+//! `translucency` the diffuse transmittance, for diffuse illumination, specular excluded.
+//! The layer model supplies everything else: the **angular shape** of each lobe (single
+//! scattering, Fresnel, the phase function) and the **variation with thickness and
+//! extinction** relative to the nominal texel (thickness and extinction maps at 0.5). So,
+//! per lobe `X` (adaxial R, abaxial R, T):
+//!
+//! `f_X(wo, wi; texel) = C_X(texel) * lambda(texel) * f_phys,X(wo, wi; texel) / A_X`
+//!
+//! with `A_X` the white-sky albedo of the physical lobe at the nominal texel (computed once
+//! here by numerical integration). A nominal texel under diffuse light therefore shows
+//! exactly the photo's colour. A missing colour map is replaced by the physical albedo (see
+//! [`crate::maps`]), so a leaf without maps is the pure layer model.
+//!
+//! **Energy**: `lambda` (per texel and channel, `<= 1`) scales the colours down where the
+//! maps ask for more than light can give: for every incidence angle on either side,
+//! `specular albedo + C_R rho_R / A_R + C_T rho_T / A_T <= 0.995` (`rho` = directional
+//! albedo of the physical lobe), with `rho / A` tabulated here at 24 incidence angles and
+//! taken at its maximum over the extreme thickness and extinction values the maps contain.
+//! White maps thus give `R + T < 1` at every angle, not `R + T = 2`. (A bump map's shading
+//! cosine can add a few percent on tilted texels; it is not part of the bound.)
 
+use crate::diffusion::{BorderReflectances, Diffusion, diffusion};
 use crate::error::LeafError;
+use crate::frame::Frame;
+use crate::layers::LayerStack;
 use crate::leaf_bsdf::LeafBsdf;
 use crate::maps::{LeafDescription, LeafMaps};
-use crate::params::LeafParams;
+use crate::params::{LeafMode, LeafParams};
+use crate::sampling::luminance;
+use crate::specular;
+use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 use std::path::Path;
+
+/// Incidence cosines of the albedo integration (midpoints); the energy table has these
+/// plus normal incidence.
+const TABLE_N: usize = 48;
+/// Safety margin of the energy bound (numerical integration error).
+const ENERGY_MARGIN: f32 = 0.995;
+
+/// One incidence angle of the energy table: specular albedo and the largest
+/// `rho / A` of the reflection and transmission lobes.
+#[derive(Clone, Copy, Debug, Default)]
+struct EnergyRow {
+    spec: f32,
+    refl: Vec3,
+    trans: Vec3,
+}
+
+/// Everything that depends on the parameters and the maps' value ranges, not on the texel.
+#[derive(Clone, Debug)]
+struct Precomputed {
+    borders: BorderReflectances,
+    r_out: [f32; 2],
+    /// White-sky albedos of the physical lobes at the nominal texel in the chosen mode
+    /// (adaxial R, abaxial R, T).
+    a_mode: [Vec3; 3],
+    /// The same for the layered model (default colours without maps).
+    a_layered: [Vec3; 3],
+    /// Light from the adaxial side, then from the abaxial side.
+    table: [[EnergyRow; TABLE_N + 1]; 2],
+}
 
 /// A leaf's maps and validated parameters. `Send + Sync`; per-texel queries are cheap and
 /// do not allocate.
@@ -13,13 +73,202 @@ use std::path::Path;
 pub struct LeafMaterial {
     maps: LeafMaps,
     params: LeafParams,
+    /// Read the alpha matte from the alpha channel (it has one) rather than the grey value.
+    alpha_from_channel: bool,
+    pre: Box<Precomputed>,
+}
+
+/// Cosines of the incidence angles of the energy table and of the albedo integration
+/// (midpoints in `mu`).
+fn mu_grid(k: usize) -> f32 {
+    if k == TABLE_N {
+        1.0
+    } else {
+        (k as f32 + 0.5) / TABLE_N as f32
+    }
+}
+
+/// Directional albedos (adaxial R, abaxial R, T from above, T from below) of the physical
+/// model `b` for incidence cosine `mu`, integrated over the outgoing hemisphere.
+fn directional_albedos(b: &LeafBsdf, mu: f32) -> [Vec3; 4] {
+    if b.mode == LeafMode::Diffuse {
+        // Lambertian lobes: the albedos are the Kubelka-Munk values, exactly.
+        let d = &b.diffusion;
+        return [d.r_top, d.r_bottom, d.t, d.t];
+    }
+    const NM: usize = 32;
+    const NP: usize = 24;
+    let s = (1.0 - mu * mu).max(0.0).sqrt();
+    let up = Vec3::new(s, 0.0, mu);
+    let down = Vec3::new(s, 0.0, -mu);
+    let mut acc = [Vec3::ZERO; 4];
+    for i in 0..NM {
+        // Denser near grazing: mu_o = x^2 with x midpoints (dmu = 2x dx).
+        let x = (i as f32 + 0.5) / NM as f32;
+        let mo = x * x;
+        let w_mu = 2.0 * x / NM as f32;
+        let so = (1.0 - mo * mo).max(0.0).sqrt();
+        for j in 0..NP {
+            // phi in [0, pi], doubled (the physical lobes are symmetric in phi).
+            let phi = std::f32::consts::PI * (j as f32 + 0.5) / NP as f32;
+            let w = 2.0 * std::f32::consts::PI / NP as f32 * w_mu * mo;
+            let (sp, cp) = phi.sin_cos();
+            let o_up = Vec3::new(so * cp, so * sp, mo);
+            let o_dn = Vec3::new(so * cp, so * sp, -mo);
+            acc[0] += b.subsurface(o_up, up) * w;
+            acc[1] += b.subsurface(o_dn, down) * w;
+            acc[2] += b.subsurface(o_dn, up) * w;
+            acc[3] += b.subsurface(o_up, down) * w;
+        }
+    }
+    acc
+}
+
+impl Precomputed {
+    fn new(params: &LeafParams, t_range: (f32, f32), e_range: (f32, f32)) -> Self {
+        let nominal = LayerStack::at_texel(params, 0.5, 0.5);
+        let borders = BorderReflectances::new(&nominal);
+        let r_out = [borders.from_above[0], borders.from_below[3]];
+        let physical = |mode: LeafMode, stack: LayerStack| {
+            LeafBsdf::physical(mode, stack, diffusion(&stack, &borders), r_out)
+        };
+        let white_sky = |mode: LeafMode| -> ([Vec3; 3], [[Vec3; 4]; TABLE_N + 1]) {
+            let b = physical(mode, nominal);
+            let mut a = [Vec3::ZERO; 3];
+            let mut rows = [[Vec3::ZERO; 4]; TABLE_N + 1];
+            for (k, row) in rows.iter_mut().enumerate() {
+                let mu = mu_grid(k);
+                *row = directional_albedos(&b, mu);
+                if k < TABLE_N {
+                    let w = 2.0 * mu / TABLE_N as f32;
+                    a[0] += row[0] * w;
+                    a[1] += row[1] * w;
+                    a[2] += (row[2] + row[3]) * (0.5 * w);
+                }
+            }
+            if mode == LeafMode::Diffuse {
+                a = [rows[0][0], rows[0][1], rows[0][2]];
+            }
+            (a, rows)
+        };
+        let (a_layered, _) = white_sky(LeafMode::Layered);
+        let (a_mode, nominal_rows) = if params.mode == LeafMode::Layered {
+            white_sky(LeafMode::Layered)
+        } else {
+            white_sky(params.mode)
+        };
+        let safe = |v: Vec3| v.max(Vec3::splat(1e-30));
+        let a_mode = a_mode.map(safe);
+        let a_layered = a_layered.map(safe);
+
+        // Corners of the map ranges (deduplicated; the nominal texel is always included).
+        let mut corners: Vec<(f32, f32)> = Vec::with_capacity(4);
+        for t in [t_range.0, t_range.1] {
+            for e in [e_range.0, e_range.1] {
+                if !corners.contains(&(t, e)) && (t, e) != (0.5, 0.5) {
+                    corners.push((t, e));
+                }
+            }
+        }
+        let mut table = [[EnergyRow::default(); TABLE_N + 1]; 2];
+        for (k, nominal_row) in nominal_rows.iter().enumerate() {
+            let mu = mu_grid(k);
+            let s = (1.0 - mu * mu).max(0.0).sqrt();
+            let wo = Vec3::new(s, 0.0, mu);
+            let ratio = |row: &[Vec3; 4]| {
+                [
+                    row[0] / a_mode[0],
+                    row[1] / a_mode[1],
+                    row[2] / a_mode[2],
+                    row[3] / a_mode[2],
+                ]
+            };
+            let mut best = ratio(nominal_row);
+            for &(t, e) in &corners {
+                let b = physical(params.mode, LayerStack::at_texel(params, t, e));
+                let r = ratio(&directional_albedos(&b, mu));
+                for i in 0..4 {
+                    best[i] = best[i].max(r[i]);
+                }
+            }
+            for side in 0..2 {
+                let (alpha, eta) = if side == 0 {
+                    (params.roughness_adaxial, params.upper.ior)
+                } else {
+                    (params.roughness_abaxial, params.lower.ior)
+                };
+                let spec = if params.specular > 0.0 {
+                    params.specular * specular::albedo(wo, alpha, eta, 24)
+                } else {
+                    0.0
+                };
+                table[side][k] = EnergyRow {
+                    spec,
+                    refl: best[side],
+                    trans: best[2 + side],
+                };
+            }
+        }
+        Precomputed {
+            borders,
+            r_out,
+            a_mode,
+            a_layered,
+            table,
+        }
+    }
+
+    /// Largest `lambda <= 1` per channel keeping every tabulated incidence within the bound.
+    fn energy_scale(&self, c_front: Vec3, c_back: Vec3, c_t: Vec3) -> Vec3 {
+        let mut lambda = Vec3::ONE;
+        for (side, c_r) in [(0, c_front), (1, c_back)] {
+            for row in &self.table[side] {
+                let demand = c_r * row.refl + c_t * row.trans;
+                let room = (ENERGY_MARGIN - row.spec).max(0.0);
+                lambda = lambda.min(Vec3::splat(room) / demand.max(Vec3::splat(1e-12)));
+            }
+        }
+        lambda.min(Vec3::ONE)
+    }
+}
+
+fn map_range(t: &Option<Texture>) -> (f32, f32) {
+    match t {
+        None => (0.5, 0.5),
+        Some(t) => t.texels().iter().fold((1.0f32, 0.0f32), |(lo, hi), v| {
+            let x = v.x.clamp(0.0, 1.0);
+            (lo.min(x), hi.max(x))
+        }),
+    }
+}
+
+/// The default abaxial colour derived from an adaxial photo: 30 % desaturated toward its
+/// luminance and 20 % brighter (the lower side is paler), clamped to 1.
+#[inline]
+pub fn derive_back(front: Vec3) -> Vec3 {
+    (front.lerp(Vec3::splat(luminance(front)), 0.3) * 1.2).min(Vec3::ONE)
 }
 
 impl LeafMaterial {
-    /// A material from maps already in memory; validates `params`.
+    /// A material from maps already in memory; validates `params` and precomputes the
+    /// normalisation of the maps (a few tens of milliseconds).
     pub fn new(maps: LeafMaps, params: LeafParams) -> Result<Self, LeafError> {
         params.validate()?;
-        Ok(LeafMaterial { maps, params })
+        let alpha_from_channel = maps
+            .alpha
+            .as_ref()
+            .is_some_and(|t| t.texels().iter().any(|v| v.w < 1.0));
+        let pre = Precomputed::new(
+            &params,
+            map_range(&maps.thickness),
+            map_range(&maps.extinction),
+        );
+        Ok(LeafMaterial {
+            maps,
+            params,
+            alpha_from_channel,
+            pre: Box::new(pre),
+        })
     }
 
     /// Loads the maps of `desc` (paths relative to `base_dir`) and validates its parameters.
@@ -30,28 +279,95 @@ impl LeafMaterial {
         Self::new(maps, desc.params)
     }
 
-    /// Alpha test at texture coordinates `uv`: `true` where the leaf is (matte `>= 0.5`).
+    /// Alpha test at texture coordinates `uv`: `true` where the leaf is (matte `>= 0.5`;
+    /// the alpha channel if the map has one, else its grey value).
     pub fn opaque(&self, uv: Vec2) -> bool {
         match &self.maps.alpha {
             None => true,
-            Some(t) => t.alpha(uv).min(t.scalar(uv)) >= 0.5,
+            Some(t) if self.alpha_from_channel => t.alpha(uv) >= 0.5,
+            Some(t) => t.scalar(uv) >= 0.5,
         }
+    }
+
+    /// The colours (adaxial R, abaxial R, T) the maps ask for at `uv`, linear RGB in `[0, 1]`,
+    /// before the energy bound.
+    pub fn map_colours(&self, uv: Vec2) -> [Vec3; 3] {
+        let a = &self.pre.a_layered;
+        let clamp = |v: Vec3| v.clamp(Vec3::ZERO, Vec3::ONE);
+        let front = self.maps.front.as_ref().map(|t| clamp(t.rgb(uv)));
+        let back = match (&self.maps.back, front) {
+            (Some(t), _) => clamp(t.rgb(uv)),
+            (None, Some(f)) => derive_back(f),
+            (None, None) => a[1],
+        };
+        let trans = match (&self.maps.translucency, front) {
+            (Some(t), _) => clamp(t.rgb(uv)),
+            (None, Some(f)) => clamp(f * a[2] / a[0]),
+            (None, None) => a[2],
+        };
+        [front.unwrap_or(a[0]), back, trans]
     }
 
     /// The BSDF at texture coordinates `uv`.
     pub fn bsdf(&self, uv: Vec2) -> LeafBsdf {
-        let front = self
-            .maps
-            .front
-            .as_ref()
-            .map_or(Vec3::new(0.05, 0.12, 0.03), |t| t.rgb(uv));
-        let back = self.maps.back.as_ref().map_or(front * 1.2, |t| t.rgb(uv));
-        let tr = self
-            .maps
-            .translucency
-            .as_ref()
-            .map_or(Vec3::new(0.06, 0.15, 0.02), |t| t.rgb(uv));
-        LeafBsdf::placeholder(front, back, tr)
+        let p = &self.params;
+        let t = self.maps.thickness.as_ref().map_or(0.5, |m| m.scalar(uv));
+        let e = self.maps.extinction.as_ref().map_or(0.5, |m| m.scalar(uv));
+        let stack = LayerStack::at_texel(p, t, e);
+        let diff = diffusion(&stack, &self.pre.borders);
+        let [cf, cb, ct] = self.map_colours(uv);
+        let lambda = self.pre.energy_scale(cf, cb, ct);
+        let a = &self.pre.a_mode;
+        let scale = [cf * lambda / a[0], cb * lambda / a[1], ct * lambda / a[2]];
+        // Albedos at this texel: the colours times the diffusion's variation with
+        // thickness and extinction (the nominal texel gives the colours themselves).
+        let nominal = self.nominal_diffusion();
+        let var = |x: Vec3, x0: Vec3| {
+            Vec3::from_array([0, 1, 2].map(|c| if x0[c] > 0.0 { x[c] / x0[c] } else { 1.0 }))
+        };
+        let albedo = [
+            (cf * lambda * var(diff.r_top, nominal.r_top)).min(Vec3::ONE),
+            (cb * lambda * var(diff.r_bottom, nominal.r_bottom)).min(Vec3::ONE),
+            (ct * lambda * var(diff.t, nominal.t)).min(Vec3::ONE),
+        ];
+        let normal = match &self.maps.bump {
+            Some(m) if p.bump_scale > 0.0 => {
+                let g = m.gradient(uv) * p.bump_scale;
+                let mut n = Vec3::new(-g.x, -g.y, 1.0).normalize();
+                if !n.is_finite() {
+                    n = Vec3::Z;
+                }
+                // Keep the shading normal well inside the adaxial hemisphere.
+                const MIN_Z: f32 = 0.2;
+                if n.z < MIN_Z {
+                    let xy = Vec2::new(n.x, n.y).normalize_or_zero() * (1.0 - MIN_Z * MIN_Z).sqrt();
+                    n = Vec3::new(xy.x, xy.y, MIN_Z);
+                }
+                n
+            }
+            _ => Vec3::Z,
+        };
+        let mut b = LeafBsdf::physical(p.mode, stack, diff, self.pre.r_out);
+        b.scale = scale;
+        b.albedo = albedo;
+        b.shading = Frame::from_normal_tangent(normal, Vec3::X);
+        b.alpha = [p.roughness_adaxial, p.roughness_abaxial];
+        b.specular = p.specular;
+        b.blend = p.blend_width_deg.to_radians().sin();
+        b
+    }
+
+    fn nominal_diffusion(&self) -> Diffusion {
+        diffusion(
+            &LayerStack::at_texel(&self.params, 0.5, 0.5),
+            &self.pre.borders,
+        )
+    }
+
+    /// White-sky albedos (adaxial R, abaxial R, T) of the pure layered model at the nominal
+    /// texel: the colours a leaf without maps has.
+    pub fn physical_albedos(&self) -> [Vec3; 3] {
+        self.pre.a_layered
     }
 
     /// The validated parameters.

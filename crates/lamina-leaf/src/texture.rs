@@ -212,6 +212,20 @@ impl Texture {
         self.sample(uv).w
     }
 
+    /// Gradient `(d/du, d/dv)` of the first channel at `uv` (`v` up), per unit of texture
+    /// coordinate, by central differences one texel apart. Zero for a 1x1 texture.
+    #[inline]
+    pub fn gradient(&self, uv: Vec2) -> Vec2 {
+        if self.texels.len() == 1 {
+            return Vec2::ZERO;
+        }
+        let du = 1.0 / self.width as f32;
+        let dv = 1.0 / self.height as f32;
+        let gu = self.scalar(uv + Vec2::new(du, 0.0)) - self.scalar(uv - Vec2::new(du, 0.0));
+        let gv = self.scalar(uv + Vec2::new(0.0, dv)) - self.scalar(uv - Vec2::new(0.0, dv));
+        Vec2::new(gu / (2.0 * du), gv / (2.0 * dv))
+    }
+
     /// All texels, row-major, top row first.
     pub fn texels(&self) -> &[Vec4] {
         &self.texels

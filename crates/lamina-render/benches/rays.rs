@@ -125,6 +125,9 @@ fn main() {
         throughput(&pool, &camera_rays, |r| accel.intersect(r).is_some()),
         n,
     );
+    if std::env::var_os("LAMINA_CAMERA_ONLY").is_some() {
+        return;
+    }
     let n = random_rays.len();
     report(
         "random rays (closest hit):",

@@ -160,38 +160,41 @@ def main():
     model, ncpu = common.cpu_info()
     busy = common.compile_running()
 
-    rows = []
+    npix = args.size * args.size * args.spp
+    scenes = {}
+    for integ in [s.strip() for s in args.integrators.split(",") if s.strip()]:
+        d, (w, h, spp, ncards) = convert(scene_toml, out, integ, args.spp, args.mitsuba_sampler)
+        t0 = time.perf_counter()
+        scenes[integ] = (mi.load_dict(d), time.perf_counter() - t0)
+    # lamina and the Mitsuba integrators alternate, run by run, so that all see the same load
+    # on a shared machine.
+    rows = {}
     lam_imgs = []
+    mit_imgs = {}
     for seed in range(args.repeat):
         exr = out / f"lamina_s{seed}.exr"
         wall, summ, err = common.run_lamina(lamina, scene_toml, [exr, out / f"lamina_s{seed}.png"],
                                             args.spp, args.threads, seed)
-        print(f"lamina seed {seed}: {wall:.2f} s wall; {next((l for l in err.splitlines() if 'samples/s' in l), err)}")
+        line = next((l for l in err.splitlines() if "samples/s" in l), err)
+        print(f"lamina seed {seed}: {wall:.2f} s wall; {line}", flush=True)
         lam_imgs.append(common.load_exr(exr))
-        npix = args.size * args.size * args.spp
-        rows.append([f"lamina (run {seed + 1})", "%.2f" % wall,
-                     "%.2f" % summ["secs"] if summ else "-",
-                     "%.3f" % (npix / wall / 1e6),
-                     "%.3f" % summ["msamples"] if summ else "-",
-                     "%.2f" % summ["mrays"] if summ else "-"])
-
-    mit_imgs = {}
-    ncards = 0
-    for integ in [s.strip() for s in args.integrators.split(",") if s.strip()]:
-        d, (w, h, spp, ncards) = convert(scene_toml, out, integ, args.spp, args.mitsuba_sampler)
-        t0 = time.perf_counter()
-        scene = mi.load_dict(d)
-        load_s = time.perf_counter() - t0
-        npix = w * h * spp
-        for seed in range(args.repeat):
-            img, secs, st = common.render_mitsuba(scene, spp, seed, out / f"mitsuba_{integ}_s{seed}.exr")
+        rows.setdefault("lamina", []).append([
+            f"lamina (run {seed + 1})", "%.2f" % wall, "%.2f" % summ["secs"] if summ else "-",
+            "%.3f" % (npix / wall / 1e6), "%.3f" % summ["msamples"] if summ else "-",
+            "%.2f" % summ["mrays"] if summ else "-"])
+        busy = busy or common.compile_running()
+        for integ, (scene, load_s) in scenes.items():
+            img, secs, st = common.render_mitsuba(scene, args.spp, seed, out / f"mitsuba_{integ}_s{seed}.exr")
             mit_imgs.setdefault(integ, []).append(img)
             wall = secs + (load_s if seed == 0 else 0.0)
             note = " (load %.2f s + JIT compile)" % load_s if seed == 0 else " (warm)"
             print(f"Mitsuba {integ} seed {seed}: {wall:.2f} s{note}; {st['kernels']} kernels, "
-                  f"{st['cache_hits']} cached, {st['compile_s']:.2f} s codegen+compile")
-            rows.append([f"Mitsuba {integ} (run {seed + 1}){note}", "%.2f" % wall, "%.2f" % secs,
-                         "%.3f" % (npix / wall / 1e6), "%.3f" % (npix / secs / 1e6), "-"])
+                  f"{st['cache_hits']} cached, {st['compile_s']:.2f} s codegen+compile", flush=True)
+            rows.setdefault(integ, []).append([
+                f"Mitsuba {integ} (run {seed + 1}){note}", "%.2f" % wall, "%.2f" % secs,
+                "%.3f" % (npix / wall / 1e6), "%.3f" % (npix / secs / 1e6), "-"])
+            busy = busy or common.compile_running()
+    rows = [r for group in rows.values() for r in group]
     busy = busy or common.compile_running()
 
     print()

@@ -195,16 +195,16 @@ def main():
           f"lamina max_depth {depth}, {args.threads} threads, Mitsuba sampler {args.mitsuba_sampler}; machine: {ncpu} cores, {model}")
     busy = common.compile_running()
 
-    # ---- lamina, two seeds
-    lam = []
-    for seed in (0, 1):
+    def lamina_run(seed):
         exr = out / f"lamina_s{seed}.exr"
         wall, summ, err = common.run_lamina(lamina, scene_toml, [exr, out / f"lamina_s{seed}.png"],
                                             args.spp, args.threads, seed)
-        print(f"lamina seed {seed}: {wall:.2f} s wall; {next((l for l in err.splitlines() if 'samples/s' in l), err)}")
-        lam.append((common.load_exr(exr), wall, summ))
+        line = next((l for l in err.splitlines() if "samples/s" in l), err)
+        print(f"lamina seed {seed}: {wall:.2f} s wall; {line}", flush=True)
+        return common.load_exr(exr), wall, summ
 
     if args.depth_check:
+        lam = [lamina_run(0), lamina_run(1)]
         rows = []
         for md in (1, 2, 3):
             scene = mitsuba_scene(args.size, args.size, args.spp, depth, out / "cards.obj",
@@ -220,20 +220,23 @@ def main():
         print(fmt_table(rows, ["reference", "its mean", "lamina mean vs it", "mean rel. diff"]))
         return
 
-    # ---- Mitsuba: scene load, first render (JIT compile included), second render (warm)
+    # ---- Mitsuba scene load; then lamina and Mitsuba alternate (seed 0, then seed 1) so that
+    # both see the same load on a shared machine. Mitsuba's first render includes the JIT
+    # compile, its second is warm.
     t0 = time.perf_counter()
     scene = mitsuba_scene(args.size, args.size, args.spp, depth, out / "cards.obj", out / "ground.obj",
                           sampler=args.mitsuba_sampler)
     load_s = time.perf_counter() - t0
-    mit = []
+    lam, mit = [], []
     for seed in (0, 1):
-        t0 = time.perf_counter()
+        lam.append(lamina_run(seed))
+        busy = busy or common.compile_running()
         img, secs, st = common.render_mitsuba(scene, args.spp, seed, out / f"mitsuba_s{seed}.exr")
         mit.append((img, secs, st))
         print(f"Mitsuba seed {seed}: render {secs:.2f} s ({st['kernels']} kernels, "
               f"{st['cache_hits']} from cache, {st['compile_s']:.2f} s codegen+compile)"
-              + (f"; scene load {load_s:.2f} s" if seed == 0 else ""))
-    busy = busy or common.compile_running()
+              + (f"; scene load {load_s:.2f} s" if seed == 0 else ""), flush=True)
+        busy = busy or common.compile_running()
 
     # ---- orientation check: compare with Mitsuba as is and mirrored left-right
     straight = common.compare(lam[0][0], mit[0][0])

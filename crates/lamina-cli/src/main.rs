@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod demo;
+mod leaf_cmd;
 mod render_cmd;
 
 /// A renderer for plant leaves and whole plants.
@@ -23,6 +24,9 @@ enum Command {
     Render(render_cmd::RenderArgs),
     /// Render the built-in demo: a leaf lit from the front and from behind, and a bush.
     Demo(demo::DemoArgs),
+    /// Leaf maps: generate procedural leaves, prepare captures, make contact sheets.
+    #[command(subcommand)]
+    Leaf(leaf_cmd::LeafCommand),
 }
 
 fn main() -> ExitCode {
@@ -30,6 +34,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render_cmd::run(args),
         Command::Demo(args) => demo::run(args),
+        Command::Leaf(cmd) => leaf_cmd::run(cmd),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

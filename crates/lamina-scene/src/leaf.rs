@@ -14,7 +14,7 @@
 use crate::error::SceneError;
 use crate::file::{MaterialTable, S};
 use crate::load::Ctx;
-use lamina_leaf::{LeafDescription, LeafMaterial};
+use lamina_leaf::{LeafDescription, LeafMaps, LeafMaterial};
 use std::path::Path;
 
 /// Reads a `leaf.toml` into a TOML table whose map paths are made absolute.
@@ -61,9 +61,58 @@ pub(crate) fn load_leaf_material(
     key: &str,
     m: &MaterialTable,
 ) -> Result<LeafMaterial, SceneError> {
-    let mut table = match &m.file {
-        Some(f) => read_leaf_file(&cx.path(f))?,
-        None => toml::Table::new(),
+    if let (Some(_), Some(s)) = (&m.file, &m.species) {
+        return Err(cx.err(
+            s.span(),
+            format!("{key}.species"),
+            "give either 'file' or 'species', not both",
+        ));
+    }
+    for (v, name) in [(&m.seed, "seed"), (&m.resolution, "resolution")] {
+        if let (Some(v), None) = (v, &m.species) {
+            return Err(cx.err(
+                v.span(),
+                format!("{key}.{name}"),
+                "only applies to a procedural leaf ('species')",
+            ));
+        }
+    }
+    // The base description: a leaf file, a procedural species, or the defaults.
+    let mut generated = None;
+    let mut table = match (&m.file, &m.species) {
+        (Some(f), _) => read_leaf_file(&cx.path(f))?,
+        (None, Some(s)) => {
+            let species: lamina_leafmaps::Species =
+                s.get_ref()
+                    .parse()
+                    .map_err(|e: lamina_leafmaps::UnknownSpecies| {
+                        cx.err(s.span(), format!("{key}.species"), e.to_string())
+                    })?;
+            let seed = m
+                .seed
+                .as_ref()
+                .map(|v| cx.count(v, &format!("{key}.seed"), 0, u32::MAX as i64))
+                .transpose()?
+                .unwrap_or(1);
+            let res = m
+                .resolution
+                .as_ref()
+                .map(|v| cx.count(v, &format!("{key}.resolution"), 16, 8192))
+                .transpose()?
+                .unwrap_or(512);
+            let leaf = lamina_leafmaps::generate(&lamina_leafmaps::LeafSpec::new(
+                species,
+                seed as u64,
+                res,
+            ));
+            let mut t = toml::Table::new();
+            let params = toml::Table::try_from(&leaf.params)
+                .map_err(|e| cx.err(s.span(), key, e.to_string()))?;
+            t.insert("params".into(), toml::Value::Table(params));
+            generated = Some(leaf.maps);
+            t
+        }
+        (None, None) => toml::Table::new(),
     };
     let mut over = toml::Table::new();
     if let Some(maps) = &m.maps {
@@ -97,6 +146,7 @@ pub(crate) fn load_leaf_material(
     let anchor = span_of(&m.params)
         .or(span_of(&m.maps))
         .or(m.file.as_ref().map(|f| f.span()))
+        .or(m.species.as_ref().map(|f| f.span()))
         .unwrap_or(m.name.span());
     let desc: LeafDescription =
         toml::Value::Table(table)
@@ -104,12 +154,22 @@ pub(crate) fn load_leaf_material(
             .map_err(|e: toml::de::Error| {
                 cx.err(anchor.clone(), key, e.message().trim().to_string())
             })?;
-    if let Some(s) = &m.species {
-        return Err(cx.err(
-            s.span(),
-            format!("{key}.species"),
-            "procedural species are not available in this build",
-        ));
+    let fail = |e: lamina_leaf::LeafError| cx.err(anchor.clone(), key, e.to_string());
+    match generated {
+        None => LeafMaterial::load(&desc, Path::new("")).map_err(fail),
+        Some(g) => {
+            // Maps named in the scene replace the generated ones.
+            let o = LeafMaps::load(&desc.maps, Path::new("")).map_err(fail)?;
+            let maps = LeafMaps {
+                front: o.front.or(g.front),
+                back: o.back.or(g.back),
+                translucency: o.translucency.or(g.translucency),
+                alpha: o.alpha.or(g.alpha),
+                thickness: o.thickness.or(g.thickness),
+                extinction: o.extinction.or(g.extinction),
+                bump: o.bump.or(g.bump),
+            };
+            LeafMaterial::new(maps, desc.params).map_err(fail)
+        }
     }
-    LeafMaterial::load(&desc, Path::new("")).map_err(|e| cx.err(anchor, key, e.to_string()))
 }

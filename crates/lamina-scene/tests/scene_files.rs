@@ -237,3 +237,33 @@ fn leaf_material_inline_params_are_validated() {
     assert_eq!(e.line, Some(9), "{e}");
     assert!(e.to_string().contains("no_such_param"), "{e}");
 }
+
+#[test]
+fn procedural_species_leaf_material() {
+    let ok = format!(
+        "{MINIMAL}\n[[material]]\nname = \"l\"\ntype = \"leaf\"\nspecies = \"maple\"\nseed = 3\nresolution = 64\nparams = {{ thickness_mm = 0.3 }}\n"
+    );
+    let s = parse(&ok).unwrap();
+    let Material::Leaf { leaf, .. } = &s.materials[0] else {
+        panic!()
+    };
+    assert_eq!(
+        leaf.params().thickness_mm,
+        0.3,
+        "scene params override the preset's"
+    );
+    assert!(leaf.maps().alpha.is_some(), "the generated maps are used");
+    let e = err(&format!(
+        "{MINIMAL}\n[[material]]\nname = \"l\"\ntype = \"leaf\"\nspecies = \"banana\"\n"
+    ));
+    assert_eq!(
+        (e.key.as_str(), e.line),
+        ("material[0].species", Some(9)),
+        "{e}"
+    );
+    assert!(e.to_string().contains("beech"), "lists the species: {e}");
+    let e = err(&format!(
+        "{MINIMAL}\n[[material]]\nname = \"l\"\ntype = \"leaf\"\nseed = 3\n"
+    ));
+    assert_eq!(e.key, "material[0].seed", "{e}");
+}

@@ -402,6 +402,17 @@ def compare(a, b, eps_frac=0.05):
             "rmse": rmse, "rmse_rel": rmse / mb}
 
 
+def estimate_shift(a, b):
+    """Sub-pixel offset (dx right, dy down, in pixels) of image `a` relative to `b`, by least
+    squares on a - b = -(dx, dy) . grad b (central differences). Near 0 when the cameras and
+    pixel grids agree; a half-pixel convention mismatch would give about 0.5."""
+    d = (a - b)[1:-1, 1:-1, :]
+    gx = (b[1:-1, 2:, :] - b[1:-1, :-2, :]) * 0.5
+    gy = (b[2:, 1:-1, :] - b[:-2, 1:-1, :]) * 0.5
+    s = lambda t: _scalar(dr.sum(t.array))
+    return -s(d * gx) / s(gx * gx), -s(d * gy) / s(gy * gy)
+
+
 def flip_x(img):
     return img[:, ::-1, :]
 

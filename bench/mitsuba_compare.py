@@ -249,6 +249,11 @@ def main():
     if flipped:
         mit = [(common.flip_x(m[0]), m[1], m[2]) for m in mit]
 
+    la, ma = (lam[0][0] + lam[1][0]) * 0.5, (mit[0][0] + mit[1][0]) * 0.5
+    dx, dy = common.estimate_shift(la, ma)
+    print(f"pixel alignment: lamina is offset by dx = {dx:+.4f} px, dy = {dy:+.4f} px from Mitsuba "
+          f"(least squares on the image gradient; 0 = same pixel grid)")
+
     # ---- statistics
     pairs = [
         ("lamina s0 vs Mitsuba s0", lam[0][0], mit[0][0]),

@@ -129,10 +129,97 @@ impl Tri {
     }
 }
 
+/// Cell classes of a [`MaskCells`] table.
+const CELL_TRANSPARENT: u8 = 0;
+const CELL_OPAQUE: u8 = 1;
+const CELL_MIXED: u8 = 2;
+
+/// An exact shortcut for [`AlphaMask::opaque`]: for every bilinear cell (the square between
+/// four texel centres) whether the mask is opaque everywhere in it (all four corners at
+/// least the cutoff: a bilinear blend stays within its corners), transparent everywhere (all
+/// below), or mixed. Only mixed cells, along the matte's outline, need the filtered lookup;
+/// the others cost one byte read instead of four texel fetches.
+#[derive(Clone, Debug)]
+struct MaskCells {
+    width: i64,
+    height: i64,
+    repeat: bool,
+    /// `Repeat`: `height x width` cells indexed by the wrapped lower-left texel. `Clamp`:
+    /// `(height + 1) x (width + 1)` cells for lower-left texels `-1 ..= size - 1`.
+    cells: Vec<u8>,
+}
+
+impl MaskCells {
+    /// Largest table built (cells); bigger mattes use the filtered lookup only.
+    const MAX_CELLS: i64 = 1 << 26;
+
+    fn new(mask: &AlphaMask) -> Option<Self> {
+        let t = &mask.map;
+        let (w, h) = (t.width() as i64, t.height() as i64);
+        let repeat = t.wrap == lamina_leaf::Wrap::Repeat;
+        let (x_range, y_range) = if repeat { (0..w, 0..h) } else { (-1..w, -1..h) };
+        if (w + 1) * (h + 1) > Self::MAX_CELLS {
+            return None;
+        }
+        // A margin keeps rounding in the bilinear blend from ever flipping a decision.
+        let (hi, lo) = (mask.cutoff + 1e-5, mask.cutoff - 1e-5);
+        let value = |x: i64, y: i64| {
+            let s = t.texel(x, y);
+            if mask.use_alpha_channel { s.w } else { s.x }
+        };
+        let mut cells = Vec::with_capacity(
+            (x_range.end - x_range.start) as usize * (y_range.end - y_range.start) as usize,
+        );
+        for y in y_range {
+            for x in x_range.clone() {
+                let c = [
+                    value(x, y),
+                    value(x + 1, y),
+                    value(x, y + 1),
+                    value(x + 1, y + 1),
+                ];
+                cells.push(if c.iter().all(|&a| a >= hi) {
+                    CELL_OPAQUE
+                } else if c.iter().all(|&a| a < lo) {
+                    CELL_TRANSPARENT
+                } else {
+                    CELL_MIXED
+                });
+            }
+        }
+        Some(MaskCells {
+            width: w,
+            height: h,
+            repeat,
+            cells,
+        })
+    }
+
+    /// The class of the cell [`lamina_leaf::Texture::sample`] blends at `uv` (same
+    /// arithmetic, so the same cell).
+    #[inline(always)]
+    fn classify(&self, uv: Vec2) -> u8 {
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = (1.0 - uv.y) * self.height as f32 - 0.5;
+        if !(x.is_finite() && y.is_finite()) {
+            return CELL_MIXED;
+        }
+        let (x0, y0) = (x.floor() as i64, y.floor() as i64);
+        let i = if self.repeat {
+            y0.rem_euclid(self.height) * self.width + x0.rem_euclid(self.width)
+        } else {
+            (y0.clamp(-1, self.height - 1) + 1) * (self.width + 1)
+                + x0.clamp(-1, self.width - 1)
+                + 1
+        };
+        self.cells.get(i as usize).copied().unwrap_or(CELL_MIXED)
+    }
+}
+
 #[derive(Clone, Debug)]
 enum AlphaTest {
     None,
-    Mask(AlphaMask),
+    Mask(AlphaMask, Option<MaskCells>),
     Leaf(Arc<lamina_leaf::LeafMaterial>),
 }
 
@@ -141,7 +228,11 @@ impl AlphaTest {
     fn opaque(&self, uv: Vec2) -> bool {
         match self {
             AlphaTest::None => true,
-            AlphaTest::Mask(m) => m.opaque(uv),
+            AlphaTest::Mask(m, cells) => match cells.as_ref().map(|c| c.classify(uv)) {
+                Some(CELL_OPAQUE) => true,
+                Some(CELL_TRANSPARENT) => false,
+                _ => m.opaque(uv),
+            },
             AlphaTest::Leaf(l) => l.opaque(uv),
         }
     }
@@ -243,7 +334,10 @@ impl Accel {
             .iter()
             .map(|m| match m {
                 Material::Diffuse { alpha, .. } | Material::DiffuseTransmission { alpha, .. } => {
-                    alpha.clone().map_or(AlphaTest::None, AlphaTest::Mask)
+                    alpha.clone().map_or(AlphaTest::None, |m| {
+                        let cells = MaskCells::new(&m);
+                        AlphaTest::Mask(m, cells)
+                    })
                 }
                 Material::Leaf { leaf, .. } => AlphaTest::Leaf(leaf.clone()),
             })
@@ -492,5 +586,48 @@ impl Accel {
                 f32::INFINITY
             }
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec4;
+    use lamina_leaf::{Texture, Wrap};
+
+    /// The cell table agrees with the filtered lookup everywhere, for both wrap modes,
+    /// both channels, inside and outside `[0, 1]`.
+    #[test]
+    fn mask_cells_agree_with_filtered_lookup() {
+        let (w, h) = (7u32, 5u32);
+        let texels: Vec<Vec4> = (0..w * h)
+            .map(|i| {
+                let v = ((i * 37 + 11) % 10) as f32 / 9.0;
+                Vec4::new(v, 0.0, 0.0, 1.0 - v)
+            })
+            .collect();
+        for wrap in [Wrap::Repeat, Wrap::Clamp] {
+            for use_alpha_channel in [false, true] {
+                let mask = AlphaMask {
+                    map: Texture::from_texels(w, h, texels.clone(), wrap),
+                    use_alpha_channel,
+                    cutoff: 0.5,
+                };
+                let cells = MaskCells::new(&mask).unwrap();
+                let test = AlphaTest::Mask(mask.clone(), Some(cells));
+                let mut decided = 0;
+                for i in 0..4000 {
+                    let uv = Vec2::new(
+                        i as f32 / 4000.0 * 1.6 - 0.3,
+                        ((i * 7919) % 4000) as f32 / 4000.0 * 1.6 - 0.3,
+                    );
+                    assert_eq!(test.opaque(uv), mask.opaque(uv), "{wrap:?} {uv}");
+                    if let AlphaTest::Mask(_, Some(c)) = &test {
+                        decided += (c.classify(uv) != CELL_MIXED) as u32;
+                    }
+                }
+                assert!(decided > 0);
+            }
+        }
     }
 }

@@ -59,31 +59,39 @@ impl SlabPaths {
         let l = &stack.layers;
         let mu_i = [0, 1, 2].map(|k| refracted_cos(ci, l[k].ior));
         let mu_o = [0, 1, 2].map(|k| refracted_cos(co, l[k].ior));
-        // Cosine in the medium before border b (b = 0: outside).
-        let cos_before = |mu: &[f32; 3], c: f32, b: usize| if b == 0 { c } else { mu[b - 1] };
+        // Fresnel transmission of the four borders for the light path and the view path
+        // (cosine taken in the medium above border b; by reciprocity of a smooth border the
+        // same value holds for the way up).
         let border_t = |mu: &[f32; 3], c: f32, b: usize| {
             let (near, far) = stack.border_iors(b);
-            1.0 - fresnel_dielectric(cos_before(mu, c, b), far / near)
+            let cos = if b == 0 { c } else { mu[b - 1] };
+            1.0 - fresnel_dielectric(cos, far / near)
         };
+        let ti = [0, 1, 2, 3].map(|b| border_t(&mu_i, ci, b));
+        let to = [0, 1, 2, 3].map(|b| border_t(&mu_o, co, b));
         let att = |k: usize, mu: &[f32; 3]| (-l[k].sigma_t() * (l[k].d / mu[k])).exp();
+        let att_i = [0, 1, 2].map(|k| att(k, &mu_i));
+        let att_o = [0, 1, 2].map(|k| att(k, &mu_o));
+        // Suffix products for the way down to the far side (transmission).
+        let mut t_below = [1.0f32; 3];
+        let mut a_below = [Vec3::ONE; 3];
+        if transmit {
+            let (mut t, mut a) = (to[3], Vec3::ONE);
+            for k in (0..3).rev() {
+                t_below[k] = t;
+                a_below[k] = a;
+                t *= to[k];
+                a *= att_o[k];
+            }
+        }
         let mut coef = [Vec3::ZERO; 3];
-        let mut t_in = 1.0;
-        let mut a_in = Vec3::ONE;
-        let mut t_up = 1.0; // Fresnel transmission of the view path back up (reflection)
-        let mut a_up = Vec3::ONE;
+        let (mut t_in, mut a_in) = (1.0, Vec3::ONE);
+        let (mut t_up, mut a_up) = (1.0, Vec3::ONE);
         for k in 0..3 {
-            t_in *= border_t(&mu_i, ci, k);
-            t_up *= border_t(&mu_o, co, k);
+            t_in *= ti[k];
+            t_up *= to[k];
             let (t_out, a_out) = if transmit {
-                let mut t = 1.0;
-                let mut a = Vec3::ONE;
-                for b in k + 1..=3 {
-                    t *= border_t(&mu_o, co, b);
-                }
-                for j in k + 1..3 {
-                    a *= att(j, &mu_o);
-                }
-                (t, a)
+                (t_below[k], a_below[k])
             } else {
                 (t_up, a_up)
             };
@@ -97,8 +105,8 @@ impl SlabPaths {
             let p = henyey_greenstein(inv.dot(out), stack.g);
             coef[k] =
                 l[k].sigma_s * (p * t_in * t_out / (n * n * mu_i[k] * mu_o[k])) * a_in * a_out;
-            a_in *= att(k, &mu_i);
-            a_up *= att(k, &mu_o);
+            a_in *= att_i[k];
+            a_up *= att_o[k];
         }
         Some(SlabPaths {
             stack,

@@ -1,5 +1,13 @@
 //! Leaf optics for lamina.
 //!
+//! The leaf model of Franzke & Deussen as a BSDF: [`LeafMaterial`] holds a leaf's seven maps
+//! ([`LeafMaps`]) and physical parameters ([`LeafParams`]); [`LeafMaterial::bsdf`] gives the
+//! [`LeafBsdf`] at a texel, which implements [`Bsdf`]. The layer physics lives in
+//! [`layers`] (the slab), [`analytic`] (closed-form single scattering), [`march`] (the paper's
+//! ray march of the same integral), [`diffusion`] (Kubelka-Munk + adding) and [`specular`]
+//! (GGX); [`material`] documents how the maps and the physics combine. See the crate's
+//! README for the parameters, the defaults and the pictures.
+//!
 //! Everything here is pure math on local directions: no rays, no scenes. The renderer
 //! (`lamina-render`) and the GPU path call into this crate; it calls into nothing of theirs.
 //!

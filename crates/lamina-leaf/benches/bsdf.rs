@@ -1,0 +1,135 @@
+//! Micro-benchmark of the leaf BSDF: evaluations and samples per second on one core, for the
+//! closed-form single scattering (the default), the paper's ray march, and the Eq. (1) mode,
+//! plus the per-texel `LeafMaterial::bsdf` query.
+//!
+//! `cargo bench -p lamina-leaf --bench bsdf`
+
+use divan::Bencher;
+use divan::counter::ItemsCount;
+use glam::{Vec2, Vec3, Vec4};
+use lamina_leaf::march::Pcg32;
+use lamina_leaf::sampling::uniform_sphere;
+use lamina_leaf::*;
+
+const N: usize = 1024;
+
+fn main() {
+    divan::main();
+}
+
+fn directions() -> Vec<(Vec3, Vec3, Vec3)> {
+    let mut rng = Pcg32::new(1);
+    (0..N)
+        .map(|_| {
+            let wo = uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let wi = uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let u = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            (wo, wi, u)
+        })
+        .collect()
+}
+
+fn bsdf(mode: LeafMode) -> LeafBsdf {
+    let params = LeafParams {
+        mode,
+        ..Default::default()
+    };
+    LeafMaterial::new(LeafMaps::default(), params)
+        .unwrap()
+        .bsdf(Vec2::splat(0.5))
+}
+
+#[divan::bench(args = [LeafMode::Layered, LeafMode::Eq1, LeafMode::Diffuse])]
+fn eval(bencher: Bencher, mode: LeafMode) {
+    let b = bsdf(mode);
+    let d = directions();
+    bencher.counter(ItemsCount::new(N)).bench_local(|| {
+        let mut acc = Vec3::ZERO;
+        for &(wo, wi, _) in &d {
+            acc += b.eval(divan::black_box(wo), divan::black_box(wi));
+        }
+        acc
+    });
+}
+
+/// The paper's ray march in place of the closed form, with `samples` steps per layer.
+#[divan::bench(args = [1, 16, 256])]
+fn eval_marched(bencher: Bencher, samples: u32) {
+    let b = bsdf(LeafMode::Layered);
+    let d = directions();
+    let mut rng = Pcg32::new(7);
+    bencher.counter(ItemsCount::new(N)).bench_local(|| {
+        let mut acc = Vec3::ZERO;
+        for &(wo, wi, _) in &d {
+            acc += b.eval_marched(
+                divan::black_box(wo),
+                divan::black_box(wi),
+                samples,
+                &mut rng,
+            );
+        }
+        acc
+    });
+}
+
+#[divan::bench(args = [LeafMode::Layered, LeafMode::Eq1, LeafMode::Diffuse])]
+fn sample(bencher: Bencher, mode: LeafMode) {
+    let b = bsdf(mode);
+    let d = directions();
+    bencher.counter(ItemsCount::new(N)).bench_local(|| {
+        let mut acc = 0.0f32;
+        for &(wo, _, u) in &d {
+            if let Some(s) = b.sample(divan::black_box(wo), divan::black_box(u)) {
+                acc += s.pdf;
+            }
+        }
+        acc
+    });
+}
+
+#[divan::bench(args = [LeafMode::Layered, LeafMode::Eq1])]
+fn pdf(bencher: Bencher, mode: LeafMode) {
+    let b = bsdf(mode);
+    let d = directions();
+    bencher.counter(ItemsCount::new(N)).bench_local(|| {
+        let mut acc = 0.0f32;
+        for &(wo, wi, _) in &d {
+            acc += b.pdf(divan::black_box(wo), divan::black_box(wi));
+        }
+        acc
+    });
+}
+
+/// Building the texel BSDF from seven 256x256 maps (bilinear lookups, Kubelka-Munk of the
+/// texel's layers, energy bound, bump gradient).
+#[divan::bench]
+fn texel_query(bencher: Bencher) {
+    let w = 256u32;
+    let map = |f: &dyn Fn(f32, f32) -> Vec4| {
+        let texels = (0..w * w)
+            .map(|i| f((i % w) as f32 / w as f32, (i / w) as f32 / w as f32))
+            .collect();
+        Some(Texture::from_texels(w, w, texels, Wrap::Repeat))
+    };
+    let maps = LeafMaps {
+        front: map(&|u, v| Vec4::new(0.05 + 0.1 * u, 0.2, 0.03 + 0.05 * v, 1.0)),
+        back: map(&|u, _| Vec4::new(0.1, 0.25 + 0.1 * u, 0.08, 1.0)),
+        translucency: map(&|_, v| Vec4::new(0.1, 0.3, 0.02 + 0.02 * v, 1.0)),
+        alpha: map(&|u, _| Vec4::splat(if u < 0.9 { 1.0 } else { 0.0 })),
+        thickness: map(&|u, v| Vec4::splat(0.5 + 0.4 * (20.0 * u).sin() * v)),
+        extinction: map(&|u, v| Vec4::splat(0.5 + 0.4 * (20.0 * v).sin() * u)),
+        bump: map(&|u, v| Vec4::splat(0.01 * (30.0 * u).sin() * (30.0 * v).cos())),
+    };
+    let m = LeafMaterial::new(maps, LeafParams::default()).unwrap();
+    let mut rng = Pcg32::new(3);
+    let uvs: Vec<Vec2> = (0..N)
+        .map(|_| Vec2::new(rng.next_f32(), rng.next_f32()))
+        .collect();
+    bencher.counter(ItemsCount::new(N)).bench_local(|| {
+        let mut acc = 0.0f32;
+        for &uv in &uvs {
+            acc += m.bsdf(divan::black_box(uv)).diffuse_albedo().0.y;
+        }
+        acc
+    });
+}

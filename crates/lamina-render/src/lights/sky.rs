@@ -255,6 +255,23 @@ mod tests {
         EnvMap::new(w, h, texels, 30.0).unwrap()
     }
 
+    /// The documented orientation: `u = 0.5` looks along `-z`, `u = 0.75` along `+x`, rows
+    /// from the zenith down; the rotation is right-handed about `+y`.
+    #[test]
+    fn orientation_matches_the_scene_convention() {
+        let m = EnvMap::new(4, 2, vec![Vec3::ONE; 8], 0.0).unwrap();
+        let s = std::f32::consts::FRAC_1_SQRT_2;
+        assert!((m.uv_to_dir(Vec2::new(0.5, 0.25)) - Vec3::new(0.0, s, -s)).length() < 1e-5);
+        assert!((m.uv_to_dir(Vec2::new(0.75, 0.5)) - Vec3::X).length() < 1e-5);
+        assert!((m.uv_to_dir(Vec2::new(0.25, 0.5)) + Vec3::X).length() < 1e-5);
+        assert!((m.uv_to_dir(Vec2::new(0.0, 0.5)) - Vec3::Z).length() < 1e-5);
+        assert!((m.uv_to_dir(Vec2::new(0.3, 1.0)) + Vec3::Y).length() < 1e-5);
+        let r = EnvMap::new(4, 2, vec![Vec3::ONE; 8], 90.0).unwrap();
+        // R_y(90°) takes the map's -z to world -x.
+        assert!((r.uv_to_dir(Vec2::new(0.5, 0.5)) + Vec3::X).length() < 1e-5);
+        assert!((r.dir_to_uv(-Vec3::X) - Vec2::new(0.5, 0.5)).length() < 1e-5);
+    }
+
     #[test]
     fn directions_round_trip() {
         let m = test_map();

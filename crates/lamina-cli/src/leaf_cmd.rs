@@ -44,6 +44,10 @@ pub enum LeafCommand {
         /// Alpha matte (white = leaf); without it the leaf is segmented from the background.
         #[arg(long)]
         alpha: Option<PathBuf>,
+        /// Use the --alpha matte exactly as given (by default an approximate matte is refined
+        /// against the photo's background).
+        #[arg(long)]
+        no_refine_alpha: bool,
         /// Tangent-space normal map (OpenGL convention, green up).
         #[arg(long, conflicts_with = "bump")]
         normal: Option<PathBuf>,
@@ -126,6 +130,7 @@ pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
             back,
             translucency,
             alpha,
+            no_refine_alpha,
             normal,
             bump,
             dpi,
@@ -139,6 +144,7 @@ pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
             input.back = back;
             input.translucency = translucency;
             input.alpha = alpha;
+            input.refine_alpha = !no_refine_alpha;
             input.normal = normal;
             input.bump = bump;
             input.dpi = dpi;

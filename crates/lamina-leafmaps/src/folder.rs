@@ -5,7 +5,6 @@
 use crate::LeafMapsError;
 use crate::plane::{Gray, Plane, Rgb, gaussian_blur};
 use glam::Vec4;
-use image::{ImageBuffer, Luma, Rgb as ImgRgb};
 use lamina_leaf::texture::linear_to_srgb;
 use lamina_leaf::{LeafDescription, LeafMapPaths, LeafMaps, LeafParams, Texture, Wrap};
 use rayon::prelude::*;
@@ -56,13 +55,17 @@ impl MapPlanes {
         let rgb = |p: &Rgb| {
             let t = p
                 .data
-                .iter()
+                .par_iter()
                 .map(|c| Vec4::new(c[0], c[1], c[2], 1.0))
                 .collect();
             Texture::from_texels(p.width as u32, p.height as u32, t, Wrap::Clamp)
         };
         let grey = |p: &Gray| {
-            let t = p.data.iter().map(|&v| Vec4::new(v, v, v, 1.0)).collect();
+            let t = p
+                .data
+                .par_iter()
+                .map(|&v| Vec4::new(v, v, v, 1.0))
+                .collect();
             Texture::from_texels(p.width as u32, p.height as u32, t, Wrap::Clamp)
         };
         LeafMaps {
@@ -77,12 +80,45 @@ impl MapPlanes {
     }
 }
 
+/// Fast [`linear_to_srgb`] for values clamped to `[0, 1]`: a 16384-entry table with linear
+/// interpolation, below 1e-4 of the exact curve above linear 0.002 (exact below, where the
+/// curve is linear).
+#[inline]
+pub fn encode_srgb(v: f32) -> f32 {
+    use std::sync::LazyLock;
+    const N: usize = 16384;
+    static LUT: LazyLock<Vec<f32>> = LazyLock::new(|| {
+        (0..=N)
+            .map(|i| linear_to_srgb(i as f32 / N as f32))
+            .collect()
+    });
+    let v = v.clamp(0.0, 1.0);
+    if v <= 0.003_130_8 {
+        return v * 12.92;
+    }
+    let x = v * N as f32;
+    let i = (x as usize).min(N - 1);
+    let f = x - i as f32;
+    LUT[i] + (LUT[i + 1] - LUT[i]) * f
+}
+
+/// Fast sRGB decoding of a stored value in `[0, 1]` that came from an 8- or 16-bit image
+/// (a table over the 65536 16-bit codes).
+#[inline]
+pub fn decode_srgb(v: f32) -> f32 {
+    use std::sync::LazyLock;
+    static LUT: LazyLock<Vec<f32>> = LazyLock::new(|| {
+        (0..=65535u32)
+            .map(|i| lamina_leaf::texture::srgb_to_linear(i as f32 / 65535.0))
+            .collect()
+    });
+    LUT[(v.clamp(0.0, 1.0) * 65535.0 + 0.5) as usize]
+}
+
 /// Rec. 709 luma of sRGB-*encoded* values: the grey a scanner's grey-scale mode gives.
 #[inline]
 pub fn luma_encoded(lin: [f32; 3]) -> f32 {
-    0.2126 * linear_to_srgb(lin[0].clamp(0.0, 1.0))
-        + 0.7152 * linear_to_srgb(lin[1].clamp(0.0, 1.0))
-        + 0.0722 * linear_to_srgb(lin[2].clamp(0.0, 1.0))
+    0.2126 * encode_srgb(lin[0]) + 0.7152 * encode_srgb(lin[1]) + 0.0722 * encode_srgb(lin[2])
 }
 
 /// Extinction from the through-light colour (the paper: "a grey-scale version of the image
@@ -165,6 +201,30 @@ fn encode_err(path: &Path, source: image::ImageError) -> LeafMapsError {
     }
 }
 
+/// Writes raw image bytes as PNG with fast compression (the maps are large; zlib's fast
+/// level costs a few percent of size and saves most of the time).
+fn save_png(
+    path: &Path,
+    bytes: &[u8],
+    w: usize,
+    h: usize,
+    color: image::ExtendedColorType,
+) -> Result<(), LeafMapsError> {
+    use image::ImageEncoder;
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    let file = std::fs::File::create(path).map_err(|cause| LeafMapsError::Write {
+        path: path.to_owned(),
+        cause,
+    })?;
+    let enc = PngEncoder::new_with_quality(
+        std::io::BufWriter::new(file),
+        CompressionType::Fast,
+        FilterType::Adaptive,
+    );
+    enc.write_image(bytes, w as u32, h as u32, color)
+        .map_err(|e| encode_err(path, e))
+}
+
 /// Writes linear RGB as an 8-bit sRGB PNG.
 pub fn write_srgb_png(path: &Path, p: &Rgb) -> Result<(), LeafMapsError> {
     let mut buf = vec![0u8; p.width * p.height * 3];
@@ -172,12 +232,16 @@ pub fn write_srgb_png(path: &Path, p: &Rgb) -> Result<(), LeafMapsError> {
         .zip(p.data.par_iter())
         .for_each(|(o, c)| {
             for k in 0..3 {
-                o[k] = (linear_to_srgb(c[k].clamp(0.0, 1.0)) * 255.0 + 0.5) as u8;
+                o[k] = (encode_srgb(c[k]) * 255.0 + 0.5) as u8;
             }
         });
-    let img: ImageBuffer<ImgRgb<u8>, _> =
-        ImageBuffer::from_raw(p.width as u32, p.height as u32, buf).expect("buffer size");
-    img.save(path).map_err(|e| encode_err(path, e))
+    save_png(
+        path,
+        &buf,
+        p.width,
+        p.height,
+        image::ExtendedColorType::Rgb8,
+    )
 }
 
 /// Writes a grey plane with values in `[0, 1]` as a 16-bit linear PNG.
@@ -187,9 +251,14 @@ pub fn write_gray16_png(path: &Path, p: &Gray) -> Result<(), LeafMapsError> {
         .par_iter()
         .map(|v| (v.clamp(0.0, 1.0) * 65535.0 + 0.5) as u16)
         .collect();
-    let img: ImageBuffer<Luma<u16>, _> =
-        ImageBuffer::from_raw(p.width as u32, p.height as u32, buf).expect("buffer size");
-    img.save(path).map_err(|e| encode_err(path, e))
+    let bytes: Vec<u8> = buf.iter().flat_map(|v| v.to_ne_bytes()).collect();
+    save_png(
+        path,
+        &bytes,
+        p.width,
+        p.height,
+        image::ExtendedColorType::L16,
+    )
 }
 
 fn write_err(path: &Path) -> impl FnOnce(std::io::Error) -> LeafMapsError + '_ {

@@ -107,7 +107,7 @@ impl GeneratedLeaf {
 // ---------------------------------------------------------------------------------------
 // Outline
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 struct LobeGeo {
     dir: Vec2,
     perp: Vec2,
@@ -120,6 +120,21 @@ struct LobeGeo {
     tooth_phase: [f32; 2],
     sinus_phase: [f32; 2],
     sinus_seed: u32,
+    /// The profile tabulated at `PROFILE_N + 1` points of `t` (the profile is the hot spot of
+    /// the outline function, with two `powf`).
+    lut: Vec<f32>,
+}
+
+const PROFILE_N: usize = 2048;
+
+impl LobeGeo {
+    #[inline]
+    fn profile(&self, t: f32) -> f32 {
+        let x = t.clamp(0.0, 1.0) * PROFILE_N as f32;
+        let i = (x as usize).min(PROFILE_N - 1);
+        let f = x - i as f32;
+        self.lut[i] + (self.lut[i + 1] - self.lut[i]) * f
+    }
 }
 
 struct Shape {
@@ -191,7 +206,7 @@ impl Shape {
     /// apex by it (they point forward, as oak lobes do).
     fn half_width(&self, i: usize, t: f32, side: usize, lat: f32) -> f32 {
         let l = &self.lobes[i];
-        let pr = profile(l.profile, t);
+        let pr = l.profile(t);
         let mut hw = l.len * l.hw * pr * l.asym[side];
         if i == 0
             && let Some(s) = self.sinuses
@@ -284,7 +299,7 @@ fn build_shape(p: &Preset, rng: &mut Rng, petiole_r: f32) -> Shape {
                 rng.range(-5.0, 5.0)
             };
             let dir = rot(Vec2::Y, l.angle_deg + jitter_angle);
-            LobeGeo {
+            let mut g = LobeGeo {
                 dir,
                 perp: rot(dir, 90.0),
                 len: l.length * if i == 0 { 1.0 } else { rng.range(0.92, 1.08) },
@@ -304,7 +319,12 @@ fn build_shape(p: &Preset, rng: &mut Rng, petiole_r: f32) -> Shape {
                     [a, a + rng.range(0.35, 0.6)]
                 },
                 sinus_seed: (rng.next_f32() * 1.0e6) as u32,
-            }
+                lut: Vec::new(),
+            };
+            g.lut = (0..=PROFILE_N)
+                .map(|k| profile(g.profile, k as f32 / PROFILE_N as f32))
+                .collect();
+            g
         })
         .collect();
     Shape {
@@ -663,7 +683,9 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
     let px_per_mm = ppu / mm_per_unit;
     let midrib_r = 0.5 * p.venation.midrib_mm / mm_per_unit;
 
+    let mut timer = crate::PhaseTimer::new();
     let segs = build_veins(&shape, p, midrib_r, &mut rng);
+    timer.lap("veins grown");
     let (vmaj, hmaj) = raster_veins(
         &segs,
         &shape,
@@ -673,9 +695,11 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
         midrib_r,
     );
 
+    timer.lap("veins rasterised");
     // Outline function on the grid (for alpha and the distance to the margin).
     let fgrid = Plane::from_fn(w, h, |x, y| shape.f(shape.to_design(grid.card(x, y))) * ppu);
 
+    timer.lap("outline");
     let pal = &p.palette;
     let c_front = srgb8_to_linear(pal.front);
     let c_front_vein = srgb8_to_linear(pal.front_vein);
@@ -700,8 +724,25 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
     // Per pixel: (front, back, translucency, alpha, bump).
     type Px = ([f32; 3], [f32; 3], [f32; 3], f32, f32);
     let cov = |r_px: f32, d_px: f32| (r_px + 0.5 - d_px).clamp(0.0, 1.0) * (2.0 * r_px).min(1.0);
+    // Low-frequency fields (domain warp of the areole net, mottling, pigment variation) on a
+    // grid 4x coarser, bilinearly interpolated: they vary over many pixels, and noise is the
+    // inner-loop cost.
+    let k = if w.min(h) >= 512 { 4 } else { 1 };
+    let low = Plane::from_fn(w / k + 2, h / k + 2, |cx, cy| {
+        let (x, y) = ((cx * k).min(w - 1), (cy * k).min(h - 1));
+        let q = shape.to_design(grid.card(x, y));
+        let u = if areole > 0.0 { q / areole } else { Vec2::ZERO };
+        [
+            fbm(u.x * 0.35, u.y * 0.35, s[0], 2),
+            fbm(u.x * 0.35 + 5.2, u.y * 0.35, s[1], 2),
+            fbm(q.x * 3.0, q.y * 3.0, s[4], 4),
+            fbm(q.x * 7.0 + 31.0, q.y * 7.0, s[5], 3),
+        ]
+    });
     let pixels: Plane<Px> = Plane::from_fn(w, h, |x, y| {
         let i = y * w + x;
+        // Pixel (x, y) sits at coarse coordinates x / k (coarse centres at k * cx).
+        let lf = low.bilinear(x as f32 / k as f32 + 0.5, y as f32 / k as f32 + 0.5);
         let q = shape.to_design(grid.card(x, y));
         let f = fgrid.data[i];
         let fx = fgrid.get_clamped(x as isize + 1, y as isize)
@@ -718,10 +759,7 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
         let (mut vt, mut vq, mut bulge) = (0.0f32, 0.0f32, 0.0f32);
         if areole > 0.0 {
             let u = q / areole;
-            let wv = Vec2::new(
-                fbm(u.x * 0.35, u.y * 0.35, s[0], 2),
-                fbm(u.x * 0.35 + 5.2, u.y * 0.35, s[1], 2),
-            );
+            let wv = Vec2::new(lf[0], lf[1]);
             let (f1, f2) = worley(u.x + 0.45 * wv.x, u.y + 0.45 * wv.y, s[2], 0.95);
             let ed = 0.5 * (f2 - f1) * areole * ppu;
             vt = cov(0.07 * px_per_mm, ed);
@@ -766,8 +804,7 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
         }
 
         // Noise fields (design units ~ leaf length).
-        let mottle = fbm(q.x * 3.0, q.y * 3.0, s[4], 4);
-        let chl = fbm(q.x * 7.0 + 31.0, q.y * 7.0, s[5], 3);
+        let (mottle, chl) = (lf[2], lf[3]);
         let gs = 1.0 / (0.12 / mm_per_unit);
         let grain = gradient(q.x * gs, q.y * gs, s[0] ^ 0x55);
         let m = pal.mottle;
@@ -809,6 +846,7 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
         (clamp3(front), clamp3(back), clamp3(tr), alpha, bump)
     });
 
+    timer.lap("pixels");
     let front: Rgb = pixels.map(|p| p.0);
     let back: Rgb = pixels.map(|p| p.1);
     let translucency: Rgb = pixels.map(|p| p.2);
@@ -817,6 +855,7 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
     drop(pixels);
     let extinction = extinction_from_translucency(&translucency);
     let thickness = thickness_from_extinction(&extinction, &alpha, 0.3 * px_per_mm, 1.5);
+    timer.lap("extinction+thickness");
     let planes = MapPlanes {
         front,
         back,
@@ -831,8 +870,10 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
     // One unit of bump map value spans 2 * range_mm; express it in texture-space units,
     // taking the geometric mean of the card sides as the texture-space unit length.
     params.bump_scale = (2.0 * range_mm / 1000.0 / (size_m.0 * size_m.1).sqrt()).clamp(0.0, 1.0);
+    let maps = planes.to_leaf_maps();
+    timer.lap("textures");
     GeneratedLeaf {
-        maps: planes.to_leaf_maps(),
+        maps,
         params,
         size_m,
         planes,

@@ -42,6 +42,29 @@ pub use species::{Preset, Species, UnknownSpecies};
 
 use std::path::PathBuf;
 
+/// Phase timer: prints `phase: seconds` to stderr when the environment variable
+/// `LAMINA_LEAFMAPS_TIMING` is set (for profiling the speed figures); silent otherwise.
+pub(crate) struct PhaseTimer {
+    on: bool,
+    last: std::time::Instant,
+}
+
+impl PhaseTimer {
+    pub(crate) fn new() -> Self {
+        PhaseTimer {
+            on: std::env::var_os("LAMINA_LEAFMAPS_TIMING").is_some(),
+            last: std::time::Instant::now(),
+        }
+    }
+
+    pub(crate) fn lap(&mut self, phase: &str) {
+        if self.on {
+            eprintln!("  {phase}: {:.3} s", self.last.elapsed().as_secs_f64());
+        }
+        self.last = std::time::Instant::now();
+    }
+}
+
 /// Why a leaf folder could not be made or read. Every variant names the file concerned.
 #[derive(Debug, thiserror::Error)]
 pub enum LeafMapsError {

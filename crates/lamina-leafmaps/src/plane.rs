@@ -124,6 +124,7 @@ impl Lerp for [f32; 3] {
 }
 
 impl Lerp for [f32; 4] {
+    // (also the coarse noise grids of `generate`)
     #[inline]
     fn lerp(a: Self, b: Self, t: f32) -> Self {
         [
@@ -396,9 +397,15 @@ pub fn fill_holes(mask: &mut Plane<bool>) {
         .for_each(|(m, o)| *m = *m || !*o);
 }
 
-/// Removes specks: 8-connected components of set pixels smaller than `min_area` pixels are
-/// cleared. Returns the number of components kept.
-pub fn remove_specks(mask: &mut Plane<bool>, min_area: usize) -> usize {
+/// Sizes of the 8-connected components of set pixels.
+pub fn component_sizes(mask: &Plane<bool>) -> Vec<usize> {
+    let (_, sizes) = label_components(mask);
+    sizes.into_iter().skip(1).collect()
+}
+
+/// Labels 8-connected components (label 0 = unset); returns the labels and the size of each
+/// label (index 0 unused).
+fn label_components(mask: &Plane<bool>) -> (Vec<u32>, Vec<usize>) {
     let (w, h) = (mask.width, mask.height);
     let mut label = vec![0u32; w * h];
     let mut next = 0u32;
@@ -431,6 +438,13 @@ pub fn remove_specks(mask: &mut Plane<bool>, min_area: usize) -> usize {
         }
         sizes.push(size);
     }
+    (label, sizes)
+}
+
+/// Removes specks: 8-connected components of set pixels smaller than `min_area` pixels are
+/// cleared. Returns the number of components kept.
+pub fn remove_specks(mask: &mut Plane<bool>, min_area: usize) -> usize {
+    let (label, sizes) = label_components(mask);
     let keep: Vec<bool> = sizes.iter().map(|&s| s >= min_area).collect();
     mask.data
         .par_iter_mut()

@@ -15,6 +15,11 @@
 //!   mattes are cleaned: holes not connected to the border are filled (pale veins and glints
 //!   that the threshold cut out) and specks smaller than 0.05 % of the image or 2 % of the
 //!   largest part are removed. A matte that keeps nothing is an error naming the file.
+//!   A given matte is *refined* against the photo by default (approximate mattes such as
+//!   outlines rasterised from a few points are common): see `refine_matte` — the background
+//!   colour is the median outside the matte, and within the matte widened by 1.5 % of the
+//!   image Otsu's threshold on the distance to it decides; the refinement is kept only when
+//!   the separation is clear and the area stays within 50-150 % of the given matte.
 //! * **Translucency** — the scan, if given. Otherwise derived from the front (through-light is
 //!   yellow-green with dark veins): `T = c_T * (Y/Ȳ)^0.5 * (1 - 0.6 v)`, where `c_T` is a
 //!   yellow-green transmittance (sRGB 118, 146, 34) scaled so its green equals the front's
@@ -41,7 +46,7 @@
 
 use crate::LeafMapsError;
 use crate::folder::{
-    MapPlanes, extinction_from_translucency, luma_encoded, thickness_from_extinction,
+    MapPlanes, decode_srgb, extinction_from_translucency, luma_encoded, thickness_from_extinction,
     write_leaf_folder,
 };
 use crate::plane::{
@@ -50,7 +55,6 @@ use crate::plane::{
 use crate::species::srgb8_to_linear;
 use glam::Vec3;
 use lamina_leaf::LeafParams;
-use lamina_leaf::texture::srgb_to_linear;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -74,6 +78,9 @@ pub struct PrepareInput {
     /// Standard deviation of the thickness blur: millimetres when `dpi` is given, else
     /// pixels. `None`: 0.5 mm, or 0.5 % of the longer image side without `dpi`.
     pub blur_radius: Option<f32>,
+    /// Refine a given (approximate) matte against the photo's background, see the module
+    /// docs. Default `true`.
+    pub refine_alpha: bool,
     /// Leaf model parameters written to `leaf.toml` (`bump_scale` is replaced when the bump
     /// comes from a normal map).
     pub params: LeafParams,
@@ -93,6 +100,7 @@ impl PrepareInput {
             bump: None,
             dpi: None,
             blur_radius: None,
+            refine_alpha: true,
             params: LeafParams::default(),
             out: out.into(),
         }
@@ -212,11 +220,7 @@ fn to_linear_rgb(s: &Stored) -> Rgb {
         if float {
             [c[0], c[1], c[2]]
         } else {
-            [
-                srgb_to_linear(c[0].min(1.0)),
-                srgb_to_linear(c[1].min(1.0)),
-                srgb_to_linear(c[2].min(1.0)),
-            ]
+            [decode_srgb(c[0]), decode_srgb(c[1]), decode_srgb(c[2])]
         }
     })
 }
@@ -310,52 +314,85 @@ fn clean_mask(mask: &mut Plane<bool>, fill: bool) {
         fill_holes(mask);
     }
     let total = mask.width * mask.height;
-    // Largest component first (min area 0), then drop the small ones.
-    let mut probe = mask.clone();
-    let largest = largest_component(&mut probe);
+    let sizes = crate::plane::component_sizes(mask);
+    let largest = sizes.iter().copied().max().unwrap_or(0);
     let min_area = ((total as f32 * 0.0005) as usize)
         .max((largest as f32 * 0.02) as usize)
         .max(4);
     remove_specks(mask, min_area);
 }
 
-fn largest_component(mask: &mut Plane<bool>) -> usize {
+/// Widens a mask by about `r` pixels (blur, then a low threshold).
+fn dilate(mask: &Plane<bool>, r: f32) -> Plane<bool> {
+    let g = gaussian_blur(&mask.map(|m| if m { 1.0 } else { 0.0 }), 0.5 * r);
+    g.map(|v| v > 0.03)
+}
+
+/// Refines an approximate matte against the photo: the background colour is the median of
+/// the photo outside the (widened) matte; inside the matte widened by 1.5 % of the image,
+/// pixels are leaf where their distance to that colour exceeds Otsu's threshold. Accepted
+/// only when leaf and background separate well (separability >= 0.5) and the refined matte
+/// keeps between 50 % and 150 % of the given one; returns it with the separability and the
+/// threshold.
+fn refine_matte(mask: &Plane<bool>, photo: &Plane<[f32; 4]>) -> Option<(Plane<bool>, f32, f32)> {
     let (w, h) = (mask.width, mask.height);
-    let mut best = 0;
-    let mut stack = Vec::new();
-    for start in 0..w * h {
-        if !mask.data[start] {
-            continue;
-        }
-        mask.data[start] = false;
-        stack.push(start);
-        let mut size = 0;
-        while let Some(i) = stack.pop() {
-            size += 1;
-            let (x, y) = ((i % w) as isize, (i / w) as isize);
-            for (dx, dy) in [
-                (-1, 0),
-                (1, 0),
-                (0, -1),
-                (0, 1),
-                (-1, -1),
-                (1, 1),
-                (-1, 1),
-                (1, -1),
-            ] {
-                let (nx, ny) = (x + dx, y + dy);
-                if nx >= 0 && ny >= 0 && nx < w as isize && ny < h as isize {
-                    let j = ny as usize * w + nx as usize;
-                    if mask.data[j] {
-                        mask.data[j] = false;
-                        stack.push(j);
-                    }
-                }
-            }
-        }
-        best = best.max(size);
+    let r = 0.015 * w.max(h) as f32;
+    let band = dilate(mask, r);
+    let outside: Vec<[f32; 4]> = photo
+        .data
+        .iter()
+        .zip(&band.data)
+        .step_by(3)
+        .filter(|(_, b)| !**b)
+        .map(|(c, _)| *c)
+        .collect();
+    if outside.len() < 64 {
+        return None;
     }
-    best
+    let bg: [f32; 3] =
+        std::array::from_fn(|k| median(outside.iter().map(|c| c[k].min(1.0)).collect()));
+    let d = photo.map(|c| {
+        let e = [
+            c[0].min(1.0) - bg[0],
+            c[1].min(1.0) - bg[1],
+            c[2].min(1.0) - bg[2],
+        ];
+        (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt()
+    });
+    let t = otsu(&d, Some(&band))?;
+    // Separability within the band.
+    let inband = Plane {
+        width: 1,
+        height: 1,
+        data: d
+            .data
+            .iter()
+            .zip(&band.data)
+            .filter(|(_, b)| **b)
+            .map(|(v, _)| *v)
+            .collect::<Vec<_>>(),
+    };
+    let eta = separability(&inband, t);
+    let mut refined = Plane {
+        width: w,
+        height: h,
+        data: d
+            .data
+            .par_iter()
+            .zip(band.data.par_iter())
+            .map(|(v, b)| *b && *v > t)
+            .collect(),
+    };
+    clean_mask(&mut refined, true);
+    let n0 = mask.data.iter().filter(|m| **m).count() as f32;
+    let n1 = refined.data.iter().filter(|m| **m).count() as f32;
+    if std::env::var_os("LAMINA_LEAFMAPS_TIMING").is_some() {
+        eprintln!(
+            "  refine_matte: bg {bg:?} threshold {t:.3} separability {eta:.2} area ratio {:.2}",
+            n1 / n0
+        );
+    }
+    (eta >= 0.5 && n1 >= 0.5 * n0 && n1 <= 1.5 * n0).then_some((refined, eta, t))
 }
 
 /// Prepares a leaf folder from captures (see the module docs for every heuristic).
@@ -381,6 +418,7 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
     }
     input.params.validate()?;
 
+    let mut timer = crate::PhaseTimer::new();
     // Front.
     let front_s = load_stored(&input.front)?;
     let size = (front_s.rgba.width, front_s.rgba.height);
@@ -395,6 +433,7 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
     check_not_uniform(&input.front, &front, "front photo")?;
     prov.push(format!("front: {}", input.front.display()));
 
+    timer.lap("load front");
     // Translucency scan (loaded early: it helps segmentation).
     let scan = match &input.translucency {
         Some(p) => {
@@ -412,6 +451,7 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
         None => None,
     };
 
+    timer.lap("load scan");
     // Alpha.
     let (mut mask, alpha_src, fill) = if let Some(p) = &input.alpha {
         let s = load_sized(p, size, &mut warnings)?;
@@ -473,6 +513,20 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
         (f.map(|v| v > t), input.front.clone(), true)
     };
     clean_mask(&mut mask, fill);
+    if input.alpha.is_some() && input.refine_alpha {
+        match refine_matte(&mask, &front_s.rgba) {
+            Some((refined, eta, t)) => {
+                mask = refined;
+                prov.push(format!(
+                    "alpha: refined against the photo (background colour = median outside the matte; within the matte widened by 1.5 % of the image, Otsu threshold {t:.3} on the distance to it, separability {eta:.2})"
+                ));
+            }
+            None => prov.push(
+                "alpha: the matte was used as given (refinement against the photo found no clear background)".into(),
+            ),
+        }
+    }
+    timer.lap("alpha");
     let kept = mask.data.par_iter().filter(|m| **m).count();
     let alpha_fraction = kept as f32 / (w * h) as f32;
     if kept == 0 {
@@ -508,7 +562,31 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
     // Luminance detail of the front: relative high-pass (veins are paler on the upper side).
     let y_front: Gray = front.map(luminance);
     let detail_sigma = (0.004 * w.max(h) as f32).max(1.5);
-    let y_blur = gaussian_blur(&y_front, detail_sigma);
+    // Local mean inside the leaf only (normalised convolution), so the margin against the
+    // background does not read as detail.
+    let alpha_blur = gaussian_blur(&alpha, detail_sigma);
+    let ya = Plane {
+        width: w,
+        height: h,
+        data: y_front
+            .data
+            .par_iter()
+            .zip(alpha.data.par_iter())
+            .map(|(y, a)| y * a)
+            .collect(),
+    };
+    let y_blur = gaussian_blur(&ya, detail_sigma);
+    let y_blur = Plane {
+        width: w,
+        height: h,
+        data: y_blur
+            .data
+            .par_iter()
+            .zip(alpha_blur.data.par_iter())
+            .zip(y_front.data.par_iter())
+            .map(|((b, a), y)| if *a > 0.05 { b / a } else { *y })
+            .collect(),
+    };
     let highpass: Gray = Plane {
         width: w,
         height: h,
@@ -532,6 +610,7 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
     let front_mean = mean_of(&front);
     let y_mean = luminance(front_mean.to_array()).max(1e-4);
 
+    timer.lap("detail");
     // Bump.
     let mut params = input.params;
     let mut ridge: Option<Gray> = None;
@@ -556,7 +635,7 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
         }
         let gx = n.map(|v| -v[0] / v[2]);
         let gy = n.map(|v| v[1] / v[2]);
-        let hf = integrate_gradients(&gx, &gy, 6);
+        let hf = integrate_gradients(&gx, &gy, 4);
         // Remove the large-scale bend (a leaf card is flat; the bump is for fine relief).
         let base = gaussian_blur(&hf, 0.02 * w.max(h) as f32);
         let rel: Gray = Plane {
@@ -569,6 +648,9 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
                 .map(|(a, b)| a - b)
                 .collect(),
         };
+        // Centre on the leaf's own mean height, so the blade sits at 0.5.
+        let centre = rel.masked_mean(&mask).unwrap_or(0.0);
+        let rel = rel.map(|v| v - centre);
         let range = percentile_abs(&rel, &mask, 0.995).max(1e-3);
         params.bump_scale = (2.0 * range / (w as f32 * h as f32).sqrt()).clamp(0.0, 1.0);
         prov.push(format!(
@@ -597,6 +679,7 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
             .collect(),
     };
 
+    timer.lap("bump");
     // Vein mask from the front's detail (and the bump's grooves).
     let hp_range = percentile_abs(&highpass, &mask, 0.99).max(1e-3);
     let veins: Gray = Plane::from_fn(w, h, |x, y| {
@@ -606,6 +689,7 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
         v.max(r)
     });
 
+    timer.lap("veins");
     // Translucency.
     let translucency: Rgb = match scan {
         Some((p, _, rgb)) => {
@@ -663,6 +747,7 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
         }
     };
 
+    timer.lap("translucency+back");
     let extinction = extinction_from_translucency(&translucency);
     let thickness = thickness_from_extinction(&extinction, &alpha, sigma_px, 1.5);
     prov.push(format!(
@@ -671,6 +756,7 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
         px_per_mm.map_or(String::new(), |p| format!(" = {:.2} mm", sigma_px / p))
     ));
 
+    timer.lap("extinction+thickness");
     let maps = MapPlanes {
         front,
         back,
@@ -688,6 +774,7 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
         comments.push(format!("warning: {wmsg}"));
     }
     let dir = write_leaf_folder(&input.out, &maps, &params, &comments)?;
+    timer.lap("write folder");
     Ok(Prepared {
         dir,
         maps,

@@ -19,7 +19,7 @@
 //!
 //! **Energy**: `lambda` (per texel and channel, `<= 1`) scales the colours down where the
 //! maps ask for more than light can give: for every incidence angle on either side,
-//! `specular albedo + C_R rho_R / A_R + C_T rho_T / A_T <= 0.995` (`rho` = directional
+//! `specular albedo + C_R rho_R / A_R + C_T rho_T / A_T <= 0.99` (`rho` = directional
 //! albedo of the physical lobe), with `rho / A` tabulated here at 24 incidence angles and
 //! taken at its maximum over the extreme thickness and extinction values the maps contain.
 //! White maps thus give `R + T < 1` at every angle, not `R + T = 2`. (A bump map's shading
@@ -42,7 +42,7 @@ use std::path::Path;
 /// plus normal incidence.
 const TABLE_N: usize = 48;
 /// Safety margin of the energy bound (numerical integration error).
-const ENERGY_MARGIN: f32 = 0.995;
+const ENERGY_MARGIN: f32 = 0.99;
 
 /// One incidence angle of the energy table: specular albedo and the largest
 /// `rho / A` of the reflection and transmission lobes.
@@ -65,6 +65,9 @@ struct Precomputed {
     a_layered: [Vec3; 3],
     /// Light from the adaxial side, then from the abaxial side.
     table: [[EnergyRow; TABLE_N + 1]; 2],
+    /// Bound on the total albedo: [`ENERGY_MARGIN`], or exactly 1 where the table is exact
+    /// (diffuse mode without specular lobe, so the diffuse limit holds up to `R + T = 1`).
+    margin: f32,
 }
 
 /// A leaf's maps and validated parameters. `Send + Sync`; per-texel queries are cheap and
@@ -96,8 +99,9 @@ fn directional_albedos(b: &LeafBsdf, mu: f32) -> [Vec3; 4] {
         let d = &b.diffusion;
         return [d.r_top, d.r_bottom, d.t, d.t];
     }
-    const NM: usize = 32;
-    const NP: usize = 24;
+    // Midpoints; the integrand is smooth and periodic in phi, so few phi points suffice.
+    const NM: usize = 24;
+    const NP: usize = 12;
     let s = (1.0 - mu * mu).max(0.0).sqrt();
     let up = Vec3::new(s, 0.0, mu);
     let down = Vec3::new(s, 0.0, -mu);
@@ -151,11 +155,11 @@ impl Precomputed {
             }
             (a, rows)
         };
-        let (a_layered, _) = white_sky(LeafMode::Layered);
-        let (a_mode, nominal_rows) = if params.mode == LeafMode::Layered {
-            white_sky(LeafMode::Layered)
+        let (a_mode, nominal_rows) = white_sky(params.mode);
+        let a_layered = if params.mode == LeafMode::Layered {
+            a_mode
         } else {
-            white_sky(params.mode)
+            white_sky(LeafMode::Layered).0
         };
         let safe = |v: Vec3| v.max(Vec3::splat(1e-30));
         let a_mode = a_mode.map(safe);
@@ -209,12 +213,18 @@ impl Precomputed {
                 };
             }
         }
+        let margin = if params.mode == LeafMode::Diffuse && params.specular == 0.0 {
+            1.0
+        } else {
+            ENERGY_MARGIN
+        };
         Precomputed {
             borders,
             r_out,
             a_mode,
             a_layered,
             table,
+            margin,
         }
     }
 
@@ -224,7 +234,7 @@ impl Precomputed {
         for (side, c_r) in [(0, c_front), (1, c_back)] {
             for row in &self.table[side] {
                 let demand = c_r * row.refl + c_t * row.trans;
-                let room = (ENERGY_MARGIN - row.spec).max(0.0);
+                let room = (self.margin - row.spec).max(0.0);
                 lambda = lambda.min(Vec3::splat(room) / demand.max(Vec3::splat(1e-12)));
             }
         }

@@ -291,38 +291,52 @@ fn diffuse_transmission_is_symmetric() {
 
 #[test]
 fn diffuse_limit_is_exactly_lambertian_r_plus_t() {
-    let (r, t) = (Vec3::new(0.12, 0.35, 0.08), Vec3::new(0.1, 0.4, 0.05));
-    let params = LeafParams {
-        mode: LeafMode::Diffuse,
-        specular: 0.0,
-        ..Default::default()
-    };
-    let maps = LeafMaps {
-        front: constant(r),
-        back: constant(r),
-        translucency: constant(t),
-        ..Default::default()
-    };
-    // Texture colours are sRGB-decoded on load, `constant` holds linear values already.
-    let b = material(maps, params).bsdf(Vec2::new(0.3, 0.8));
-    let reference = DiffuseTransmission {
-        reflectance: r,
-        transmittance: t,
-    };
-    let mut rng = Pcg32::new(5);
-    for _ in 0..10_000 {
-        let wo = sampling::uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
-        let wi = sampling::uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
-        let (a, e) = (b.eval(wo, wi), reference.eval(wo, wi));
-        assert!(
-            (a - e).abs().max_element() <= 1e-6 * (1.0 + e.max_element()),
-            "{a} {e}"
-        );
-        let (pa, pe) = (b.pdf(wo, wi), reference.pdf(wo, wi));
-        assert!((pa - pe).abs() <= 1e-5 * (1.0 + pe), "{pa} {pe}");
+    for (r, t) in [
+        (Vec3::new(0.12, 0.35, 0.08), Vec3::new(0.1, 0.4, 0.05)),
+        // R + T = 1: a non-absorbing leaf.
+        (Vec3::new(0.5, 0.625, 0.25), Vec3::new(0.5, 0.375, 0.75)),
+    ] {
+        let params = LeafParams {
+            mode: LeafMode::Diffuse,
+            specular: 0.0,
+            ..Default::default()
+        };
+        let maps = LeafMaps {
+            front: constant(r),
+            back: constant(r),
+            translucency: constant(t),
+            ..Default::default()
+        };
+        // `constant` holds linear values (no sRGB decoding).
+        let b = material(maps, params).bsdf(Vec2::new(0.3, 0.8));
+        let reference = DiffuseTransmission {
+            reflectance: r,
+            transmittance: t,
+        };
+        let mut rng = Pcg32::new(5);
+        for _ in 0..10_000 {
+            let wo = sampling::uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let wi = sampling::uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let (a, e) = (b.eval(wo, wi), reference.eval(wo, wi));
+            assert!(
+                (a - e).abs().max_element() <= 1e-6 * (1.0 + e.max_element()),
+                "{a} {e}"
+            );
+            let (pa, pe) = (b.pdf(wo, wi), reference.pdf(wo, wi));
+            assert!((pa - pe).abs() <= 1e-5 * (1.0 + pe), "{pa} {pe}");
+            let u = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let (sa, se) = (b.sample(wo, u), reference.sample(wo, u));
+            assert_eq!(sa.is_some(), se.is_some());
+            if let (Some(sa), Some(se)) = (sa, se) {
+                assert!(
+                    (sa.wi - se.wi).length() < 1e-6
+                        && (sa.weight() - se.weight()).abs().max_element() < 1e-5
+                );
+            }
+        }
+        let (ra, ta) = b.diffuse_albedo();
+        assert!((ra - r).abs().max_element() < 1e-6 && (ta - t).abs().max_element() < 1e-6);
     }
-    let (ra, ta) = b.diffuse_albedo();
-    assert!((ra - r).abs().max_element() < 1e-6 && (ta - t).abs().max_element() < 1e-6);
 }
 
 // ---------------------------------------------------------------- continuity
@@ -836,4 +850,45 @@ fn material_is_send_sync_and_bsdf_is_copy() {
     fn copy<T: Copy>() {}
     check::<LeafMaterial>();
     copy::<LeafBsdf>();
+}
+
+#[test]
+fn loads_png_16_bit_png_and_exr_maps_of_different_sizes() {
+    let dir = std::env::temp_dir().join(format!("lamina-leaf-maps-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // 8-bit sRGB front photo, 4x2: sRGB 128 decodes to linear 0.2158.
+    image::RgbImage::from_pixel(4, 2, image::Rgb([128, 128, 128]))
+        .save(dir.join("front.png"))
+        .unwrap();
+    // 16-bit grey thickness map, 3x3, linear.
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_pixel(3, 3, image::Luma([49151]))
+        .save(dir.join("thickness.png"))
+        .unwrap();
+    // Float EXR extinction map, 5x1, linear.
+    image::Rgb32FImage::from_pixel(5, 1, image::Rgb([0.25, 0.25, 0.25]))
+        .save(dir.join("extinction.exr"))
+        .unwrap();
+    let toml_text = r#"
+        [maps]
+        front = "front.png"
+        thickness = "thickness.png"
+        extinction = "extinction.exr"
+        wrap = "clamp"
+    "#;
+    std::fs::write(dir.join("leaf.toml"), toml_text).unwrap();
+    let desc = LeafDescription::from_toml_file(&dir.join("leaf.toml")).unwrap();
+    let t0 = std::time::Instant::now();
+    let m = LeafMaterial::load(&desc, &dir).unwrap();
+    eprintln!("LeafMaterial::load with maps: {:?}", t0.elapsed());
+    let maps = m.maps();
+    let uv = Vec2::new(0.4, 0.6);
+    assert!((maps.front.as_ref().unwrap().rgb(uv).x - 0.2158).abs() < 1e-3);
+    assert!((maps.thickness.as_ref().unwrap().scalar(uv) - 0.75).abs() < 1e-3);
+    assert!((maps.extinction.as_ref().unwrap().scalar(uv) - 0.25).abs() < 1e-6);
+    assert_eq!(maps.front.as_ref().unwrap().wrap, Wrap::Clamp);
+    // The thickness map thickens the blade: the texel's stack is 1.25x nominal.
+    let b = m.bsdf(uv);
+    let d: f32 = b.stack().layers.iter().map(|l| l.d).sum();
+    assert!((d - 0.25 * 1.25).abs() < 1e-3, "{d}");
+    std::fs::remove_dir_all(&dir).ok();
 }

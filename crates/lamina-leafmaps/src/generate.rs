@@ -507,7 +507,7 @@ fn build_veins(shape: &Shape, p: &Preset, midrib_r: f32, rng: &mut Rng) -> Vec<S
                     lobe: li,
                 };
                 let pts = grow(shape, start, d0, &g, rng);
-                let rs = midrib_r * 0.42 * l.vein_weight.sqrt() * (1.0 - 0.4 * t);
+                let rs = midrib_r * 0.5 * l.vein_weight.sqrt() * (1.0 - 0.4 * t);
                 push_polyline(&mut segs, &pts, rs, 0.3 * rs, 0.85);
                 // Side branches toward the margin on the basal side.
                 for b in 0..v.branches {
@@ -762,12 +762,12 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
             let wv = Vec2::new(lf[0], lf[1]);
             let (f1, f2) = worley(u.x + 0.45 * wv.x, u.y + 0.45 * wv.y, s[2], 0.95);
             let ed = 0.5 * (f2 - f1) * areole * ppu;
-            vt = cov(0.07 * px_per_mm, ed);
+            vt = cov(0.05 * px_per_mm, ed);
             bulge = ((f2 - f1) / 0.6).clamp(0.0, 1.0).sqrt();
             let u2 = u * 2.9 + Vec2::new(17.3, 4.1);
             let (g1, g2) = worley(u2.x + 0.5 * wv.y, u2.y + 0.5 * wv.x, s[3], 0.95);
             let ed2 = 0.5 * (g2 - g1) * (areole / 2.9) * ppu;
-            vq = cov(0.035 * px_per_mm, ed2);
+            vq = cov(0.028 * px_per_mm, ed2);
             let fade = smoothstep(0.0, 0.6, inside_mm);
             vt *= fade;
             vq *= fade;
@@ -790,7 +790,7 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
             let mid = (k - (n - 1.0) * 0.5).abs() < 0.5;
             let r_mm = if mid {
                 0.5 * p.venation.midrib_mm
-            } else if (k as u32) % 2 == 0 {
+            } else if (k as u32).is_multiple_of(2) {
                 0.09
             } else {
                 0.06
@@ -821,7 +821,7 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
         let mut front = mix3(
             meso,
             c_front_vein * (1.0 + 0.05 * grain),
-            vm * pal.vein_contrast + minor * pal.vein_contrast * 0.5,
+            vm * pal.vein_contrast + minor * pal.vein_contrast * 0.8,
         );
         front = mix3(front, front * Vec3::new(1.15, 1.08, 0.7), 0.35 * rim);
         // Back (abaxial): paler, less saturated, veins more visible.
@@ -833,7 +833,7 @@ pub fn generate(spec: &LeafSpec) -> GeneratedLeaf {
         // Through-light: yellow-green, veins darker, thin rim brighter.
         let mut tr =
             c_trans * (1.0 + 0.45 * m * chl) * (1.0 + 0.3 * m * mottle) * (1.0 + 0.06 * grain);
-        tr *= (1.0 - 0.6 * vm - 0.32 * vt - 0.18 * vq).max(0.05);
+        tr *= (1.0 - 0.6 * vm - 0.22 * vt - 0.12 * vq).max(0.05);
         tr *= 1.0 + 0.25 * rim;
         // Bump: veins are grooves from the adaxial side (raised on the abaxial side).
         let h_mm = -(hm + 0.02 * vt + 0.008 * vq) + 0.012 * bulge + 0.004 * grain;

@@ -318,7 +318,7 @@ pub fn otsu(values: &Gray, mask: Option<&Plane<bool>>) -> Option<f32> {
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), (_, &v)| {
             (a.min(v), b.max(v))
         });
-    if !(hi > lo) || !(hi - lo > 1e-6) {
+    if hi.is_nan() || lo.is_nan() || hi - lo <= 1e-6 {
         return None;
     }
     let mut hist = [0u64; 256];

@@ -702,9 +702,10 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
         None => {
             let c_t = srgb8_to_linear([118, 146, 34]);
             let c_t = c_t * (front_mean.y / c_t.y);
-            prov.push(format!(
+            prov.push(
                 "translucency: DERIVED from the front (yellow-green, green scaled to the front's mean, paler patches transmit more, veins 60 % darker); no scan was given"
-            ));
+                .to_string(),
+            );
             Plane::from_fn(w, h, |x, y| {
                 let i = y * w + x;
                 let s = (y_front.data[i] / y_mean).clamp(0.25, 4.0).sqrt();

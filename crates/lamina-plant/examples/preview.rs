@@ -1,0 +1,127 @@
+//! Renders a procedural bush and a procedural tree, to look at them.
+//!
+//! `cargo run --release -p lamina-plant --example preview -- out/plant.png [tree_leaves] [spp]`
+//! writes `out/plant_bush.png` and `out/plant_tree.png` (320x320) and prints the plants'
+//! statistics.
+
+use glam::Vec3;
+use lamina_plant::{PlantParams, generate_plant};
+use lamina_scene::load::quad_mesh;
+use lamina_scene::*;
+use std::path::{Path, PathBuf};
+
+fn scene_for(
+    plant: lamina_plant::Plant,
+    eye: Vec3,
+    target: Vec3,
+    sun_dir: Vec3,
+    spp: u32,
+) -> Scene {
+    let ground_half = 4.0 * plant.stats.bounds[1].y.max(1.0);
+    let mut materials = vec![Material::Diffuse {
+        name: "ground".into(),
+        reflectance: ColorInput::Constant(Vec3::new(0.10, 0.08, 0.05)),
+        alpha: None,
+    }];
+    let (meshes, mats) = plant.into_scene_parts(1);
+    materials.extend(mats);
+    let mut all = vec![quad_mesh(
+        Vec3::new(-ground_half, 0.0, ground_half),
+        Vec3::new(2.0 * ground_half, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -2.0 * ground_half),
+        0,
+    )];
+    all.extend(meshes);
+    Scene {
+        camera: Camera {
+            position: eye,
+            look_at: target,
+            up: Vec3::Y,
+            fov_deg: 40.0,
+            aperture_radius: 0.0,
+            focus_distance: eye.distance(target),
+        },
+        film: Film {
+            width: 320,
+            height: 320,
+            spp,
+            filter: PixelFilter::Gaussian {
+                radius: 1.5,
+                sigma: 0.5,
+            },
+            exposure: 0.0,
+            tonemap: ToneMap::Aces,
+        },
+        integrator: Integrator::Path {
+            max_depth: 6,
+            rr_depth: 3,
+        },
+        lights: vec![Light::Sun {
+            direction: sun_dir.normalize(),
+            irradiance: Vec3::new(3.2, 3.0, 2.7),
+            angular_diameter_deg: 0.53,
+        }],
+        sky: Some(Sky::Constant(Vec3::new(0.16, 0.22, 0.32))),
+        materials,
+        meshes: all,
+    }
+}
+
+fn with_suffix(path: &Path, suffix: &str) -> PathBuf {
+    let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("plant");
+    path.with_file_name(format!("{stem}_{suffix}.png"))
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let out = PathBuf::from(args.get(1).map(String::as_str).unwrap_or("out/plant.png"));
+    let tree_leaves: u32 = args
+        .get(2)
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(30_000);
+    let spp: u32 = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(16);
+    if let Some(dir) = out.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    let sun = Vec3::new(0.5, 0.8, 0.6);
+    let opts = lamina_render::RenderOptions {
+        seed: 1,
+        ..Default::default()
+    };
+
+    let mut bush = PlantParams::bush(7);
+    bush.light_direction = sun.to_array();
+    let bush = generate_plant(&bush)?;
+    println!("bush: {:#?}", bush.stats);
+    let h = bush.stats.bounds[1].y;
+    let scene = scene_for(
+        bush,
+        Vec3::new(0.0, 0.6 * h, 2.3 * h),
+        Vec3::new(0.0, 0.45 * h, 0.0),
+        sun,
+        spp,
+    );
+    let img = lamina_render::render(&scene, &opts)?;
+    let path = with_suffix(&out, "bush");
+    lamina_render::write_image(&path, &img.image, &scene.film)?;
+    println!("wrote {}", path.display());
+
+    let mut tree = PlantParams::tree(3, tree_leaves);
+    tree.light_direction = sun.to_array();
+    let tree = generate_plant(&tree)?;
+    println!("tree: {:#?}", tree.stats);
+    let h = tree.stats.bounds[1].y;
+    let scene = scene_for(
+        tree,
+        Vec3::new(0.0, 0.45 * h, 2.2 * h),
+        Vec3::new(0.0, 0.48 * h, 0.0),
+        sun,
+        spp,
+    );
+    let img = lamina_render::render(&scene, &opts)?;
+    let path = with_suffix(&out, "tree");
+    lamina_render::write_image(&path, &img.image, &scene.film)?;
+    println!("wrote {}", path.display());
+    Ok(())
+}

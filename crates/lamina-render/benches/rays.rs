@@ -74,11 +74,13 @@ fn main() {
             *alpha = None;
         }
     }
+    let merge = std::env::var_os("LAMINA_TRIANGLES").is_none();
     let t = Instant::now();
-    let accel = Accel::build(&scene).unwrap();
+    let accel = Accel::build_with(&scene, merge).unwrap();
     println!(
-        "scene: {} triangles{}, BVH build {:.2} s; {threads} threads",
-        accel.triangle_count(),
+        "scene: {} triangles as {} BVH primitives (cards as parallelograms){}, BVH build {:.2} s; {threads} threads",
+        scene.meshes.iter().map(|m| m.indices.len()).sum::<usize>(),
+        accel.primitive_count(),
         if opaque {
             " (opaque cards, LAMINA_OPAQUE)"
         } else {

@@ -10,7 +10,10 @@
 //!   triangle cannot be hit again by a ray leaving it) and start a small distance off the
 //!   surface on the side they go (see [`spawn_origin`]), which guards against the
 //!   neighbouring triangles of the same card.
-//! * **Layout**: triangles are stored in BVH leaf order, one 64-byte cache line each:
+//! * **Cards**: two consecutive triangles of a mesh that form a planar parallelogram with
+//!   affine UVs (a leaf card, however it was split) become one parallelogram primitive, as
+//!   do quad lights: half the primitives, and one intersection test per card.
+//! * **Layout**: primitives are stored in BVH leaf order, one 64-byte cache line each:
 //!   `v0, e1, e2` for the Möller-Trumbore test plus the flags and UVs of the alpha test, so
 //!   a candidate costs one cache line. Shading data (UVs, unit geometric normal, unit
 //!   tangent along `dP/du`, material / light id) sit in a parallel array indexed by the same
@@ -22,7 +25,8 @@ use lamina_leaf::frame::Frame;
 use lamina_scene::{AlphaMask, Light, Material, Scene};
 use obvhs::{
     BvhBuildParams,
-    cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
+    aabb::Aabb,
+    cwbvh::{CwBvh, builder::build_cwbvh},
     ray::{Ray as BvhRay, RayHit},
     triangle::Triangle,
 };
@@ -43,7 +47,7 @@ pub struct Ray {
 /// What a ray hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum HitKind {
-    /// A triangle (a mesh triangle or half of a quad light).
+    /// A triangle or parallelogram primitive (mesh triangle, leaf card or quad light).
     Triangle {
         /// Primitive id (BVH order), for [`Accel::prim`].
         prim: u32,
@@ -68,10 +72,13 @@ pub struct Hit {
 
 /// Flag in [`PrimInfo::flags`]: the material has an alpha matte.
 pub const FLAG_ALPHA: u32 = 0x4000_0000;
-/// Flag in [`PrimInfo::flags`]: the triangle belongs to a quad light (id = light index).
+/// Flag in [`PrimInfo::flags`]: the primitive is a quad light (id = light index).
 pub const FLAG_EMITTER: u32 = 0x8000_0000;
+/// Flag in [`PrimInfo::flags`]: the primitive is a parallelogram `v0 + b1·e1 + b2·e2`,
+/// `b1, b2 ∈ [0, 1]` (a leaf card or quad light), not a triangle.
+pub const FLAG_QUAD: u32 = 0x2000_0000;
 /// Mask of the material or light index in [`PrimInfo::flags`].
-pub const ID_MASK: u32 = 0x3fff_ffff;
+pub const ID_MASK: u32 = 0x1fff_ffff;
 /// "No primitive" for the skip argument.
 pub const NO_PRIM: u32 = u32::MAX;
 
@@ -84,8 +91,8 @@ pub struct PrimInfo {
     pub n: Vec3,
     /// Unit tangent along `dP/du`, orthogonal to `n` (along `v1 - v0` without UVs).
     pub s: Vec3,
-    /// Material index (or light index for emitters) in the low 30 bits, plus
-    /// [`FLAG_ALPHA`] / [`FLAG_EMITTER`].
+    /// Material index (or light index for emitters) in the low 29 bits, plus
+    /// [`FLAG_ALPHA`] / [`FLAG_EMITTER`] / [`FLAG_QUAD`].
     pub flags: u32,
 }
 
@@ -255,7 +262,7 @@ pub struct Accel {
     spheres: Vec<SphereGeom>,
 }
 
-/// Möller-Trumbore: `(t, b1, b2)`, `t = ∞` for a miss or `t ∉ (0, tmax)`.
+/// Möller-Trumbore (for parallelograms without the `b1 + b2 <= 1` bound): `(t, b1, b2)`, `t = ∞` for a miss or `t ∉ (0, tmax)`.
 #[inline(always)]
 fn intersect_tri(tri: &Tri, o: Vec3A, d: Vec3A, tmax: f32) -> (f32, f32, f32) {
     const MISS: (f32, f32, f32) = (f32::INFINITY, 0.0, 0.0);
@@ -277,7 +284,12 @@ fn intersect_tri(tri: &Tri, o: Vec3A, d: Vec3A, tmax: f32) -> (f32, f32, f32) {
     }
     let q = tv.cross(e1);
     let b2 = d.dot(q) * inv;
-    if !(b2 >= 0.0 && b1 + b2 <= 1.0) {
+    let inside = if tri.flags & FLAG_QUAD != 0 {
+        b2 <= 1.0
+    } else {
+        b1 + b2 <= 1.0
+    };
+    if !(b2 >= 0.0 && inside) {
         return MISS;
     }
     let t = e2.dot(q) * inv;
@@ -286,6 +298,50 @@ fn intersect_tri(tri: &Tri, o: Vec3A, d: Vec3A, tmax: f32) -> (f32, f32, f32) {
     } else {
         MISS
     }
+}
+
+/// If triangles `t1` and `t2` (index triples) together form a planar parallelogram with
+/// affine texture coordinates, wound like `t1`, the parallelogram as `[origin, origin + e1,
+/// origin + e2]` vertex indices (its fourth corner is `origin + e1 + e2`).
+fn parallelogram(
+    t1: [u32; 3],
+    t2: [u32; 3],
+    pos: &impl Fn(u32) -> Vec3,
+    tex: &impl Fn(u32) -> Vec2,
+) -> Option<[u32; 3]> {
+    let [i0, i1, i2] = t1;
+    let rot = |k: usize| [t2[k % 3], t2[(k + 1) % 3], t2[(k + 2) % 3]];
+    let mut quad = None;
+    for k in 0..3 {
+        let [a, b, c] = rot(k);
+        // Shared diagonal i0-i2: t2 = (i0, i2, x); corners i0, i1, i2, x.
+        if a == i0 && b == i2 && c != i1 && c != i0 && c != i2 {
+            quad = Some(([i0, i1, c], i2));
+        }
+        // Shared diagonal i1-i2: t2 = (i1, x, i2); corners i0, i1, x, i2.
+        if a == i1 && c == i2 && b != i0 && b != i1 && b != i2 {
+            quad = Some(([i0, i1, i2], b));
+        }
+    }
+    let ([o, a, b], far) = quad?;
+    let (po, pa, pb, pf) = (pos(o), pos(a), pos(b), pos(far));
+    let (e1, e2) = (pa - po, pb - po);
+    let scale = e1.length() + e2.length();
+    let n = e1.cross(e2);
+    if !(scale > 0.0 && n.length_squared() > 0.0) || (pa + pb - po - pf).length() > 1e-5 * scale {
+        return None;
+    }
+    // Same winding as t1, so the front side stays the front side.
+    let n1 = (pos(i1) - pos(i0)).cross(pos(i2) - pos(i0));
+    if n.dot(n1) <= 0.0 {
+        return None;
+    }
+    let (uo, ua, ub, uf) = (tex(o), tex(a), tex(b), tex(far));
+    let uv_scale = (ua - uo).length() + (ub - uo).length();
+    if (ua + ub - uo - uf).length() > 1e-5 * uv_scale + 1e-7 {
+        return None;
+    }
+    Some([o, a, b])
 }
 
 /// Nearest `t ∈ (0, tmax)` where the ray meets the sphere, or `∞`.
@@ -329,6 +385,12 @@ impl Accel {
     /// non-finite triangles are left out. An error for out-of-range vertex or material
     /// indices.
     pub fn build(scene: &Scene) -> Result<Self, RenderError> {
+        Self::build_with(scene, true)
+    }
+
+    /// [`Accel::build`], with `merge_cards = false` keeping every card as two triangles (for
+    /// benchmarks; the images are the same).
+    pub fn build_with(scene: &Scene, merge_cards: bool) -> Result<Self, RenderError> {
         let alpha: Vec<AlphaTest> = scene
             .materials
             .iter()
@@ -343,7 +405,10 @@ impl Accel {
             })
             .collect();
         let mut tris: Vec<Triangle> = Vec::new();
+        let mut bounds: Vec<Aabb> = Vec::new();
         let mut prims: Vec<PrimInfo> = Vec::new();
+        // `v`: origin, origin + e1, origin + e2 (a triangle, or with FLAG_QUAD the
+        // parallelogram they span); `uv` at the same three points.
         let mut push = |v: [Vec3; 3], uv: [Vec2; 3], flags: u32| {
             if !v.iter().all(|p| p.is_finite()) {
                 return;
@@ -366,6 +431,11 @@ impl Accel {
                 e1
             };
             let frame = Frame::from_normal_tangent(n, if dpdu.is_finite() { dpdu } else { e1 });
+            let mut bb = Aabb::from_points(&[v[0].into(), v[1].into(), v[2].into()]);
+            if flags & FLAG_QUAD != 0 {
+                bb.extend((v[1] + v[2] - v[0]).into());
+            }
+            bounds.push(bb);
             tris.push(Triangle {
                 v0: v[0].into(),
                 v1: v[1].into(),
@@ -401,13 +471,33 @@ impl Accel {
                         "mesh {mi}, triangle {ti}: vertex index out of range"
                     )));
                 }
-                let v = idx.map(|i| mesh.positions[i as usize]);
-                let uv = if has_uv {
-                    idx.map(|i| mesh.uvs[i as usize])
+            }
+            let pos = |i: u32| mesh.positions[i as usize];
+            let tex = |i: u32| {
+                if has_uv {
+                    mesh.uvs[i as usize]
                 } else {
-                    [Vec2::ZERO; 3]
-                };
-                push(v, uv, flags);
+                    Vec2::ZERO
+                }
+            };
+            let mut ti = 0;
+            while ti < mesh.indices.len() {
+                let idx = mesh.indices[ti];
+                // A card: this triangle and the next one form a planar parallelogram with
+                // affine UVs; one parallelogram primitive replaces the two triangles.
+                if let Some(next) = mesh.indices.get(ti + 1).filter(|_| merge_cards) {
+                    if let Some([o, a, b]) = parallelogram(idx, *next, &pos, &tex) {
+                        push(
+                            [pos(o), pos(a), pos(b)],
+                            [tex(o), tex(a), tex(b)],
+                            flags | FLAG_QUAD,
+                        );
+                        ti += 2;
+                        continue;
+                    }
+                }
+                push(idx.map(pos), idx.map(tex), flags);
+                ti += 1;
             }
         }
         let mut spheres = Vec::new();
@@ -419,16 +509,11 @@ impl Accel {
                     edge_v,
                     ..
                 } => {
-                    let (a, b, c, d) = (
-                        *corner,
-                        *corner + *edge_u,
-                        *corner + *edge_u + *edge_v,
-                        *corner + *edge_v,
+                    push(
+                        [*corner, *corner + *edge_u, *corner + *edge_v],
+                        [Vec2::ZERO, Vec2::X, Vec2::Y],
+                        FLAG_EMITTER | FLAG_QUAD | li as u32,
                     );
-                    let uv = [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y];
-                    let flags = FLAG_EMITTER | li as u32;
-                    push([a, b, c], [uv[0], uv[1], uv[2]], flags);
-                    push([a, c, d], [uv[0], uv[2], uv[3]], flags);
                 }
                 Light::Sphere { center, radius, .. } if center.is_finite() && *radius > 0.0 => {
                     spheres.push(SphereGeom {
@@ -443,8 +528,8 @@ impl Accel {
         let (bvh, tris, prims) = if tris.is_empty() {
             (None, Vec::new(), Vec::new())
         } else {
-            let bvh = build_cwbvh_from_tris(
-                &tris,
+            let bvh = build_cwbvh(
+                &bounds,
                 BvhBuildParams::medium_build(),
                 &mut Default::default(),
             );
@@ -475,8 +560,9 @@ impl Accel {
         })
     }
 
-    /// Number of triangles in the BVH (mesh triangles plus two per quad light).
-    pub fn triangle_count(&self) -> usize {
+    /// Number of primitives in the BVH: triangles, plus parallelograms for leaf cards
+    /// (pairs of mesh triangles) and quad lights.
+    pub fn primitive_count(&self) -> usize {
         self.tris.len()
     }
 
@@ -594,6 +680,47 @@ mod tests {
     use super::*;
     use glam::Vec4;
     use lamina_leaf::{Texture, Wrap};
+
+    #[test]
+    fn cards_become_parallelograms() {
+        let p = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 2.0, 0.0),
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(1.5, 2.0, 0.0), // makes a trapezoid with 0, 1, 2
+        ];
+        let uv = [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y, Vec2::ONE];
+        let pos = |i: u32| p[i as usize];
+        let tex = |i: u32| uv[i as usize];
+        // Diagonal 0-2, both rotations of the second triangle.
+        assert_eq!(
+            parallelogram([0, 1, 2], [0, 2, 3], &pos, &tex),
+            Some([0, 1, 3])
+        );
+        assert_eq!(
+            parallelogram([0, 1, 2], [2, 3, 0], &pos, &tex),
+            Some([0, 1, 3])
+        );
+        // Diagonal 1-3.
+        assert_eq!(
+            parallelogram([0, 1, 3], [1, 2, 3], &pos, &tex),
+            Some([0, 1, 3])
+        );
+        // Not a parallelogram, opposite winding, unrelated triangles.
+        assert_eq!(parallelogram([0, 1, 4], [0, 4, 3], &pos, &tex), None);
+        assert_eq!(parallelogram([0, 1, 2], [0, 3, 2], &pos, &tex), None);
+        assert_eq!(parallelogram([0, 1, 2], [1, 2, 4], &pos, &tex), None);
+        // Non-affine texture coordinates.
+        let bent = |i: u32| {
+            if i == 3 {
+                Vec2::new(0.2, 1.0)
+            } else {
+                uv[i as usize]
+            }
+        };
+        assert_eq!(parallelogram([0, 1, 2], [0, 2, 3], &pos, &bent), None);
+    }
 
     /// The cell table agrees with the filtered lookup everywhere, for both wrap modes,
     /// both channels, inside and outside `[0, 1]`.

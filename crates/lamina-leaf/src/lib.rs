@@ -21,6 +21,9 @@
 //!   as Mitsuba 3 does, so that bump-mapped shading normals stay an internal affair of each
 //!   model and the integrator never needs them.
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 pub mod analytic;
 pub mod bsdf;
 pub mod diffusion;

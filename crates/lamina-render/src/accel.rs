@@ -485,16 +485,19 @@ impl Accel {
                 let idx = mesh.indices[ti];
                 // A card: this triangle and the next one form a planar parallelogram with
                 // affine UVs; one parallelogram primitive replaces the two triangles.
-                if let Some(next) = mesh.indices.get(ti + 1).filter(|_| merge_cards) {
-                    if let Some([o, a, b]) = parallelogram(idx, *next, &pos, &tex) {
-                        push(
-                            [pos(o), pos(a), pos(b)],
-                            [tex(o), tex(a), tex(b)],
-                            flags | FLAG_QUAD,
-                        );
-                        ti += 2;
-                        continue;
-                    }
+                let card = mesh
+                    .indices
+                    .get(ti + 1)
+                    .filter(|_| merge_cards)
+                    .and_then(|next| parallelogram(idx, *next, &pos, &tex));
+                if let Some([o, a, b]) = card {
+                    push(
+                        [pos(o), pos(a), pos(b)],
+                        [tex(o), tex(a), tex(b)],
+                        flags | FLAG_QUAD,
+                    );
+                    ti += 2;
+                    continue;
                 }
                 push(idx.map(pos), idx.map(tex), flags);
                 ti += 1;

@@ -148,7 +148,7 @@ struct Shape {
 }
 
 /// Forward shear of pinnate lobes (change of `t` per unit of lateral distance).
-const SINUS_SHEAR: f32 = 0.45;
+const SINUS_SHEAR: f32 = 0.3;
 
 #[inline]
 fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
@@ -219,7 +219,7 @@ impl Shape {
                 let k = x.floor() as i32;
                 let size = 0.8
                     + 0.35 * crate::noise::unit(crate::noise::hash2(k, side as i32, l.sinus_seed));
-                hw *= ((1.0 - s.depth) + s.depth * size * lobe.powf(0.7)).min(1.15);
+                hw *= ((1.0 - s.depth) + s.depth * size * lobe.powf(0.5)).min(1.15);
             }
         }
         if let Some(th) = &self.teeth {

@@ -26,6 +26,9 @@
 //! back colour of texel `uv` is the underside of the same point. Bump heights are along the
 //! adaxial normal (`+z`).
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 pub mod folder;
 pub mod generate;
 pub mod noise;

@@ -40,9 +40,12 @@ pub struct RenderOptions {
     pub threads: Option<usize>,
     /// Seed of all random numbers: the same seed gives the same image.
     pub seed: u64,
-    /// Stop after the pass running when this much time (from the call) has passed.
+    /// Time budget from the call: when it runs out, the pass in progress is abandoned (at its
+    /// next tile) and the image holds the passes completed so far. The first pass (1 spp)
+    /// always completes.
     pub time_limit: Option<Duration>,
-    /// Set to `true` (e.g. on Ctrl-C) to stop at the next tile.
+    /// Set to `true` (e.g. on Ctrl-C) to stop: the pass in progress is abandoned at its next
+    /// tile and the image holds the completed passes (possibly none: then it is black).
     pub cancel: Option<Arc<AtomicBool>>,
     /// Called after every completed pass.
     pub progress: Option<Arc<dyn Fn(Progress) + Send + Sync>>,

@@ -374,7 +374,7 @@ fn preset(s: Species) -> Preset {
             name: "oak".into(),
             height_m: 0.11,
             outline: Outline {
-                lobes: vec![lobe(0.0, 1.0, 0.38, 1.25, 0.7, 1.0)],
+                lobes: vec![lobe(0.0, 1.0, 0.3, 1.25, 0.7, 1.0)],
                 teeth: None,
                 sinuses: Some(Sinuses {
                     count: 4.5,

@@ -79,7 +79,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .get(2)
         .map(|s| s.parse())
         .transpose()?
-        .unwrap_or(30_000);
+        .unwrap_or(100_000);
     let spp: u32 = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(16);
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir)?;
@@ -114,7 +114,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let h = tree.stats.bounds[1].y;
     let scene = scene_for(
         tree,
-        Vec3::new(0.0, 0.45 * h, 2.2 * h),
+        Vec3::new(0.0, 0.42 * h, 1.9 * h),
         Vec3::new(0.0, 0.48 * h, 0.0),
         sun,
         spp,

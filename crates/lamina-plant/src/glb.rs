@@ -45,7 +45,7 @@ struct Builder {
 
 impl Builder {
     fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let mut v = json!({
@@ -260,7 +260,7 @@ pub fn write_glb(plant: &Plant, path: &Path) -> Result<(), PlantError> {
     let nodes: Vec<Value> = (0..meshes.len())
         .map(|i| json!({"mesh": i, "name": meshes[i]["name"].clone()}))
         .collect();
-    while b.bin.len() % 4 != 0 {
+    while !b.bin.len().is_multiple_of(4) {
         b.bin.push(0);
     }
     let doc = json!({
@@ -279,7 +279,7 @@ pub fn write_glb(plant: &Plant, path: &Path) -> Result<(), PlantError> {
         "buffers": [{"byteLength": b.bin.len()}],
     });
     let mut json_bytes = serde_json::to_vec(&doc)?;
-    while json_bytes.len() % 4 != 0 {
+    while !json_bytes.len().is_multiple_of(4) {
         json_bytes.push(b' ');
     }
     let total = 12 + 8 + json_bytes.len() + 8 + b.bin.len();

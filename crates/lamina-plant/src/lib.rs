@@ -156,7 +156,7 @@ pub fn generate_plant(params: &PlantParams) -> Result<Plant, PlantError> {
     let (leaf_variants, leaf_maps_s) = maps;
     let leaf_materials = leaf_variants
         .iter()
-        .map(|l| LeafMaterial::new(l.maps.clone(), l.params.clone()).map(Arc::new))
+        .map(|l| LeafMaterial::new(l.maps.clone(), l.params).map(Arc::new))
         .collect::<Result<Vec<_>, _>>()?;
     let bark = branches::bark_texture(256, p.seed);
     let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
@@ -229,9 +229,9 @@ impl Plant {
     }
 
     /// Meshes and materials ready to append to a scene whose material list already holds
-    /// `first_material` entries: material `first_material` is the bark, `first_material + 1
-    /// + i` the leaf variant `i`. Meshes: the branches, then one leaf-card mesh per variant
-    /// that has leaves.
+    /// `first_material` entries: material `first_material` is the bark, material
+    /// `first_material + 1 + i` the leaf variant `i`. Meshes: the branches, then one
+    /// leaf-card mesh per variant that has leaves.
     pub fn into_scene_parts(self, first_material: u32) -> (Vec<Mesh>, Vec<Material>) {
         let mut materials = vec![self.bark_material()];
         let mut branches = self.branches;

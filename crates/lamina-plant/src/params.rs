@@ -52,15 +52,15 @@ pub struct PlantParams {
     /// Crown envelope shape.
     pub crown_shape: CrownShape,
     /// Horizontal radius of the crown envelope (m). Kind-dependent: bush 0.55 × height,
-    /// tree 0.4 × height. Allowed: 0.05-1.5 × height.
+    /// tree 0.42 × height. Allowed: 0.05-1.5 × height.
     pub crown_radius_m: Option<f32>,
     /// Height of the crown's bottom as a fraction of the total height. Kind-dependent: bush
-    /// 0.08, tree 0.28. Allowed 0-0.9.
+    /// 0.08, tree 0.22. Allowed 0-0.9.
     pub crown_base: Option<f32>,
     /// Stems from the ground. Kind-dependent: bush 7, tree 1. Allowed 1-32.
     pub stems: Option<u32>,
     /// Target number of leaves (the result is within a fraction of a percent of it; exact
-    /// unless leaves had to be dropped). Kind-dependent: bush 4000, tree 30000. Allowed
+    /// unless leaves had to be dropped). Kind-dependent: bush 4000, tree 100,000. Allowed
     /// 1-20,000,000.
     pub leaf_count: Option<u32>,
     /// Leaf species: a built-in preset of lamina-leafmaps (beech, maple, oak, birch, ivy,
@@ -255,13 +255,13 @@ impl PlantParams {
         };
         let crown_radius = match self.crown_radius_m {
             Some(r) => check("crown_radius_m", r, 0.05 * height, 1.5 * height, " m")?,
-            None => height * if tree { 0.4 } else { 0.55 },
+            None => height * if tree { 0.42 } else { 0.55 },
         };
         let crown_base = match self.crown_base {
             Some(c) => check("crown_base", c, 0.0, 0.9, " (fraction of the height)")?,
             None => {
                 if tree {
-                    0.28
+                    0.22
                 } else {
                     0.08
                 }
@@ -275,7 +275,7 @@ impl PlantParams {
         )?;
         let leaf_count = check_u(
             "leaf_count",
-            self.leaf_count.unwrap_or(if tree { 30_000 } else { 4000 }),
+            self.leaf_count.unwrap_or(if tree { 100_000 } else { 4000 }),
             1,
             MAX_LEAVES,
         )?;

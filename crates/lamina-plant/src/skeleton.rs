@@ -72,7 +72,7 @@ impl Envelope {
             _ => (0.5 * (y0 + y1), 0.5 * (y1 - y0)),
         };
         let mut rng = Rng::new(p.seed, 2);
-        let lobes = (0..9)
+        let lobes = (0..12)
             .map(|_| {
                 let z = 2.0 * rng.f32() - 1.0;
                 let phi = TAU * rng.f32();
@@ -120,7 +120,7 @@ impl Envelope {
                     .iter()
                     .map(|c| dir.dot(*c).max(0.0).powi(4))
                     .fold(0.0f32, f32::max);
-                let d = dir * (s * (0.78 + 0.22 * lump));
+                let d = dir * (s * (0.68 + 0.32 * lump));
                 self.center + Vec3::new(d.x * self.radius, d.y * self.half_h, d.z * self.radius)
             }
             CrownShape::Cone => {
@@ -264,7 +264,7 @@ pub fn grow(p: &Resolved) -> Skeleton {
 
     // Stems: straight (slightly leaning) chains up to where the crown takes over.
     let stem_top = match p.kind {
-        PlantKind::Tree => (env.y0 + 0.25 * (env.y1 - env.y0)).min(env.y1 - 2.0 * step),
+        PlantKind::Tree => (env.y0 + 0.08 * (env.y1 - env.y0)).min(env.y1 - 2.0 * step),
         PlantKind::Bush => (0.18 * p.height).max(env.y0),
     };
     for s in 0..p.stems {
@@ -318,8 +318,7 @@ pub fn grow(p: &Resolved) -> Skeleton {
     let mut reached = false;
     for iter in 0..max_iter {
         // Update the nearest-node cache with the nodes made last iteration; kill points.
-        for n in new_from..pos.len() {
-            let q = pos[n];
+        for (n, &q) in pos.iter().enumerate().skip(new_from) {
             grid.for_each_near(q, influence, |i| {
                 let i = i as usize;
                 if !alive[i] {

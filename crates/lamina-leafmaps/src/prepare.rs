@@ -165,15 +165,36 @@ fn load_stored(path: &Path) -> Result<Stored, LeafMapsError> {
     );
     let float = matches!(color, image::ColorType::Rgb32F | image::ColorType::Rgba32F);
     let has_alpha = color.has_alpha();
-    let buf = img.into_rgba32f();
-    let data: Vec<[f32; 4]> = buf
-        .as_raw()
-        .par_chunks(4)
-        .map(|c| {
-            let f = |v: f32| if v.is_finite() { v.max(0.0) } else { 0.0 };
-            [f(c[0]), f(c[1]), f(c[2]), f(c[3]).min(1.0)]
-        })
-        .collect();
+    // Convert from the stored bit depth straight to f32 (no full-size f32 intermediate).
+    let data: Vec<[f32; 4]> = match color {
+        image::ColorType::L8
+        | image::ColorType::La8
+        | image::ColorType::Rgb8
+        | image::ColorType::Rgba8 => img
+            .into_rgba8()
+            .as_raw()
+            .par_chunks(4)
+            .map(|c| [c[0], c[1], c[2], c[3]].map(|v| v as f32 / 255.0))
+            .collect(),
+        image::ColorType::L16
+        | image::ColorType::La16
+        | image::ColorType::Rgb16
+        | image::ColorType::Rgba16 => img
+            .into_rgba16()
+            .as_raw()
+            .par_chunks(4)
+            .map(|c| [c[0], c[1], c[2], c[3]].map(|v| v as f32 / 65535.0))
+            .collect(),
+        _ => img
+            .into_rgba32f()
+            .as_raw()
+            .par_chunks(4)
+            .map(|c| {
+                let f = |v: f32| if v.is_finite() { v.max(0.0) } else { 0.0 };
+                [f(c[0]), f(c[1]), f(c[2]), f(c[3]).min(1.0)]
+            })
+            .collect(),
+    };
     Ok(Stored {
         rgba: Plane {
             width: w,

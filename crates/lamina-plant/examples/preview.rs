@@ -1,7 +1,7 @@
 //! Renders a procedural bush and a procedural tree, to look at them.
 //!
 //! `cargo run --release -p lamina-plant --example preview -- out/plant.png [tree_leaves] [spp]`
-//! writes `out/plant_bush.png` and `out/plant_tree.png` (320x320) and prints the plants'
+//! writes `out/plant_bush.png`, `out/plant_bush_close.png` and `out/plant_tree.png` (320x320) and prints the plants'
 //! statistics.
 
 use glam::Vec3;
@@ -94,6 +94,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     bush.light_direction = sun.to_array();
     let bush = generate_plant(&bush)?;
     println!("bush: {:#?}", bush.stats);
+    // A close look at the crown's edge: leaf orientation, petioles, bark.
+    let h = bush.stats.bounds[1].y;
+    let scene = scene_for(
+        bush.clone(),
+        Vec3::new(0.25 * h, 0.55 * h, 1.05 * h),
+        Vec3::new(0.1 * h, 0.45 * h, 0.3 * h),
+        sun,
+        spp,
+    );
+    let img = lamina_render::render(&scene, &opts)?;
+    let path = with_suffix(&out, "bush_close");
+    lamina_render::write_image(&path, &img.image, &scene.film)?;
+    println!("wrote {}", path.display());
     let h = bush.stats.bounds[1].y;
     let scene = scene_for(
         bush,

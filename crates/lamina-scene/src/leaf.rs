@@ -106,7 +106,7 @@ pub(crate) fn load_leaf_material(
                 res,
             ));
             let mut t = toml::Table::new();
-            let params = toml::Table::try_from(&leaf.params)
+            let params = toml::Table::try_from(leaf.params)
                 .map_err(|e| cx.err(s.span(), key, e.to_string()))?;
             t.insert("params".into(), toml::Value::Table(params));
             generated = Some(leaf.maps);

@@ -38,6 +38,9 @@ pub fn toml_error(file: &Path, text: &str, e: &toml::de::Error) -> SceneError {
     SceneError::new(file, line, "", e.message().trim().to_string())
 }
 
+/// Resolves a material name (with its span) to an index; the key names it in errors.
+type MaterialLookup<'a> = dyn Fn(&S<String>, &str) -> Result<u32, SceneError> + 'a;
+
 pub(crate) struct Ctx {
     pub(crate) file: PathBuf,
     lines: LineIndex,
@@ -942,7 +945,7 @@ impl Ctx {
         o: &ObjectTable,
         xf: &Transform,
         scene_materials: &mut Vec<Material>,
-        lookup: &dyn Fn(&S<String>, &str) -> Result<u32, SceneError>,
+        lookup: &MaterialLookup,
     ) -> Result<Vec<Mesh>, SceneError> {
         let imported = crate::gltf_import::load_gltf(&self.path(file), xf)?;
         for w in &imported.warnings {

@@ -94,6 +94,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     bush.light_direction = sun.to_array();
     let bush = generate_plant(&bush)?;
     println!("bush: {:#?}", bush.stats);
+    // The bark texture, tiled 2x2, as sRGB.
+    let bark = &bush.bark;
+    let (bw, bh) = (bark.width(), bark.height());
+    let tiled = image::RgbImage::from_fn(2 * bw, 2 * bh, |x, y| {
+        let c = bark.texel((x % bw) as i64, (y % bh) as i64);
+        let enc = |v: f32| (lamina_leaf::texture::linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0) as u8;
+        image::Rgb([enc(c.x), enc(c.y), enc(c.z)])
+    });
+    let path = with_suffix(&out, "bark");
+    tiled.save(&path)?;
+    println!("wrote {}", path.display());
     // A close look at the crown's edge: leaf orientation, petioles, bark.
     let h = bush.stats.bounds[1].y;
     let scene = scene_for(

@@ -200,7 +200,10 @@ pub fn bark_texture(size: u32, seed: u64) -> Texture {
                 norm += amp;
                 amp *= 0.5;
             }
-            let ridge = (ridge / norm).powf(2.0);
+            // Plates where the ridged value is high, narrow dark furrows where it is low.
+            let r = ridge / norm;
+            let x = ((r - 0.45) / 0.3).clamp(0.0, 1.0);
+            let ridge = x * x * (3.0 - 2.0 * x);
             let mottle = value_noise(u * 8.0, v * 8.0, (8, 8), seed ^ 99);
             let grain = value_noise(u * 64.0, v * 64.0, (64, 64), seed ^ 5);
             let dark = Vec3::new(0.035, 0.027, 0.02);

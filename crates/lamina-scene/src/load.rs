@@ -28,14 +28,61 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
         lines: LineIndex::new(text),
         base: path.parent().map(Path::to_owned).unwrap_or_default(),
     };
-    let doc: SceneFile = toml::from_str(text).map_err(|e| cx.toml_error(&e))?;
+    let doc: SceneFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
     cx.build(doc)
 }
 
 /// Converts a TOML error into ours, with the line of its span.
 pub fn toml_error(file: &Path, text: &str, e: &toml::de::Error) -> SceneError {
     let line = e.span().map(|s| LineIndex::new(text).line(s.start));
-    SceneError::new(file, line, "", e.message().trim().to_string())
+    let key = line.map(|l| key_at_line(text, l)).unwrap_or_default();
+    SceneError::new(file, line, key, e.message().trim().to_string())
+}
+
+/// The dotted key assigned on 1-based `line` (`film.width`, `light[1].direction`), from
+/// the nearest table header above it, for syntax and type errors that toml reports by
+/// position only. Empty when the line assigns nothing.
+fn key_at_line(text: &str, line: usize) -> String {
+    let lines: Vec<&str> = text.lines().collect();
+    let Some(this) = lines.get(line.wrapping_sub(1)) else {
+        return String::new();
+    };
+    let Some((lhs, _)) = this.split_once('=') else {
+        return String::new();
+    };
+    let name = lhs.trim();
+    let plain = |c: char| c.is_ascii_alphanumeric() || "_-.".contains(c);
+    if name.is_empty() || !name.chars().all(plain) {
+        return String::new();
+    }
+    // Nearest header above, and how many times an array-of-tables header occurred.
+    for (i, l) in lines[..line - 1].iter().enumerate().rev() {
+        let l = l.trim();
+        if let Some(h) = l
+            .strip_prefix("[[")
+            .and_then(|r| r.split_once("]]"))
+            .map(|(h, _)| h.trim())
+        {
+            let index = lines[..=i]
+                .iter()
+                .filter(|x| {
+                    x.trim()
+                        .strip_prefix("[[")
+                        .is_some_and(|r| r.trim_start().starts_with(h))
+                })
+                .count()
+                - 1;
+            return format!("{h}[{index}].{name}");
+        }
+        if let Some(h) = l
+            .strip_prefix('[')
+            .and_then(|r| r.split_once(']'))
+            .map(|(h, _)| h.trim())
+        {
+            return format!("{h}.{name}");
+        }
+    }
+    name.to_string()
 }
 
 /// Resolves a material name (with its span) to an index; the key names it in errors.
@@ -52,11 +99,6 @@ fn v3(a: [f32; 3]) -> Vec3 {
 }
 
 impl Ctx {
-    fn toml_error(&self, e: &toml::de::Error) -> SceneError {
-        let line = e.span().map(|s| self.lines.line(s.start));
-        SceneError::new(&self.file, line, "", e.message().trim().to_string())
-    }
-
     pub(crate) fn err(
         &self,
         span: Range<usize>,

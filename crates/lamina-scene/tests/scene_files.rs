@@ -132,6 +132,7 @@ fn toml_syntax_error_names_line() {
 fn unknown_key_names_line_and_key() {
     let e = err(&format!("{MINIMAL}\n[film]\nwidth = 10\nsamples = 4\n"));
     assert_eq!(e.line, Some(8), "{e}");
+    assert_eq!(e.key, "film.samples", "{e}");
     assert!(e.to_string().contains("unknown field `samples`"), "{e}");
 }
 
@@ -139,6 +140,15 @@ fn unknown_key_names_line_and_key() {
 fn wrong_type_names_line() {
     let e = err(&format!("{MINIMAL}\n[film]\nwidth = \"wide\"\n"));
     assert_eq!(e.line, Some(7), "{e}");
+    assert_eq!(e.key, "film.width", "{e}");
+    let e = err(&format!(
+        "{MINIMAL}\n[[light]]\ntype = \"sun\"\n[[light]]\ntype = \"point\"\nposition = \"here\"\n"
+    ));
+    assert_eq!(
+        (e.key.as_str(), e.line),
+        ("light[1].position", Some(10)),
+        "{e}"
+    );
 }
 
 #[test]

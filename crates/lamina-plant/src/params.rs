@@ -295,7 +295,8 @@ impl PlantParams {
         let leaf_resolution = check_u("leaf_resolution", self.leaf_resolution, 16, 4096)?;
         let phototropism = check("phototropism", self.phototropism, 0.0, 1.0, "")?;
         let l = Vec3::from(self.light_direction);
-        if !l.is_finite() || l.length_squared() < 1e-12 {
+        let len2 = l.length_squared();
+        if !(len2.is_finite() && len2 >= 1e-12) {
             return Err(bad(
                 "light_direction",
                 format!(

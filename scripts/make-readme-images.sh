@@ -4,4 +4,4 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -p lamina-cli
-target/release/lamina demo -o docs/images/demo.png --size 384 --spp 256 --quiet
+target/release/lamina demo -o docs/images/demo.png --size 384 --spp 128 --quiet

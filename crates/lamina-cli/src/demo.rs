@@ -36,8 +36,15 @@ pub fn demo_leaf(species: &str, seed: u64) -> Result<BuiltinLeaf> {
     let spec = lamina_leafmaps::LeafSpec::new(species, seed, 512);
     let leaf = lamina_leafmaps::generate(&spec);
     let (w, h) = leaf.size_m;
+    // A flat card has none of the curvature that breaks a real blade's sun glint into a
+    // small spot: with the preset's waxy roughness, whole cards in the bush flash white.
+    // The demo widens the adaxial lobe (an effective roughness for unmodelled curvature).
+    let params = lamina_leaf::LeafParams {
+        roughness_adaxial: leaf.params.roughness_adaxial.max(0.35),
+        ..leaf.params
+    };
     let material =
-        lamina_leaf::LeafMaterial::new(leaf.maps, leaf.params).context("building the demo leaf")?;
+        lamina_leaf::LeafMaterial::new(leaf.maps, params).context("building the demo leaf")?;
     Ok(BuiltinLeaf {
         material: Arc::new(material),
         size_m: Vec2::new(w, h),

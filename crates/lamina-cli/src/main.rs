@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 mod demo;
 mod leaf_cmd;
+mod plant_cmd;
 mod render_cmd;
 
 /// A renderer for plant leaves and whole plants.
@@ -27,6 +28,15 @@ enum Command {
     /// Leaf maps: generate procedural leaves, prepare captures, make contact sheets.
     #[command(subcommand)]
     Leaf(leaf_cmd::LeafCommand),
+    /// Procedural plants.
+    #[command(subcommand)]
+    Plant(PlantCommand),
+}
+
+#[derive(Subcommand, Debug)]
+enum PlantCommand {
+    /// Generate a bush or a tree and write it as binary glTF (.glb) for other tools.
+    Generate(plant_cmd::PlantGenerateArgs),
 }
 
 fn main() -> ExitCode {
@@ -35,6 +45,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render_cmd::run(args),
         Command::Demo(args) => demo::run(args),
         Command::Leaf(cmd) => leaf_cmd::run(cmd),
+        Command::Plant(PlantCommand::Generate(args)) => plant_cmd::run_generate(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

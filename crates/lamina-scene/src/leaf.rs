@@ -88,18 +88,8 @@ pub(crate) fn load_leaf_material(
                     .map_err(|e: lamina_leafmaps::UnknownSpecies| {
                         cx.err(s.span(), format!("{key}.species"), e.to_string())
                     })?;
-            let seed = m
-                .seed
-                .as_ref()
-                .map(|v| cx.count(v, &format!("{key}.seed"), 0, u32::MAX as i64))
-                .transpose()?
-                .unwrap_or(1);
-            let res = m
-                .resolution
-                .as_ref()
-                .map(|v| cx.count(v, &format!("{key}.resolution"), 16, 8192))
-                .transpose()?
-                .unwrap_or(512);
+            let seed = cx.opt_count(&m.seed, &format!("{key}.seed"), 0, u32::MAX as i64, 1)?;
+            let res = cx.opt_count(&m.resolution, &format!("{key}.resolution"), 16, 8192, 512)?;
             let leaf = lamina_leafmaps::generate(&lamina_leafmaps::LeafSpec::new(
                 species,
                 seed as u64,

@@ -192,6 +192,33 @@ impl Ctx {
         Ok(x as u32)
     }
 
+    /// [`Self::float`] for an optional key, `default` when absent.
+    pub(crate) fn opt_float(
+        &self,
+        v: &Option<S<f32>>,
+        key: &str,
+        min: f32,
+        max: f32,
+        open_min: bool,
+        default: f32,
+    ) -> Result<f32, SceneError> {
+        v.as_ref()
+            .map_or(Ok(default), |v| self.float(v, key, min, max, open_min))
+    }
+
+    /// [`Self::count`] for an optional key, `default` when absent.
+    pub(crate) fn opt_count(
+        &self,
+        v: &Option<S<i64>>,
+        key: &str,
+        min: i64,
+        max: i64,
+        default: u32,
+    ) -> Result<u32, SceneError> {
+        v.as_ref()
+            .map_or(Ok(default), |v| self.count(v, key, min, max))
+    }
+
     /// Rejects keys set on a table whose type does not use them.
     fn only(
         &self,
@@ -299,24 +326,23 @@ impl Ctx {
                 "must not be parallel to the viewing direction (look_at - position)",
             ));
         }
-        let fov_deg = c
-            .fov
-            .as_ref()
-            .map(|v| self.float(v, "camera.fov", 0.0, 179.0, true))
-            .transpose()?
-            .unwrap_or(40.0);
-        let aperture_radius = c
-            .aperture_radius
-            .as_ref()
-            .map(|v| self.float(v, "camera.aperture_radius", 0.0, 1e3, false))
-            .transpose()?
-            .unwrap_or(0.0);
-        let focus_distance = c
-            .focus_distance
-            .as_ref()
-            .map(|v| self.float(v, "camera.focus_distance", 0.0, 1e9, true))
-            .transpose()?
-            .unwrap_or(forward.length());
+        let fov_deg = self.opt_float(&c.fov, "camera.fov", 0.0, 179.0, true, 40.0)?;
+        let aperture_radius = self.opt_float(
+            &c.aperture_radius,
+            "camera.aperture_radius",
+            0.0,
+            1e3,
+            false,
+            0.0,
+        )?;
+        let focus_distance = self.opt_float(
+            &c.focus_distance,
+            "camera.focus_distance",
+            0.0,
+            1e9,
+            true,
+            forward.length(),
+        )?;
         Ok(Camera {
             position,
             look_at,
@@ -422,18 +448,8 @@ impl Ctx {
                     &[("ambient", i.ambient.is_some())],
                     &["max_depth", "rr_depth"],
                 )?;
-                let max_depth = i
-                    .max_depth
-                    .as_ref()
-                    .map(|v| self.count(v, "integrator.max_depth", 1, 1024))
-                    .transpose()?
-                    .unwrap_or(8);
-                let rr_depth = i
-                    .rr_depth
-                    .as_ref()
-                    .map(|v| self.count(v, "integrator.rr_depth", 1, 1024))
-                    .transpose()?
-                    .unwrap_or(3);
+                let max_depth = self.opt_count(&i.max_depth, "integrator.max_depth", 1, 1024, 8)?;
+                let rr_depth = self.opt_count(&i.rr_depth, "integrator.rr_depth", 1, 1024, 3)?;
                 Ok(Integrator::Path {
                     max_depth,
                     rr_depth,
@@ -498,18 +514,9 @@ impl Ctx {
                         "the image has negative or non-finite texels",
                     ));
                 }
-                let scale = s
-                    .scale
-                    .as_ref()
-                    .map(|v| self.float(v, "sky.scale", 0.0, 1e9, false))
-                    .transpose()?
-                    .unwrap_or(1.0);
-                let rotation_deg = s
-                    .rotation
-                    .as_ref()
-                    .map(|v| self.float(v, "sky.rotation", -360.0, 360.0, false))
-                    .transpose()?
-                    .unwrap_or(0.0);
+                let scale = self.opt_float(&s.scale, "sky.scale", 0.0, 1e9, false, 1.0)?;
+                let rotation_deg =
+                    self.opt_float(&s.rotation, "sky.rotation", -360.0, 360.0, false, 0.0)?;
                 Ok(Sky::Image {
                     map,
                     scale,
@@ -562,12 +569,14 @@ impl Ctx {
                     &k("irradiance"),
                     None,
                 )?;
-                let angular_diameter_deg = l
-                    .angular_diameter
-                    .as_ref()
-                    .map(|v| self.float(v, &k("angular_diameter"), 0.0, 90.0, false))
-                    .transpose()?
-                    .unwrap_or(0.53);
+                let angular_diameter_deg = self.opt_float(
+                    &l.angular_diameter,
+                    &k("angular_diameter"),
+                    0.0,
+                    90.0,
+                    false,
+                    0.53,
+                )?;
                 Ok(Light::Sun {
                     direction,
                     irradiance,
@@ -679,12 +688,14 @@ impl Ctx {
             return Ok(None);
         };
         let map = self.texture(p, &format!("{key}.alpha"), Encoding::Linear)?;
-        let cutoff = m
-            .alpha_cutoff
-            .as_ref()
-            .map(|v| self.float(v, &format!("{key}.alpha_cutoff"), 0.0, 1.0, false))
-            .transpose()?
-            .unwrap_or(0.5);
+        let cutoff = self.opt_float(
+            &m.alpha_cutoff,
+            &format!("{key}.alpha_cutoff"),
+            0.0,
+            1.0,
+            false,
+            0.5,
+        )?;
         // A matte with an alpha channel that is not all opaque is read from that channel.
         let use_alpha_channel = map.texels().iter().any(|t| t.w < 1.0);
         Ok(Some(AlphaMask {

@@ -4,11 +4,11 @@
 pub mod paper;
 pub mod path;
 
-use crate::accel::{Accel, FLAG_EMITTER, HitKind, ID_MASK, Ray};
+use crate::accel::{Accel, FLAG_EMITTER, HitKind, ID_MASK, Ray, spawn_origin};
 use crate::camera::CameraModel;
 use crate::error::RenderError;
 use crate::film::FilterSampler;
-use crate::lights::{AnyLight, LightSet};
+use crate::lights::{AnyLight, LightSample, LightSet};
 use glam::Vec3;
 use lamina_scene::Scene;
 
@@ -36,6 +36,32 @@ impl<'a> SceneContext<'a> {
             lights: LightSet::new(scene)?,
             filter: FilterSampler::new(scene.film.filter),
         })
+    }
+
+    /// Whether light sample `ls` reaches `p` (on primitive `prim`, geometric normal `n`)
+    /// unblocked: traces one shadow ray, counted in `rays`, that stops just short of area
+    /// lights and runs to infinity for distant ones.
+    #[inline]
+    pub(crate) fn unoccluded(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        prim: u32,
+        ls: &LightSample,
+        rays: &mut u64,
+    ) -> bool {
+        let tmax = if ls.dist.is_finite() {
+            ls.dist * (1.0 - 1e-3)
+        } else {
+            f32::INFINITY
+        };
+        let shadow = Ray {
+            origin: spawn_origin(p, n, ls.wi),
+            dir: ls.wi,
+            tmax,
+        };
+        *rays += 1;
+        !self.accel.occluded_skip(&shadow, prim)
     }
 
     /// If `kind` is an emitter (quad or sphere light), its radiance toward the ray and the

@@ -10,7 +10,7 @@
 //! sky and the sun's disc, and emitters are seen directly.
 
 use super::SceneContext;
-use crate::accel::{HitKind, ID_MASK, Ray, spawn_origin};
+use crate::accel::{HitKind, ID_MASK, Ray};
 use crate::lights::AnyLight;
 use crate::materials::SurfaceBsdf;
 use crate::sampler::PixelSampler;
@@ -62,18 +62,7 @@ pub fn radiance(
         if f == Vec3::ZERO || ls.li == Vec3::ZERO {
             continue;
         }
-        let tmax = if ls.dist.is_finite() {
-            ls.dist * (1.0 - 1e-3)
-        } else {
-            f32::INFINITY
-        };
-        let shadow = Ray {
-            origin: spawn_origin(p, info.n, ls.wi),
-            dir: ls.wi,
-            tmax,
-        };
-        *rays += 1;
-        if !ctx.accel.occluded_skip(&shadow, prim) {
+        if ctx.unoccluded(p, info.n, prim, &ls, rays) {
             l += f * ls.li / ls.pdf;
         }
     }

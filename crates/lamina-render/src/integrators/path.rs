@@ -92,18 +92,7 @@ pub fn radiance(
             if f == Vec3::ZERO {
                 continue;
             }
-            let tmax = if ls.dist.is_finite() {
-                ls.dist * (1.0 - 1e-3)
-            } else {
-                f32::INFINITY
-            };
-            let shadow = Ray {
-                origin: spawn_origin(p, info.n, ls.wi),
-                dir: ls.wi,
-                tmax,
-            };
-            *rays += 1;
-            if ctx.accel.occluded_skip(&shadow, prim) {
+            if !ctx.unoccluded(p, info.n, prim, &ls, rays) {
                 continue;
             }
             let w = if ls.delta {

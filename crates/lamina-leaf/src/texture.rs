@@ -188,10 +188,28 @@ impl Texture {
         }
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let a = self.texel(x0, y0).lerp(self.texel(x0 + 1, y0), fx);
-        let b = self.texel(x0, y0 + 1).lerp(self.texel(x0 + 1, y0 + 1), fx);
+        // Address the two columns and two rows once, then read the four texels directly.
+        let (x0, x1) = self.neighbours(x0 as i64, self.width);
+        let (y0, y1) = self.neighbours(y0 as i64, self.height);
+        let w = self.width as usize;
+        let t = &self.texels;
+        let a = t[y0 * w + x0].lerp(t[y0 * w + x1], fx);
+        let b = t[y1 * w + x0].lerp(t[y1 * w + x1], fx);
         a.lerp(b, fy)
+    }
+
+    /// Indices `i` and `i + 1` on an axis of `n` texels, addressed by [`Self::wrap`].
+    #[inline]
+    fn neighbours(&self, i: i64, n: u32) -> (usize, usize) {
+        let n = n as i64;
+        if i >= 0 && i + 1 < n {
+            return (i as usize, i as usize + 1);
+        }
+        let at = |i: i64| match self.wrap {
+            Wrap::Repeat => i.rem_euclid(n) as usize,
+            Wrap::Clamp => i.clamp(0, n - 1) as usize,
+        };
+        (at(i), at(i + 1))
     }
 
     /// Filtered RGB at `uv`.

@@ -5,3 +5,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -p lamina-cli
 target/release/lamina demo -o docs/images/demo.png --size 384 --spp 128 --quiet
+# The leaf model's plots for crates/lamina-leaf/README.md (texel_patch.png stays out: too large).
+out=$(mktemp -d)
+cargo run --release -q -p lamina-leaf --example plot_model -- "$out"
+mkdir -p docs/images/leaf-model
+cp "$out/rt_vs_angle.png" "$out/rt_modes.png" docs/images/leaf-model/
+rm -rf "$out"

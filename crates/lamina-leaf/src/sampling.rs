@@ -52,3 +52,15 @@ pub const UNIFORM_SPHERE_PDF: f32 = 0.25 * FRAC_1_PI;
 pub fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
+
+/// A 32-bit integer hash with good avalanche (C. Wellons' `lowbias32` finaliser), shared by
+/// the renderer's sampler and the procedural noise of the leaf maps.
+#[inline]
+pub fn hash_u32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^= x >> 16;
+    x
+}

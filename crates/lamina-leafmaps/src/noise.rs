@@ -6,15 +6,7 @@
 
 /// A 32-bit integer hash (the "lowbias32" finaliser by C. Wellons), good enough to seed
 /// lattice noise.
-#[inline]
-pub fn hash32(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x7feb_352d);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x846c_a68b);
-    x ^= x >> 16;
-    x
-}
+pub use lamina_leaf::sampling::hash_u32 as hash32;
 
 /// Hash of a lattice point and a seed.
 #[inline]

@@ -12,16 +12,7 @@
 
 use glam::Vec2;
 
-/// A 32-bit integer hash with good avalanche (Wellons' `lowbias32`).
-#[inline]
-pub fn hash_u32(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x7feb_352d);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x846c_a68b);
-    x ^= x >> 16;
-    x
-}
+pub use lamina_leaf::sampling::hash_u32;
 
 /// Hash of a seed and a value.
 #[inline]

@@ -37,19 +37,25 @@ pub fn ggx_g1(w: Vec3, alpha: f32) -> f32 {
     1.0 / (1.0 + ggx_lambda(w, alpha))
 }
 
+/// The microfacet normal reflecting `wo` into `wi`, when both lie above the surface (`+z`)
+/// and are not opposite.
+#[inline]
+fn half_vector(wo: Vec3, wi: Vec3) -> Option<Vec3> {
+    if wo.z <= 0.0 || wi.z <= 0.0 {
+        return None;
+    }
+    let h = wo + wi;
+    let len2 = h.length_squared();
+    (len2 > 1e-12).then(|| h / len2.sqrt())
+}
+
 /// `f_spec(wo, wi) cos θi` of the dielectric GGX reflection lobe (both directions on `+z`,
 /// else 0); `eta` is the index of the epidermis relative to air.
 #[inline]
 pub fn eval(wo: Vec3, wi: Vec3, alpha: f32, eta: f32) -> f32 {
-    if wo.z <= 0.0 || wi.z <= 0.0 {
+    let Some(wm) = half_vector(wo, wi) else {
         return 0.0;
-    }
-    let h = wo + wi;
-    let len2 = h.length_squared();
-    if len2 <= 1e-12 {
-        return 0.0;
-    }
-    let wm = h / len2.sqrt();
+    };
     let f = fresnel_dielectric(wo.dot(wm), eta);
     let g2 = 1.0 / (1.0 + ggx_lambda(wo, alpha) + ggx_lambda(wi, alpha));
     f * ggx_d(wm, alpha) * g2 / (4.0 * wo.z)
@@ -59,15 +65,9 @@ pub fn eval(wo: Vec3, wi: Vec3, alpha: f32, eta: f32) -> f32 {
 /// where `wi` is below the surface (those samples are rejected).
 #[inline]
 pub fn pdf(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
-    if wo.z <= 0.0 || wi.z <= 0.0 {
+    let Some(wm) = half_vector(wo, wi) else {
         return 0.0;
-    }
-    let h = wo + wi;
-    let len2 = h.length_squared();
-    if len2 <= 1e-12 {
-        return 0.0;
-    }
-    let wm = h / len2.sqrt();
+    };
     ggx_g1(wo, alpha) * ggx_d(wm, alpha) / (4.0 * wo.z)
 }
 

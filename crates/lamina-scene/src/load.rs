@@ -219,6 +219,65 @@ impl Ctx {
             .map_or(Ok(default), |v| self.count(v, key, min, max))
     }
 
+    /// A required vector key: present (else an error naming it) and finite.
+    fn req_vec3(
+        &self,
+        v: &Option<S<[f32; 3]>>,
+        table: Range<usize>,
+        key: &str,
+        kind: &str,
+    ) -> Result<Vec3, SceneError> {
+        self.vec3(self.require(v, table, key, kind)?, key)
+    }
+
+    /// A required direction key: present, finite and non-zero; normalised.
+    fn req_direction(
+        &self,
+        v: &Option<S<[f32; 3]>>,
+        table: Range<usize>,
+        key: &str,
+        kind: &str,
+    ) -> Result<Vec3, SceneError> {
+        self.direction(self.require(v, table, key, kind)?, key)
+    }
+
+    /// A required colour key: present, finite and non-negative.
+    fn req_color(
+        &self,
+        v: &Option<S<ColorValue>>,
+        table: Range<usize>,
+        key: &str,
+        kind: &str,
+    ) -> Result<Vec3, SceneError> {
+        self.color(self.require(v, table, key, kind)?, key, None)
+    }
+
+    /// The required `corner`, `edge_u`, `edge_v` of a parallelogram under `prefix`, with
+    /// edges that span a non-zero area.
+    fn parallelogram(
+        &self,
+        corner: &Option<S<[f32; 3]>>,
+        edge_u: &Option<S<[f32; 3]>>,
+        edge_v: &Option<S<[f32; 3]>>,
+        table: Range<usize>,
+        prefix: &str,
+        kind: &str,
+    ) -> Result<(Vec3, Vec3, Vec3), SceneError> {
+        let key = |n: &str| format!("{prefix}.{n}");
+        let c = self.req_vec3(corner, table.clone(), &key("corner"), kind)?;
+        let eu = self.require(edge_u, table.clone(), &key("edge_u"), kind)?;
+        let u = self.vec3(eu, &key("edge_u"))?;
+        let v = self.req_vec3(edge_v, table, &key("edge_v"), kind)?;
+        if u.cross(v).length_squared() < 1e-16 {
+            return Err(self.err(
+                eu.span(),
+                key("edge_u"),
+                "edge_u and edge_v must span a non-zero area",
+            ));
+        }
+        Ok((c, u, v))
+    }
+
     /// Rejects keys set on a table whose type does not use them.
     fn only(
         &self,
@@ -560,15 +619,10 @@ impl Ctx {
                     &keys,
                     &["direction", "irradiance", "angular_diameter"],
                 )?;
-                let direction = self.direction(
-                    self.require(&l.direction, span.clone(), &k("direction"), kind)?,
-                    &k("direction"),
-                )?;
-                let irradiance = self.color(
-                    self.require(&l.irradiance, span.clone(), &k("irradiance"), kind)?,
-                    &k("irradiance"),
-                    None,
-                )?;
+                let direction =
+                    self.req_direction(&l.direction, span.clone(), &k("direction"), kind)?;
+                let irradiance =
+                    self.req_color(&l.irradiance, span.clone(), &k("irradiance"), kind)?;
                 let angular_diameter_deg = self.opt_float(
                     &l.angular_diameter,
                     &k("angular_diameter"),
@@ -585,15 +639,9 @@ impl Ctx {
             }
             "point" => {
                 self.only(span.clone(), &p, kind, &keys, &["position", "intensity"])?;
-                let position = self.vec3(
-                    self.require(&l.position, span.clone(), &k("position"), kind)?,
-                    &k("position"),
-                )?;
-                let intensity = self.color(
-                    self.require(&l.intensity, span.clone(), &k("intensity"), kind)?,
-                    &k("intensity"),
-                    None,
-                )?;
+                let position = self.req_vec3(&l.position, span.clone(), &k("position"), kind)?;
+                let intensity =
+                    self.req_color(&l.intensity, span.clone(), &k("intensity"), kind)?;
                 Ok(Light::Point {
                     position,
                     intensity,
@@ -607,28 +655,9 @@ impl Ctx {
                     &keys,
                     &["corner", "edge_u", "edge_v", "radiance", "two_sided"],
                 )?;
-                let corner = self.vec3(
-                    self.require(&l.corner, span.clone(), &k("corner"), kind)?,
-                    &k("corner"),
-                )?;
-                let eu = self.require(&l.edge_u, span.clone(), &k("edge_u"), kind)?;
-                let edge_u = self.vec3(eu, &k("edge_u"))?;
-                let edge_v = self.vec3(
-                    self.require(&l.edge_v, span.clone(), &k("edge_v"), kind)?,
-                    &k("edge_v"),
-                )?;
-                if edge_u.cross(edge_v).length_squared() < 1e-16 {
-                    return Err(self.err(
-                        eu.span(),
-                        k("edge_u"),
-                        "edge_u and edge_v must span a non-zero area",
-                    ));
-                }
-                let radiance = self.color(
-                    self.require(&l.radiance, span.clone(), &k("radiance"), kind)?,
-                    &k("radiance"),
-                    None,
-                )?;
+                let (corner, edge_u, edge_v) =
+                    self.parallelogram(&l.corner, &l.edge_u, &l.edge_v, span.clone(), &p, kind)?;
+                let radiance = self.req_color(&l.radiance, span.clone(), &k("radiance"), kind)?;
                 let two_sided = l.two_sided.as_ref().is_some_and(|v| *v.get_ref());
                 Ok(Light::Quad {
                     corner,
@@ -646,10 +675,7 @@ impl Ctx {
                     &keys,
                     &["center", "radius", "radiance"],
                 )?;
-                let center = self.vec3(
-                    self.require(&l.center, span.clone(), &k("center"), kind)?,
-                    &k("center"),
-                )?;
+                let center = self.req_vec3(&l.center, span.clone(), &k("center"), kind)?;
                 let radius = self.float(
                     self.require(&l.radius, span.clone(), &k("radius"), kind)?,
                     &k("radius"),
@@ -657,11 +683,7 @@ impl Ctx {
                     1e9,
                     true,
                 )?;
-                let radiance = self.color(
-                    self.require(&l.radiance, span.clone(), &k("radiance"), kind)?,
-                    &k("radiance"),
-                    None,
-                )?;
+                let radiance = self.req_color(&l.radiance, span.clone(), &k("radiance"), kind)?;
                 Ok(Light::Sphere {
                     center,
                     radius,
@@ -921,23 +943,8 @@ impl Ctx {
         match kind {
             "quad" => {
                 self.only(t.span(), &p, kind, &keys, &["corner", "edge_u", "edge_v"])?;
-                let corner = self.vec3(
-                    self.require(&o.corner, t.span(), &format!("{p}.corner"), kind)?,
-                    &format!("{p}.corner"),
-                )?;
-                let eu = self.require(&o.edge_u, t.span(), &format!("{p}.edge_u"), kind)?;
-                let edge_u = self.vec3(eu, &format!("{p}.edge_u"))?;
-                let edge_v = self.vec3(
-                    self.require(&o.edge_v, t.span(), &format!("{p}.edge_v"), kind)?,
-                    &format!("{p}.edge_v"),
-                )?;
-                if edge_u.cross(edge_v).length_squared() < 1e-16 {
-                    return Err(self.err(
-                        eu.span(),
-                        format!("{p}.edge_u"),
-                        "edge_u and edge_v must span a non-zero area",
-                    ));
-                }
+                let (corner, edge_u, edge_v) =
+                    self.parallelogram(&o.corner, &o.edge_u, &o.edge_v, t.span(), &p, kind)?;
                 let mut mesh = quad_mesh(corner, edge_u, edge_v, material);
                 apply_transform(&mut mesh, &xf);
                 Ok(vec![mesh])

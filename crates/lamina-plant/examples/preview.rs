@@ -5,9 +5,8 @@
 //! statistics.
 
 use glam::Vec3;
+use lamina_core::*;
 use lamina_plant::{PlantParams, generate_plant};
-use lamina_scene::load::quad_mesh;
-use lamina_scene::*;
 use std::path::{Path, PathBuf};
 
 fn scene_for(
@@ -25,7 +24,7 @@ fn scene_for(
     }];
     let (meshes, mats) = plant.into_scene_parts(1);
     materials.extend(mats);
-    let mut all = vec![quad_mesh(
+    let mut all = vec![Mesh::quad(
         Vec3::new(-ground_half, 0.0, ground_half),
         Vec3::new(2.0 * ground_half, 0.0, 0.0),
         Vec3::new(0.0, 0.0, -2.0 * ground_half),
@@ -64,6 +63,8 @@ fn scene_for(
         sky: Some(Sky::Constant(Vec3::new(0.16, 0.22, 0.32))),
         materials,
         meshes: all,
+        prototypes: Vec::new(),
+        instances: Vec::new(),
     }
 }
 

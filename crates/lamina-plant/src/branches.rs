@@ -12,9 +12,9 @@
 use crate::rng::{hash3, unit_f32};
 use crate::skeleton::{NONE, Skeleton};
 use glam::{Vec2, Vec3, Vec4};
+use lamina_core::scene::Mesh;
 use lamina_leaf::frame::Frame;
 use lamina_leaf::{Texture, Wrap};
-use lamina_scene::scene::Mesh;
 use rayon::prelude::*;
 use std::f32::consts::TAU;
 

@@ -20,10 +20,10 @@
 
 use crate::{Plant, PlantError};
 use glam::{Vec2, Vec3, Vec4};
+use lamina_core::cards::append_cards;
+use lamina_core::scene::Mesh;
 use lamina_leaf::Texture;
 use lamina_leaf::texture::linear_to_srgb;
-use lamina_scene::cards::append_cards;
-use lamina_scene::scene::Mesh;
 use serde_json::{Value, json};
 use std::path::Path;
 

@@ -21,7 +21,7 @@ use crate::params::Resolved;
 use crate::rng::{hash3, unit_f32};
 use crate::skeleton::{NONE, Skeleton};
 use glam::{Quat, Vec2, Vec3};
-use lamina_scene::cards::LeafCard;
+use lamina_core::cards::LeafCard;
 use rayon::prelude::*;
 
 /// Leaf cards per variant.

@@ -6,7 +6,7 @@
 //! ([`branches`]), places leaf cards along the twigs in a phyllotactic spiral, turned toward
 //! the light and drooping ([`leaves`]), and generates the leaf variants' maps with
 //! `lamina-leafmaps`. [`Plant::into_scene_parts`] turns the result into meshes and materials
-//! for a [`lamina_scene::Scene`]; [`write_glb`] exports it as binary glTF 2.0.
+//! for a [`lamina_core::Scene`]; [`write_glb`] exports it as binary glTF 2.0.
 //!
 //! Units: metres, `+y` up, the plant standing on `y = 0` around the origin.
 
@@ -23,10 +23,10 @@ pub use glb::write_glb;
 pub use params::{CrownShape, MAX_LEAVES, PlantKind, PlantParams, Resolved};
 
 use glam::{Vec2, Vec3};
+use lamina_core::cards::{LeafCard, append_cards};
+use lamina_core::scene::{ColorInput, Material, Mesh};
 use lamina_leaf::{LeafMaterial, Texture};
 use lamina_leafmaps::{GeneratedLeaf, LeafSpec};
-use lamina_scene::cards::{LeafCard, append_cards};
-use lamina_scene::scene::{ColorInput, Material, Mesh};
 use std::sync::Arc;
 use std::time::Instant;
 

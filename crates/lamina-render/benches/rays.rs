@@ -70,7 +70,7 @@ fn main() {
     let opaque = std::env::var_os("LAMINA_OPAQUE").is_some();
     if opaque {
         // Drop the leaf matte: every card is a full opaque rectangle.
-        if let lamina_scene::Material::DiffuseTransmission { alpha, .. } = &mut scene.materials[0] {
+        if let lamina_core::Material::DiffuseTransmission { alpha, .. } = &mut scene.materials[0] {
             *alpha = None;
         }
     }

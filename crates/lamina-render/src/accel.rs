@@ -2,7 +2,7 @@
 //! quad lights, a short list of sphere lights, and the alpha test.
 //!
 //! * **Alpha test on every ray kind**: a triangle whose material has a matte
-//!   ([`lamina_scene::AlphaMask`], or a leaf's [`lamina_leaf::LeafMaterial::opaque`]) is
+//!   ([`lamina_core::AlphaMask`], or a leaf's [`lamina_leaf::LeafMaterial::opaque`]) is
 //!   hit only where the matte is opaque at the interpolated texture coordinate; the
 //!   traversal rejects the other hits and goes on. [`Accel::intersect`] finds the closest
 //!   opaque hit, [`Accel::occluded`] stops at the first one (any-hit).
@@ -21,8 +21,8 @@
 
 use crate::error::RenderError;
 use glam::{Vec2, Vec3, Vec3A};
+use lamina_core::{AlphaMask, Light, Material, Scene};
 use lamina_leaf::frame::Frame;
-use lamina_scene::{AlphaMask, Light, Material, Scene};
 use obvhs::{
     BvhBuildParams,
     aabb::Aabb,

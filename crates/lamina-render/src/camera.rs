@@ -2,8 +2,8 @@
 
 use crate::error::RenderError;
 use glam::{Vec2, Vec3};
+use lamina_core::{Camera, Film};
 use lamina_leaf::sampling::square_to_disk;
-use lamina_scene::{Camera, Film};
 
 /// A camera prepared for generating rays.
 ///
@@ -89,7 +89,7 @@ impl CameraModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use lamina_scene::{PixelFilter, ToneMap};
+    use lamina_core::{PixelFilter, ToneMap};
 
     #[test]
     fn centre_ray_looks_at_target_and_corners_match_fov() {

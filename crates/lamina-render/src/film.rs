@@ -8,7 +8,7 @@
 
 use crate::distribution::Distribution1D;
 use glam::{DVec3, Vec2, Vec3};
-use lamina_scene::PixelFilter;
+use lamina_core::PixelFilter;
 
 /// Bins of the tabulated 1D filter profile.
 const FILTER_BINS: usize = 256;

@@ -6,8 +6,8 @@
 //! leaf model handles its bump map internally, and the reference materials are flat.
 
 use glam::{Vec2, Vec3};
+use lamina_core::Material;
 use lamina_leaf::{Bsdf, BsdfSample, DiffuseTransmission, Lambertian, LeafBsdf};
-use lamina_scene::Material;
 
 /// The BSDF at a surface point: a closed enum (no allocation, no dynamic dispatch).
 // The leaf variant is larger, but the enum lives on the stack for one vertex: boxing it

@@ -16,8 +16,8 @@
 
 use crate::error::RenderError;
 use crate::render::Image;
+use lamina_core::{Film, ToneMap};
 use lamina_leaf::texture::linear_to_srgb;
-use lamina_scene::{Film, ToneMap};
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};

@@ -18,7 +18,7 @@ use crate::film::Accumulator;
 use crate::integrators::{SceneContext, paper, path};
 use crate::sampler::{PixelSampler, fold_seed};
 use glam::{Vec2, Vec3};
-use lamina_scene::{Integrator, Scene};
+use lamina_core::{Integrator, Scene};
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -2,11 +2,11 @@
 
 use crate::{Image, RenderOptions, render, write_image};
 use glam::{Vec2, Vec3, Vec4};
-use lamina_leaf::{Texture, Wrap};
-use lamina_scene::{
+use lamina_core::{
     AlphaMask, Camera, ColorInput, Film, Integrator, Light, Material, Mesh, PixelFilter, Scene,
     Sky, ToneMap,
 };
+use lamina_leaf::{Texture, Wrap};
 use std::f32::consts::PI;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -131,6 +131,8 @@ fn lambertian_card_matches_analytic_sun_value() {
                             sky: None,
                             materials: vec![mat.clone()],
                             meshes: vec![card(4.0, 0.0, 0)],
+                            prototypes: Vec::new(),
+                            instances: Vec::new(),
                         };
                         let out = render(&scene, &opts(4, 2)).unwrap();
                         let expect = if front { refl } else { trans } * th.cos() * e / PI;
@@ -182,6 +184,8 @@ fn furnace_is_energy_conserving() {
             diffuse_transmission(Vec3::splat(0.5), Vec3::splat(0.5)),
         ],
         meshes: vec![card(0.8, -0.3, 0), tilted, upright],
+        prototypes: Vec::new(),
+        instances: Vec::new(),
     };
     let out = render(&scene, &opts(256, 2)).unwrap();
     let m = mean(&out.image);
@@ -225,6 +229,8 @@ fn alpha_matte_lets_camera_and_shadow_rays_through() {
         sky: None,
         materials: vec![diffuse(0.8), card_mat],
         meshes: vec![card(5.0, 0.0, 0), card(1.0, 0.5, 1)],
+        prototypes: Vec::new(),
+        instances: Vec::new(),
     };
     let out = render(&scene, &opts(4, 2)).unwrap();
     let row = 4;
@@ -301,6 +307,8 @@ fn small_canopy_scene() -> Scene {
             diffuse(0.6),
         ],
         meshes,
+        prototypes: Vec::new(),
+        instances: Vec::new(),
     }
 }
 
@@ -399,6 +407,8 @@ fn image_sky_furnace() {
         }),
         materials: vec![diffuse_transmission(Vec3::splat(0.7), Vec3::splat(0.3))],
         meshes: vec![card(0.5, 0.0, 0)],
+        prototypes: Vec::new(),
+        instances: Vec::new(),
     };
     let out = render(&scene, &opts(32, 2)).unwrap();
     for p in &out.image.pixels {
@@ -543,6 +553,8 @@ fn area_lights_match_analytic_irradiance() {
             sky: None,
             materials: vec![diffuse(r)],
             meshes: vec![card(5.0, 0.0, 0)],
+            prototypes: Vec::new(),
+            instances: Vec::new(),
         };
         let out = render(&scene, &opts(64, 2)).unwrap();
         let m = mean(&out.image).x;

@@ -50,7 +50,7 @@ fn studio_materials(leaf: &BuiltinLeaf) -> Vec<Material> {
 }
 
 fn ground(material: u32, half: f32, y: f32) -> Mesh {
-    crate::load::quad_mesh(
+    Mesh::quad(
         Vec3::new(-half, y, half),
         Vec3::new(2.0 * half, 0.0, 0.0),
         Vec3::new(0.0, 0.0, -2.0 * half),
@@ -98,6 +98,8 @@ fn leaf_panel(leaf: &BuiltinLeaf, sun_dir: Vec3, sun: Vec3, size: (u32, u32), sp
         sky: Some(Sky::Constant(Vec3::new(0.10, 0.13, 0.18))),
         materials: studio_materials(leaf),
         meshes: vec![mesh, ground(1, 3.0 * h, -0.75 * h)],
+        prototypes: Vec::new(),
+        instances: Vec::new(),
     }
 }
 
@@ -284,5 +286,7 @@ pub fn bush_scene(leaf: &BuiltinLeaf, size: (u32, u32), spp: u32) -> Scene {
         sky: Some(Sky::Constant(Vec3::new(0.16, 0.22, 0.32))),
         materials,
         meshes: vec![leaves, wood, ground(1, 6.0, 0.0)],
+        prototypes: Vec::new(),
+        instances: Vec::new(),
     }
 }

@@ -167,16 +167,7 @@ pub struct TransformTable {
     pub translate: Option<[f32; 3]>,
 }
 
-/// One leaf card: a rectangle with its adaxial side facing `normal`, its tip toward `up`.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct CardRow {
-    pub center: [f32; 3],
-    pub normal: [f32; 3],
-    pub up: [f32; 3],
-    pub width: f32,
-    pub height: f32,
-}
+pub use lamina_core::cards::CardRow;
 
 /// `[[object]]`: one flat table for every object type.
 #[derive(Debug, Deserialize)]

@@ -9,9 +9,8 @@ pub mod gltf_import;
 mod leaf;
 pub mod load;
 pub mod obj;
-pub mod scene;
-pub mod transform;
 
 pub use error::SceneError;
+pub use lamina_core::{scene, transform};
 pub use load::{load_scene, parse_scene};
 pub use scene::*;

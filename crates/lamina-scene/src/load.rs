@@ -7,7 +7,7 @@ use crate::error::{LineIndex, SceneError};
 use crate::file::*;
 use crate::scene::*;
 use crate::transform::Transform;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use lamina_leaf::{Encoding, Texture};
 use std::collections::HashMap;
 use std::ops::Range;
@@ -357,6 +357,8 @@ impl Ctx {
             sky,
             materials,
             meshes,
+            prototypes: Vec::new(),
+            instances: Vec::new(),
         };
         Ok(scene)
     }
@@ -945,7 +947,7 @@ impl Ctx {
                 self.only(t.span(), &p, kind, &keys, &["corner", "edge_u", "edge_v"])?;
                 let (corner, edge_u, edge_v) =
                     self.parallelogram(&o.corner, &o.edge_u, &o.edge_v, t.span(), &p, kind)?;
-                let mut mesh = quad_mesh(corner, edge_u, edge_v, material);
+                let mut mesh = Mesh::quad(corner, edge_u, edge_v, material);
                 apply_transform(&mut mesh, &xf);
                 Ok(vec![mesh])
             }
@@ -1066,23 +1068,6 @@ impl Ctx {
             m.material = remap[m.material as usize];
         }
         Ok(meshes)
-    }
-}
-
-/// A parallelogram `corner + s·edge_u + t·edge_v` as two triangles, front face along
-/// `edge_u × edge_v`, `uv = (s, t)`.
-pub fn quad_mesh(corner: Vec3, edge_u: Vec3, edge_v: Vec3, material: u32) -> Mesh {
-    Mesh {
-        positions: vec![
-            corner,
-            corner + edge_u,
-            corner + edge_u + edge_v,
-            corner + edge_v,
-        ],
-        normals: Vec::new(),
-        uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y],
-        indices: vec![[0, 1, 2], [0, 2, 3]],
-        material,
     }
 }
 

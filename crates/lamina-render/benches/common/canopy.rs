@@ -2,12 +2,12 @@
 //! `n` random cards (two triangles each) with a leaf-shaped alpha matte in a 10 m box.
 
 use glam::{Vec2, Vec3, Vec4};
-use lamina_leaf::{Texture, Wrap};
-use lamina_render::sampler::hash_u32;
-use lamina_scene::{
+use lamina_core::{
     AlphaMask, Camera, ColorInput, Film, Integrator, Light, Material, Mesh, PixelFilter, Scene,
     Sky, ToneMap,
 };
+use lamina_leaf::{Texture, Wrap};
+use lamina_render::sampler::hash_u32;
 
 /// A uniform number in `[0, 1)` from a counter.
 fn rnd(i: u32) -> f32 {
@@ -136,5 +136,7 @@ pub fn canopy_scene(n: u32, width: u32, height: u32, spp: u32) -> Scene {
             },
         ],
         meshes: canopy_meshes(n, 1),
+        prototypes: Vec::new(),
+        instances: Vec::new(),
     }
 }

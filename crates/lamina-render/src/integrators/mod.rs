@@ -10,7 +10,7 @@ use crate::error::RenderError;
 use crate::film::FilterSampler;
 use crate::lights::{AnyLight, LightSample, LightSet};
 use glam::Vec3;
-use lamina_scene::Scene;
+use lamina_core::Scene;
 
 /// A scene prepared for rendering: BVH, lights, camera and pixel filter.
 pub struct SceneContext<'a> {

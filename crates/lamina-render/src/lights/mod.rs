@@ -18,7 +18,7 @@ pub use sun::SunLight;
 
 use crate::error::RenderError;
 use glam::{Vec2, Vec3};
-use lamina_scene::{Light, Scene};
+use lamina_core::{Light, Scene};
 
 /// One light sample seen from a shaded point.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,7 +1,7 @@
 //! The sky: constant, or an equirectangular image importance-sampled with a 2D
 //! piecewise-constant distribution.
 //!
-//! Image orientation (as [`lamina_scene::Sky::Image`]): column coordinate `u ∈ [0, 1)` runs
+//! Image orientation (as [`lamina_core::Sky::Image`]): column coordinate `u ∈ [0, 1)` runs
 //! with azimuth `φ = atan2(d.x, -d.z)` from `u = 0` at `φ = -π` (looking along `+z`) through
 //! `u = 0.5` at `φ = 0` (looking along `-z`); row coordinate `v ∈ [0, 1]` runs with the polar
 //! angle `θ = acos(d.y)` from the zenith (`+y`, top row) to the nadir (bottom row).
@@ -17,8 +17,8 @@ use super::LightSample;
 use crate::distribution::Distribution2D;
 use crate::error::RenderError;
 use glam::{Vec2, Vec3};
+use lamina_core::Sky;
 use lamina_leaf::sampling::{UNIFORM_SPHERE_PDF, uniform_sphere};
-use lamina_scene::Sky;
 use std::f32::consts::PI;
 
 /// An equirectangular radiance map prepared for lookup and sampling.

@@ -25,8 +25,12 @@ pub struct Scene {
     pub sky: Option<Sky>,
     /// Materials, indexed by [`Mesh::material`].
     pub materials: Vec<Material>,
-    /// World-space triangle meshes.
+    /// World-space triangle meshes, each placed once.
     pub meshes: Vec<Mesh>,
+    /// Geometry placed many times by [`Scene::instances`] (object space).
+    pub prototypes: Vec<Prototype>,
+    /// Placements of [`Scene::prototypes`].
+    pub instances: Vec<Instance>,
 }
 
 /// A pinhole or thin-lens perspective camera.
@@ -266,4 +270,45 @@ pub struct Mesh {
     pub indices: Vec<[u32; 3]>,
     /// Index into [`Scene::materials`].
     pub material: u32,
+}
+
+impl Mesh {
+    /// A parallelogram `corner + s·edge_u + t·edge_v`, `s, t ∈ [0, 1]`, as two triangles with
+    /// `uv = (s, t)`. Its front (for a leaf, adaxial) side faces `edge_u × edge_v`.
+    pub fn quad(corner: Vec3, edge_u: Vec3, edge_v: Vec3, material: u32) -> Mesh {
+        Mesh {
+            positions: vec![
+                corner,
+                corner + edge_u,
+                corner + edge_u + edge_v,
+                corner + edge_v,
+            ],
+            normals: Vec::new(),
+            uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y],
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+            material,
+        }
+    }
+}
+
+/// A group of meshes defined once in its own object space (metres) and placed many times by
+/// [`Instance`]s: a leaf shape, a branch, a whole plant. Renderers keep one copy of its
+/// geometry (and one BVH) however many instances there are.
+#[derive(Clone, Debug, Default)]
+pub struct Prototype {
+    /// Name, for messages (the glTF mesh name, the plant object's name, ...).
+    pub name: String,
+    /// Object-space meshes; their `material` indexes [`Scene::materials`].
+    pub meshes: Vec<Mesh>,
+}
+
+/// One placement of a [`Prototype`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Instance {
+    /// Index into [`Scene::prototypes`].
+    pub prototype: u32,
+    /// Object-to-world transform (metres). Must be invertible; one that mirrors (negative
+    /// determinant) flips the winding, and renderers keep the adaxial side on the side the
+    /// transformed geometric normal points to, as for [`Mesh`] transforms.
+    pub transform: glam::Affine3A,
 }

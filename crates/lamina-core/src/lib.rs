@@ -1,0 +1,12 @@
+//! The in-memory scene model of lamina: what scene files, importers, built-in scenes and
+//! plant generators produce, and what the CPU and GPU renderers consume. Pure data and the
+//! small geometric helpers that build it (leaf cards, transforms); no file formats here.
+//!
+//! Loading lives in `lamina-scene`, which re-exports these modules, so
+//! `lamina_scene::Scene` and `lamina_core::Scene` are the same type.
+
+pub mod cards;
+pub mod scene;
+pub mod transform;
+
+pub use scene::*;

@@ -94,45 +94,65 @@ pub fn run(args: DemoArgs) -> Result<()> {
 }
 
 /// Writes the demo bush as an ordinary scene folder (for other renderers and benchmarks):
-/// `bush.toml`, `bush_cards.csv`, `bush_wood.obj` and `leaf_alpha.png`. Leaves become
-/// `diffuse_transmission` cards with the procedural leaf's alpha matte, since other
-/// renderers do not have lamina's leaf model; the sun is a delta light (angular diameter
-/// 0) so that it matches a directional light elsewhere.
+/// `bush.toml`, `bush_cards_<i>.csv` and `leaf_alpha_<i>.png` per leaf variant, and
+/// `bush_wood.obj`. Leaves become `diffuse_transmission` cards with each variant's alpha
+/// matte, since other renderers do not have lamina's leaf model; bark is a constant colour;
+/// the sun is a delta light (angular diameter 0) so that it matches a directional light
+/// elsewhere.
 pub fn export_bush(dir: &std::path::Path, leaf: &BuiltinLeaf, size: u32, spp: u32) -> Result<()> {
     use std::fmt::Write as _;
-    let scene = builtin::bush_scene(leaf, (size, size), spp);
-    let (wood, cards) = builtin::bush(7, leaf.size_m);
+    let plant = lamina_plant::generate_plant(&builtin::bush_params(7))?;
+    let scene = builtin::bush_scene_with(&plant, leaf, (size, size), spp)?;
+    let wood = &plant.branches;
     std::fs::create_dir_all(dir).with_context(|| format!("creating '{}'", dir.display()))?;
-    // The alpha matte as an 8-bit grey PNG.
-    let alpha = leaf
-        .material
-        .maps()
-        .alpha
-        .as_ref()
-        .context("the demo leaf has no alpha map")?;
-    let (w, h) = (alpha.width(), alpha.height());
-    let grey: Vec<u8> = alpha
-        .texels()
-        .iter()
-        .map(|t| (t.x.clamp(0.0, 1.0) * 255.0).round() as u8)
-        .collect();
-    let img = image::GrayImage::from_raw(w, h, grey).context("alpha size")?;
-    write_atomic(&dir.join("leaf_alpha.png"), |p| {
-        img.save(p).map_err(anyhow::Error::from)
-    })?;
-    let mut csv = String::from("cx,cy,cz,nx,ny,nz,ux,uy,uz,width,height\n");
-    for c in &cards {
-        let v = [c.center.to_array(), c.normal.to_array(), c.up.to_array()].concat();
-        let nums: Vec<String> = v
+    let mut leaf_tables = String::new();
+    for (i, (cards, variant)) in plant.leaves.iter().zip(&plant.leaf_variants).enumerate() {
+        // The alpha matte as an 8-bit grey PNG.
+        let alpha = variant
+            .maps
+            .alpha
+            .as_ref()
+            .context("a procedural leaf has no alpha map")?;
+        let (w, h) = (alpha.width(), alpha.height());
+        let grey: Vec<u8> = alpha
+            .texels()
             .iter()
-            .chain(&[c.width, c.height])
-            .map(|x| format!("{x:.6}"))
+            .map(|t| (t.x.clamp(0.0, 1.0) * 255.0).round() as u8)
             .collect();
-        writeln!(csv, "{}", nums.join(","))?;
+        let img = image::GrayImage::from_raw(w, h, grey).context("alpha size")?;
+        write_atomic(&dir.join(format!("leaf_alpha_{i}.png")), |p| {
+            img.save(p).map_err(anyhow::Error::from)
+        })?;
+        let mut csv = String::from("cx,cy,cz,nx,ny,nz,ux,uy,uz,width,height\n");
+        for c in cards {
+            let v = [c.center.to_array(), c.normal.to_array(), c.up.to_array()].concat();
+            let nums: Vec<String> = v
+                .iter()
+                .chain(&[c.width, c.height])
+                .map(|x| format!("{x:.6}"))
+                .collect();
+            writeln!(csv, "{}", nums.join(","))?;
+        }
+        write_atomic(&dir.join(format!("bush_cards_{i}.csv")), |p| {
+            Ok(std::fs::write(p, &csv)?)
+        })?;
+        write!(
+            leaf_tables,
+            r#"
+[[material]]
+name = "leaf_{i}"
+type = "diffuse_transmission"
+reflectance = [0.06, 0.12, 0.03]
+transmittance = [0.05, 0.16, 0.02]
+alpha = "leaf_alpha_{i}.png"
+
+[[object]]
+type = "leaf_cards"
+material = "leaf_{i}"
+file = "bush_cards_{i}.csv"
+"#
+        )?;
     }
-    write_atomic(&dir.join("bush_cards.csv"), |p| {
-        Ok(std::fs::write(p, &csv)?)
-    })?;
     let mut obj = String::from("# lamina demo bush: branches (m)\n");
     for p in &wood.positions {
         writeln!(obj, "v {} {} {}", p.x, p.y, p.z)?;
@@ -161,7 +181,7 @@ pub fn export_bush(dir: &std::path::Path, leaf: &BuiltinLeaf, size: u32, spp: u3
     let a = |v: Vec3| format!("[{}, {}, {}]", v.x, v.y, v.z);
     let toml = format!(
         r#"# The lamina demo bush, exported by `lamina demo --export-bush`.
-# Leaves are diffuse_transmission cards with the procedural leaf's alpha matte.
+# Leaves are diffuse_transmission cards with each leaf variant's alpha matte.
 
 [camera]
 position = {pos}
@@ -190,13 +210,6 @@ irradiance = {sun_e}
 angular_diameter = 0.0
 
 [[material]]
-name = "leaf"
-type = "diffuse_transmission"
-reflectance = [0.06, 0.12, 0.03]
-transmittance = [0.05, 0.16, 0.02]
-alpha = "leaf_alpha.png"
-
-[[material]]
 name = "bark"
 type = "diffuse"
 reflectance = [0.09, 0.06, 0.04]
@@ -205,11 +218,6 @@ reflectance = [0.09, 0.06, 0.04]
 name = "soil"
 type = "diffuse"
 reflectance = [0.12, 0.09, 0.06]
-
-[[object]]
-type = "leaf_cards"
-material = "leaf"
-file = "bush_cards.csv"
 
 [[object]]
 type = "obj"
@@ -222,7 +230,7 @@ material = "soil"
 corner = [-6.0, 0.0, 6.0]
 edge_u = [12.0, 0.0, 0.0]
 edge_v = [0.0, 0.0, -12.0]
-"#,
+{leaf_tables}"#,
         pos = a(cam.position),
         look = a(cam.look_at),
         fov = cam.fov_deg,
@@ -234,7 +242,7 @@ edge_v = [0.0, 0.0, -12.0]
     eprintln!(
         "wrote {} ({} leaf cards, {} branch triangles)",
         dir.join("bush.toml").display(),
-        cards.len(),
+        plant.leaf_count(),
         wood.indices.len()
     );
     Ok(())

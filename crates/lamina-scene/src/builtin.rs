@@ -1,5 +1,6 @@
 //! Built-in scenes that need no files: the demo's three panels (a leaf lit from the front,
-//! the same leaf lit from behind, a small bush under a low sun behind it).
+//! the same leaf lit from behind, a procedural bush from `lamina-plant` under a low sun
+//! behind it).
 //!
 //! The leaf material is passed in (the CLI makes a procedural one), so this module stays
 //! free of texture generation.
@@ -7,8 +8,8 @@
 use crate::cards::{LeafCard, append_cards};
 use crate::file::CardRow;
 use crate::scene::*;
-use glam::{Quat, Vec2, Vec3};
-use std::f32::consts::TAU;
+use glam::{Vec2, Vec3};
+use lamina_plant::{Plant, PlantParams};
 use std::sync::Arc;
 
 /// A leaf as the built-in scenes use it: its material and its card size (m).
@@ -120,143 +121,67 @@ pub fn leaf_back_lit(leaf: &BuiltinLeaf, size: (u32, u32), spp: u32) -> Scene {
     )
 }
 
-/// Small deterministic hash-based random numbers for the built-in plant.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f32 {
-        // SplitMix64.
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+/// The parameters of the demo's bush (after the paper's Fig. 5): a procedural beech bush
+/// from `lamina-plant`, about 0.8 m tall, its leaves turned toward the upper sky.
+pub fn bush_params(seed: u64) -> PlantParams {
+    PlantParams {
+        leaf_count: Some(1800),
+        leaf_variants: 3,
+        leaf_resolution: 256,
+        ..PlantParams::bush(seed)
     }
 }
 
-/// Appends a tapered cylinder from `a` (radius `ra`) to `b` (radius `rb`) with `n` sides.
-fn cylinder(mesh: &mut Mesh, a: Vec3, b: Vec3, ra: f32, rb: f32, n: u32) {
-    let axis = (b - a).normalize();
-    let frame = lamina_leaf::frame::Frame::from_normal(axis);
-    let base = mesh.positions.len() as u32;
-    for i in 0..n {
-        let phi = TAU * i as f32 / n as f32;
-        let d = frame.s * phi.cos() + frame.t * phi.sin();
-        mesh.positions.push(a + d * ra);
-        mesh.positions.push(b + d * rb);
-        mesh.normals.push(d);
-        mesh.normals.push(d);
-        mesh.uvs.push(Vec2::new(i as f32 / n as f32, 0.0));
-        mesh.uvs.push(Vec2::new(i as f32 / n as f32, 1.0));
+/// The demo's bush: the plant `plant` lit by a low sun from behind and to the side, under a
+/// blue sky, on soil, the camera framing its bounding box. Its leaves keep their own maps
+/// (the plant's leaf variants) with the optical parameters of `leaf` (so the three demo
+/// panels show one leaf model); materials: 0..n leaf variants, then soil, then bark.
+pub fn bush_scene_with(
+    plant: &Plant,
+    leaf: &BuiltinLeaf,
+    size: (u32, u32),
+    spp: u32,
+) -> Result<Scene, lamina_leaf::LeafError> {
+    let mut materials = Vec::new();
+    for (i, variant) in plant.leaf_variants.iter().enumerate() {
+        let material =
+            lamina_leaf::LeafMaterial::new(variant.maps.clone(), leaf.material.params().clone())?;
+        materials.push(Material::Leaf {
+            name: format!("leaf_{i}"),
+            leaf: Arc::new(material),
+        });
     }
-    for i in 0..n {
-        let j = (i + 1) % n;
-        let (a0, b0, a1, b1) = (
-            base + 2 * i,
-            base + 2 * i + 1,
-            base + 2 * j,
-            base + 2 * j + 1,
-        );
-        mesh.indices.push([a0, a1, b1]);
-        mesh.indices.push([a0, b1, b0]);
-    }
-}
-
-/// A small bush (after the paper's Fig. 5): a few stems that branch twice, leaves along the
-/// twigs in a 137.5° spiral, tilted toward the sky and drooping, `seed`-deterministic.
-/// Returns the branch mesh and the leaf cards, in metres, standing on `y = 0`.
-pub fn bush(seed: u64, leaf_size: Vec2) -> (Mesh, Vec<LeafCard>) {
-    let mut rng = Rng(seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ 0x5DEE_CE66);
-    let mut wood = Mesh::default();
-    let mut cards = Vec::new();
-    let mut stack: Vec<(Vec3, Vec3, f32, f32, u32)> = Vec::new();
-    for i in 0..5 {
-        let phi = TAU * (i as f32 / 5.0 + 0.1 * rng.next());
-        let tilt = 0.35 + 0.25 * rng.next();
-        let dir = Vec3::new(tilt.sin() * phi.cos(), tilt.cos(), tilt.sin() * phi.sin());
-        stack.push((
-            Vec3::new(0.0, 0.0, 0.0),
-            dir,
-            0.35 + 0.1 * rng.next(),
-            0.012,
-            0,
-        ));
-    }
-    while let Some((start, dir, len, radius, level)) = stack.pop() {
-        let end = start + dir * len;
-        cylinder(&mut wood, start, end, radius, radius * 0.7, 6);
-        if level < 3 {
-            for k in 0..3 {
-                let t = 0.45 + 0.25 * k as f32 + 0.05 * rng.next();
-                let p = start + dir * len * t;
-                let phi = TAU * rng.next();
-                let side = lamina_leaf::frame::Frame::from_normal(dir);
-                let out = side.s * phi.cos() + side.t * phi.sin();
-                let nd = (dir * 0.8 + out * 0.7 + Vec3::Y * 0.2).normalize();
-                stack.push((
-                    p,
-                    nd,
-                    len * (0.5 + 0.15 * rng.next()),
-                    radius * 0.6,
-                    level + 1,
-                ));
-            }
-        }
-        // Leaves along the outer part of every branch, in a golden-angle spiral.
-        let count = match level {
-            0 => 2,
-            1 => 4,
-            _ => 7,
-        };
-        let frame = lamina_leaf::frame::Frame::from_normal(dir);
-        for k in 0..count {
-            let t = 0.35 + 0.65 * (k as f32 + rng.next() * 0.5) / count as f32;
-            let p = start + dir * len * t;
-            let phi = k as f32 * 137.5f32.to_radians() + TAU * rng.next() * 0.1;
-            let out = frame.s * phi.cos() + frame.t * phi.sin();
-            let scale = 0.75 + 0.5 * rng.next();
-            let (w, h) = (leaf_size.x * scale, leaf_size.y * scale);
-            // The blade points outward and droops; its upper side turns toward the sky.
-            let tip = (out * 0.9 + Vec3::Y * (0.25 - 0.5 * rng.next()) + dir * 0.2).normalize();
-            let sideways = tip.cross(Vec3::Y).normalize_or(Vec3::X);
-            let mut normal = sideways.cross(tip).normalize();
-            if normal.y < 0.0 {
-                normal = -normal;
-            }
-            let twist = Quat::from_axis_angle(tip, (rng.next() - 0.5) * 0.8);
-            let normal = twist * normal;
-            let center = p + tip * (0.5 * h + 0.01);
-            if let Ok(c) = LeafCard::new(&CardRow {
-                center: center.to_array(),
-                normal: normal.to_array(),
-                up: tip.to_array(),
-                width: w,
-                height: h,
-            }) {
-                cards.push(c);
-            }
-        }
-    }
-    (wood, cards)
-}
-
-/// The demo's bush: the built-in plant lit by a low sun from behind and to the side, under
-/// a blue sky, on soil.
-pub fn bush_scene(leaf: &BuiltinLeaf, size: (u32, u32), spp: u32) -> Scene {
-    let (mut wood, cards) = bush(7, leaf.size_m);
-    wood.material = 2;
-    let mut leaves = Mesh {
-        material: 0,
-        ..Default::default()
-    };
-    append_cards(&mut leaves, &cards);
-    let mut materials = studio_materials(leaf);
+    let soil = materials.len() as u32;
     materials.push(Material::Diffuse {
-        name: "bark".into(),
-        reflectance: ColorInput::Constant(Vec3::new(0.09, 0.06, 0.04)),
+        name: "ground".into(),
+        reflectance: ColorInput::Constant(Vec3::new(0.12, 0.09, 0.06)),
         alpha: None,
     });
-    let target = Vec3::new(0.0, 0.35, 0.0);
+    materials.push(plant.bark_material());
+    let mut meshes = Vec::new();
+    for (i, cards) in plant.leaves.iter().enumerate() {
+        let mut mesh = Mesh {
+            material: i as u32,
+            ..Default::default()
+        };
+        append_cards(&mut mesh, cards);
+        meshes.push(mesh);
+    }
+    let mut wood = plant.branches.clone();
+    wood.material = soil + 1;
+    meshes.push(wood);
+    meshes.push(ground(soil, 6.0, 0.0));
+
+    let [lo, hi] = plant.stats.bounds;
+    let target = Vec3::new(
+        0.5 * (lo.x + hi.x),
+        0.45 * (lo.y + hi.y),
+        0.5 * (lo.z + hi.z),
+    );
+    let radius = 0.5 * (hi - lo).length();
+    let fov = 40f32;
+    let dist = 0.8 * radius / (0.5 * fov.to_radians()).tan();
+    let eye = target + Vec3::new(0.0, 0.12, 1.0).normalize() * dist;
     let elevation = 30f32.to_radians();
     let azimuth = (180.0f32 + 35.0).to_radians();
     let sun_dir = Vec3::new(
@@ -264,14 +189,14 @@ pub fn bush_scene(leaf: &BuiltinLeaf, size: (u32, u32), spp: u32) -> Scene {
         elevation.sin(),
         elevation.cos() * azimuth.cos(),
     );
-    Scene {
+    Ok(Scene {
         camera: Camera {
-            position: Vec3::new(0.0, 0.55, 1.7),
+            position: eye,
             look_at: target,
             up: Vec3::Y,
-            fov_deg: 40.0,
+            fov_deg: fov,
             aperture_radius: 0.0,
-            focus_distance: 1.7,
+            focus_distance: dist,
         },
         film: film(size.0, size.1, spp),
         integrator: Integrator::Path {
@@ -285,8 +210,69 @@ pub fn bush_scene(leaf: &BuiltinLeaf, size: (u32, u32), spp: u32) -> Scene {
         }],
         sky: Some(Sky::Constant(Vec3::new(0.16, 0.22, 0.32))),
         materials,
-        meshes: vec![leaves, wood, ground(1, 6.0, 0.0)],
+        meshes,
         prototypes: Vec::new(),
         instances: Vec::new(),
+    })
+}
+
+/// The demo's bush ([`bush_params`] with seed 7) in [`bush_scene_with`]'s setting.
+pub fn bush_scene(leaf: &BuiltinLeaf, size: (u32, u32), spp: u32) -> Scene {
+    // Fixed, valid parameters and a leaf material that already exists: neither call can
+    // fail (the unit test below builds this scene).
+    let plant = lamina_plant::generate_plant(&bush_params(7)).expect("built-in bush parameters");
+    bush_scene_with(&plant, leaf, size, spp).expect("the demo leaf's parameters are valid")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small_leaf() -> BuiltinLeaf {
+        let g = lamina_leafmaps::generate(&lamina_leafmaps::LeafSpec::new(
+            lamina_leafmaps::Species::Beech,
+            1,
+            32,
+        ));
+        BuiltinLeaf {
+            material: Arc::new(lamina_leaf::LeafMaterial::new(g.maps, g.params).unwrap()),
+            size_m: Vec2::new(g.size_m.0, g.size_m.1),
+        }
+    }
+
+    #[test]
+    fn demo_bush_is_the_procedural_plant_in_frame() {
+        let params = PlantParams {
+            leaf_resolution: 32,
+            ..bush_params(7)
+        };
+        let plant = lamina_plant::generate_plant(&params).unwrap();
+        let leaf = small_leaf();
+        let scene = bush_scene_with(&plant, &leaf, (64, 48), 4).unwrap();
+        let cards: usize = scene.meshes[..plant.leaves.len()]
+            .iter()
+            .map(|m| m.indices.len() / 2)
+            .sum();
+        assert_eq!(cards, plant.leaf_count());
+        assert!(cards > 1000, "{cards} leaves");
+        // Every leaf material carries the demo leaf's optics.
+        for m in &scene.materials[..plant.leaf_variants.len()] {
+            let Material::Leaf { leaf: l, .. } = m else {
+                panic!("leaf variants come first")
+            };
+            assert_eq!(l.params(), leaf.material.params());
+        }
+        // The plant's base and top are in front of the camera, inside the field of view.
+        let cam = scene.camera;
+        let fwd = (cam.look_at - cam.position).normalize();
+        let half = (0.5 * cam.fov_deg).to_radians();
+        let [lo, hi] = plant.stats.bounds;
+        let mid = 0.5 * (lo + hi);
+        for p in [Vec3::new(mid.x, lo.y, mid.z), Vec3::new(mid.x, hi.y, mid.z)] {
+            let d = p - cam.position;
+            let along = d.dot(fwd);
+            assert!(along > 0.0);
+            assert!((d - fwd * along).length() / along < half.tan() * 1.01);
+        }
     }
 }

@@ -1,0 +1,50 @@
+//! Real-time approximation of lamina's leaf model with wgpu (Vulkan; Mesa's lavapipe
+//! renders it on machines without a GPU).
+//!
+//! The same [`lamina_scene::Scene`] the offline renderer takes (meshes, leaf cards,
+//! instanced prototypes, sun/point/area lights, constant or image sky) is rasterised with
+//! the alpha test and shaded with an approximation of [`lamina_leaf::LeafBsdf`] whose
+//! constants come from lamina-leaf itself:
+//!
+//! * [`bake`]: per material, the white-sky albedo maps (adaxial R, abaxial R, T, with the
+//!   thickness and extinction maps applied by the CPU model) and angular lookup tables
+//!   baked by evaluating the real CPU BSDF; GGX roughness per side, specular weight and the
+//!   front/back blend width from [`lamina_leaf::LeafParams`].
+//! * [`sky`]: the sky as spherical-harmonic irradiance.
+//! * [`renderer`]: the passes (two-layer translucent shadow map from the sun, camera pass,
+//!   tone map), headless image readback and window frames.
+//! * [`metrics`]: mean absolute error and SSIM for comparing with the offline renderer.
+//! * [`overlay`]: a tiny bitmap font for the frame-time overlay.
+//! * [`context`]: adapter/device creation and the error-scoped shader compile path.
+//!
+//! Known approximations (see the crate README section in the notes): sky light and point
+//! lights are unshadowed; light between leaves is limited to the sun's transmittance
+//! through up to two leaves (no leaf-to-leaf bounces); the leaf lobes' azimuthal shape is
+//! averaged out; bump maps are not used.
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod bake;
+pub mod context;
+pub mod error;
+pub mod metrics;
+pub mod overlay;
+pub mod renderer;
+pub mod sky;
+
+pub use context::{ContextOptions, GpuContext, context_for_tests};
+pub use error::GpuError;
+pub use renderer::{FrameView, RenderSettings, Renderer};
+
+/// Renders `scene` headless at its film size: the GPU counterpart of
+/// `lamina_render::render`. Returns linear radiance and the upload warnings.
+pub fn render_scene(
+    ctx: &GpuContext,
+    scene: &lamina_scene::Scene,
+    settings: RenderSettings,
+) -> Result<(lamina_render::Image, Vec<String>), GpuError> {
+    let mut r = Renderer::new(ctx, scene, settings)?;
+    let img = r.render_image()?;
+    Ok((img, r.warnings().to_vec()))
+}

@@ -1,0 +1,328 @@
+// lamina-gpu scene shader: the light-view passes (alpha-tested depth and the two-layer
+// transmittance map) and the camera pass (leaf shading).
+//
+// Conventions (as in lamina-leaf): colours are linear Rec.709 RGB; lengths in metres;
+// `sun_dir` points from the scene TOWARD the sun; the adaxial (upper, front) side of a
+// surface is the side its counter-clockwise winding faces, kept for mirroring instance
+// transforms. Radiometry: the camera pass outputs radiance (W m^-2 sr^-1) into a linear
+// RGBA16F target; exposure and tone map happen afterwards, identically to the offline
+// renderer's PNG output.
+
+const PI: f32 = 3.14159265;
+const MAX_LIGHTS: u32 = 8u;
+
+// One unshadowed light. `pos.w == 0`: directional, `pos.xyz` toward the light,
+// `color` = irradiance at normal incidence (W m^-2). `pos.w == 1`: point light at `pos.xyz`,
+// `color` = radiant intensity (W sr^-1).
+struct Light {
+    pos: vec4<f32>,
+    color: vec4<f32>,
+}
+
+// Per-frame constants (Rust: `gpu::Globals`).
+struct Globals {
+    // World -> clip of the camera (depth 0..1).
+    view_proj: mat4x4<f32>,
+    // World -> clip of the sun's orthographic shadow camera.
+    light_view_proj: mat4x4<f32>,
+    // Camera position (m), w unused.
+    camera_pos: vec4<f32>,
+    // Unit vector toward the shadowed sun; w = 1 when there is one.
+    sun_dir: vec4<f32>,
+    // The shadowed sun's irradiance at normal incidence (W m^-2, linear RGB).
+    sun_irr: vec4<f32>,
+    // x: shadow map side (texels); y: world size of one shadow texel (m);
+    // z: depth range of the shadow camera (m); w: unused.
+    shadow: vec4<f32>,
+    // Sky irradiance as 9 SH coefficients (bands 0-2), E(n) = sum c_k Y_k(n), W m^-2.
+    sky: array<vec4<f32>, 9>,
+    lights: array<Light, 8>,
+    // x: number of entries used in `lights`.
+    counts: vec4<u32>,
+}
+
+// Per-material constants (Rust: `bake::MaterialUniform`): x/y GGX alpha adaxial/abaxial,
+// z specular weight, w sin(blend width).
+struct MaterialParams {
+    spec: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> g: Globals;
+// Light-view depth of the nearest alpha-tested occluder (layer 1) and of the next one
+// behind it (layer 2), and their diffuse transmittance colours.
+@group(0) @binding(1) var shadow_d1: texture_depth_2d;
+@group(0) @binding(2) var shadow_d2: texture_depth_2d;
+@group(0) @binding(3) var shadow_c1: texture_2d<f32>;
+@group(0) @binding(4) var shadow_c2: texture_2d<f32>;
+
+// Material maps baked from lamina-leaf (see bake.rs): white-sky albedos, sRGB-encoded
+// 8-bit, sampled as linear. front.a = alpha matte.
+@group(1) @binding(0) var t_front: texture_2d<f32>;
+@group(1) @binding(1) var t_back: texture_2d<f32>;
+@group(1) @binding(2) var t_trans: texture_2d<f32>;
+// Angular tables g_X(mu_o, mu_i) (1/sr) for layers 0 adaxial R, 1 abaxial R, 2 T;
+// layer 3 row 0: Fresnel of the adaxial (r) and abaxial (g) epidermis vs cosine.
+@group(1) @binding(3) var t_lut: texture_2d_array<f32>;
+@group(1) @binding(4) var s_map: sampler;
+@group(1) @binding(5) var s_lut: sampler;
+@group(1) @binding(6) var<uniform> mat: MaterialParams;
+
+struct VIn {
+    @location(0) pos: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    // Instance transform object -> world: the three linear columns and the translation.
+    @location(3) m0: vec3<f32>,
+    @location(4) m1: vec3<f32>,
+    @location(5) m2: vec3<f32>,
+    @location(6) m3: vec3<f32>,
+}
+
+struct VOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    // -1 when the instance transform mirrors (front faces then wind clockwise).
+    @location(3) @interpolate(flat) mirror: f32,
+}
+
+fn transform(v: VIn, clip_from_world: mat4x4<f32>) -> VOut {
+    var o: VOut;
+    let world = v.m0 * v.pos.x + v.m1 * v.pos.y + v.m2 * v.pos.z + v.m3;
+    // Normals transform with the cofactor matrix (det * inverse transpose).
+    let c0 = cross(v.m1, v.m2);
+    let c1 = cross(v.m2, v.m0);
+    let c2 = cross(v.m0, v.m1);
+    let det = dot(v.m0, c0);
+    o.mirror = select(1.0, -1.0, det < 0.0);
+    o.normal = (c0 * v.normal.x + c1 * v.normal.y + c2 * v.normal.z) * o.mirror;
+    o.world = world;
+    o.uv = v.uv;
+    o.clip = clip_from_world * vec4<f32>(world, 1.0);
+    return o;
+}
+
+// Texture coordinates: lamina's v points up, texture rows go down.
+fn map_uv(uv: vec2<f32>) -> vec2<f32> {
+    return vec2<f32>(uv.x, 1.0 - uv.y);
+}
+
+// ---------------------------------------------------------------------------------
+// Light-view passes. Layer 1: nearest alpha-tested surface (depth) and its transmittance
+// colour. Layer 2 (depth peeling): the nearest surface strictly behind layer 1. Light
+// reaching a point behind one layer is scaled by c1, behind two by c1 * c2 (a third
+// leaf leaves almost nothing: a green leaf transmits 5-20 %).
+
+@vertex
+fn vs_shadow(v: VIn) -> VOut {
+    return transform(v, g.light_view_proj);
+}
+
+// Diffuse transmittance (fraction of the incident flux passed through) of the occluder.
+@fragment
+fn fs_shadow_first(in: VOut) -> @location(0) vec4<f32> {
+    let uv = map_uv(in.uv);
+    if textureSample(t_front, s_map, uv).a < 0.5 {
+        discard;
+    }
+    return vec4<f32>(textureSample(t_trans, s_map, uv).rgb, 1.0);
+}
+
+@fragment
+fn fs_shadow_peel(in: VOut) -> @location(0) vec4<f32> {
+    let uv = map_uv(in.uv);
+    let a = textureSample(t_front, s_map, uv).a;
+    let t = textureSample(t_trans, s_map, uv).rgb;
+    let d1 = textureLoad(shadow_d1, vec2<i32>(in.clip.xy), 0);
+    if a < 0.5 || in.clip.z <= d1 + 1e-6 {
+        discard;
+    }
+    return vec4<f32>(t, 1.0);
+}
+
+// ---------------------------------------------------------------------------------
+// Camera pass.
+
+@vertex
+fn vs_main(v: VIn) -> VOut {
+    return transform(v, g.view_proj);
+}
+
+fn smooth01(x: f32) -> f32 {
+    let t = clamp(x, 0.0, 1.0);
+    return t * t * (3.0 - 2.0 * t);
+}
+
+// Angular table lookup at (mu_o, mu_i) in layer `l` (linear filtering, clamped).
+fn lut(l: i32, mu_o: f32, mu_i: f32) -> vec3<f32> {
+    return textureSampleLevel(t_lut, s_lut, vec2<f32>(mu_o, mu_i), l, 0.0).rgb;
+}
+
+fn fresnel(c: f32, adaxial: bool) -> f32 {
+    let f = textureSampleLevel(t_lut, s_lut, vec2<f32>(c, 0.5 / 32.0), 3, 0.0);
+    return select(f.g, f.r, adaxial);
+}
+
+fn ggx_lambda(c: f32, a: f32) -> f32 {
+    let c2 = max(c * c, 1e-8);
+    let tan2 = max(1.0 - c2, 0.0) / c2;
+    return 0.5 * (sqrt(1.0 + a * a * tan2) - 1.0);
+}
+
+// The leaf's specular lobe f_spec cos (lamina_leaf::specular::eval, GGX with
+// height-correlated Smith and the epidermis Fresnel), faded over the blend band next to
+// the plane exactly as LeafBsdf does. `n` is the normal on the viewer's (= light's) side.
+fn specular(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, adaxial: bool) -> f32 {
+    let w = mat.spec.z;
+    if w <= 0.0 {
+        return 0.0;
+    }
+    let a = select(mat.spec.y, mat.spec.x, adaxial);
+    let mu_o = dot(n, v);
+    let mu_i = dot(n, l);
+    if mu_o <= 0.0 || mu_i <= 0.0 {
+        return 0.0;
+    }
+    let h = normalize(v + l);
+    let c = max(dot(n, h), 0.0);
+    let a2 = a * a;
+    let t = c * c * (a2 - 1.0) + 1.0;
+    let d = a2 / (PI * t * t);
+    let g2 = 1.0 / (1.0 + ggx_lambda(mu_o, a) + ggx_lambda(mu_i, a));
+    let f = fresnel(max(dot(v, h), 0.0), adaxial);
+    let fade = smooth01(mu_o / mat.spec.w) * smooth01(mu_i / mat.spec.w);
+    return w * fade * f * d * g2 / (4.0 * mu_o);
+}
+
+// Everything a light needs about the shaded texel.
+struct Surface {
+    // Unit normal on the viewer's side.
+    n: vec3<f32>,
+    // Unit direction to the viewer.
+    v: vec3<f32>,
+    mu_o: f32,
+    // True when the viewer sees the adaxial side.
+    adaxial: bool,
+    // Diffuse reflectance of the seen side, and diffuse transmittance (linear RGB).
+    refl: vec3<f32>,
+    trans: vec3<f32>,
+}
+
+// f(wo, wi) |cos theta_i| for light from unit direction `l`: the seen side's reflection
+// lobe plus specular when the light is on the viewer's side, the transmission lobe when
+// it is behind. Both diffuse lobes vanish with mu_i at the leaf plane, and the specular
+// fades over the blend band, so a light crossing the plane changes nothing abruptly.
+fn bsdf_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
+    let c = dot(s.n, l);
+    let mu_i = abs(c);
+    if c >= 0.0 {
+        let layer = select(1, 0, s.adaxial);
+        return s.refl * lut(layer, s.mu_o, mu_i) * mu_i + vec3<f32>(specular(s.n, s.v, l, s.adaxial));
+    }
+    return s.trans * lut(2, s.mu_o, mu_i) * mu_i;
+}
+
+fn sh_basis(d: vec3<f32>) -> array<f32, 9> {
+    return array<f32, 9>(
+        0.282095,
+        0.488603 * d.y,
+        0.488603 * d.z,
+        0.488603 * d.x,
+        1.092548 * d.x * d.y,
+        1.092548 * d.y * d.z,
+        0.315392 * (3.0 * d.z * d.z - 1.0),
+        1.092548 * d.x * d.z,
+        0.546274 * (d.x * d.x - d.y * d.y),
+    );
+}
+
+// Sky irradiance (W m^-2) on a surface facing `n`.
+fn sky_irradiance(n: vec3<f32>) -> vec3<f32> {
+    let b = sh_basis(n);
+    var e = vec3<f32>(0.0);
+    for (var k = 0; k < 9; k++) {
+        e += g.sky[k].xyz * b[k];
+    }
+    return max(e, vec3<f32>(0.0));
+}
+
+// Fraction of the sun's light (per RGB channel) reaching world point `p` with unit normal
+// `n_l` on the sun's side: 1 in front of the nearest occluder, c1 behind one leaf, c1*c2
+// behind two, 3x3 percentage-closer filtered. The point is offset 1.5 shadow texels along
+// the normal toward the sun so a surface never shadows itself.
+fn sun_transmittance(p: vec3<f32>, n_l: vec3<f32>) -> vec3<f32> {
+    let q = p + n_l * (1.5 * g.shadow.y);
+    let c = g.light_view_proj * vec4<f32>(q, 1.0);
+    let ndc = c.xyz / c.w;
+    let size = i32(g.shadow.x);
+    let tc = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * g.shadow.x;
+    let base = vec2<i32>(floor(tc));
+    // Depth tolerance: two shadow texels along the light, in depth units.
+    let bias = 2.0 * g.shadow.y / g.shadow.z;
+    var acc = vec3<f32>(0.0);
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let t = clamp(base + vec2<i32>(dx, dy), vec2<i32>(0), vec2<i32>(size - 1));
+            let d1 = textureLoad(shadow_d1, t, 0);
+            let d2 = textureLoad(shadow_d2, t, 0);
+            let c1 = textureLoad(shadow_c1, t, 0).rgb;
+            let c2 = textureLoad(shadow_c2, t, 0).rgb;
+            var v = vec3<f32>(1.0);
+            if ndc.z > d1 + bias {
+                v = c1;
+                if ndc.z > d2 + bias {
+                    v = c1 * c2;
+                }
+            }
+            acc += v;
+        }
+    }
+    return acc / 9.0;
+}
+
+// Radiance toward the camera (linear RGB, W m^-2 sr^-1).
+@fragment
+fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
+    let uv = map_uv(in.uv);
+    let front = textureSample(t_front, s_map, uv);
+    let back = textureSample(t_back, s_map, uv).rgb;
+    let trans = textureSample(t_trans, s_map, uv).rgb;
+    if front.a < 0.5 {
+        discard;
+    }
+    var s: Surface;
+    s.v = normalize(g.camera_pos.xyz - in.world);
+    var n = normalize(in.normal);
+    if dot(n, s.v) < 0.0 {
+        n = -n;
+    }
+    s.n = n;
+    s.mu_o = clamp(dot(n, s.v), 1e-4, 1.0);
+    s.adaxial = front_facing != (in.mirror < 0.0);
+    s.refl = select(back, front.rgb, s.adaxial);
+    s.trans = trans;
+
+    var col = vec3<f32>(0.0);
+    if g.sun_dir.w > 0.5 {
+        let l = g.sun_dir.xyz;
+        let n_l = select(-n, n, dot(n, l) >= 0.0);
+        col += bsdf_cos(s, l) * g.sun_irr.rgb * sun_transmittance(in.world, n_l);
+    }
+    for (var i = 0u; i < min(g.counts.x, MAX_LIGHTS); i++) {
+        let li = g.lights[i];
+        if li.pos.w < 0.5 {
+            col += bsdf_cos(s, normalize(li.pos.xyz)) * li.color.rgb;
+        } else {
+            let d = li.pos.xyz - in.world;
+            let r2 = max(dot(d, d), 1e-8);
+            col += bsdf_cos(s, d * inverseSqrt(r2)) * li.color.rgb / r2;
+        }
+    }
+    // Sky: the diffuse lobes integrate the irradiance on each face with their white-sky
+    // albedos (exactly what the maps mean), plus the specular reflection of the sky
+    // approximated by the Fresnel-weighted irradiance around the mirror direction.
+    let spec_sky = mat.spec.z * fresnel(s.mu_o, s.adaxial) * sky_irradiance(reflect(-s.v, n));
+    col += (s.refl * sky_irradiance(n) + s.trans * sky_irradiance(-n) + spec_sky) / PI;
+    return vec4<f32>(col, 1.0);
+}

@@ -1,0 +1,107 @@
+//! Shared by the agreement test and the `compare` example: the demo's leaf and scenes, and
+//! one GPU-versus-offline comparison.
+#![allow(dead_code)]
+
+use glam::Vec2;
+use lamina_gpu::{GpuContext, RenderSettings, metrics};
+use lamina_render::{Image, RenderOptions};
+use lamina_scene::Scene;
+use lamina_scene::builtin::{self, BuiltinLeaf};
+use std::sync::Arc;
+
+/// The demo's leaf, made exactly as `lamina demo` makes it (crates/lamina-cli/src/demo.rs:
+/// procedural beech, seed 1, 512x512 maps, adaxial roughness at least 0.35).
+pub fn demo_leaf() -> BuiltinLeaf {
+    let species: lamina_leafmaps::Species = "beech".parse().expect("built-in species");
+    let spec = lamina_leafmaps::LeafSpec::new(species, 1, 512);
+    let leaf = lamina_leafmaps::generate(&spec);
+    let (w, h) = leaf.size_m;
+    let params = lamina_leaf::LeafParams {
+        roughness_adaxial: leaf.params.roughness_adaxial.max(0.35),
+        ..leaf.params
+    };
+    let material = lamina_leaf::LeafMaterial::new(leaf.maps, params).expect("demo leaf");
+    BuiltinLeaf {
+        material: Arc::new(material),
+        size_m: Vec2::new(w, h),
+    }
+}
+
+/// The demo's three panels at `size x size`.
+pub fn demo_scenes(size: u32, spp: u32) -> Vec<(&'static str, Scene)> {
+    let leaf = demo_leaf();
+    vec![
+        (
+            "front-lit leaf",
+            builtin::leaf_front_lit(&leaf, (size, size), spp),
+        ),
+        (
+            "back-lit leaf",
+            builtin::leaf_back_lit(&leaf, (size, size), spp),
+        ),
+        ("bush", builtin::bush_scene(&leaf, (size, size), spp)),
+    ]
+}
+
+/// One scene rendered both ways.
+pub struct Comparison {
+    pub gpu: Image,
+    pub cpu: Image,
+    /// Mean absolute error of the displayed (tone-mapped 8-bit sRGB) images, in [0, 1].
+    pub mae: f64,
+    /// Mean SSIM of the displayed images.
+    pub ssim: f64,
+    pub gpu_s: f64,
+    pub cpu_s: f64,
+}
+
+/// Renders `scene` on the GPU and offline (`spp` samples, fixed seed) and compares them.
+pub fn compare(ctx: &GpuContext, scene: &Scene, spp: u32) -> Comparison {
+    let t = std::time::Instant::now();
+    let (gpu, warnings) =
+        lamina_gpu::render_scene(ctx, scene, RenderSettings::default()).expect("GPU render");
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let gpu_s = t.elapsed().as_secs_f64();
+    let t = std::time::Instant::now();
+    let cpu = lamina_render::render(
+        scene,
+        &RenderOptions {
+            spp: Some(spp),
+            seed: 1,
+            ..Default::default()
+        },
+    )
+    .expect("offline render")
+    .image;
+    let cpu_s = t.elapsed().as_secs_f64();
+    let a = lamina_render::output::to_srgb8(&gpu, &scene.film);
+    let b = lamina_render::output::to_srgb8(&cpu, &scene.film);
+    Comparison {
+        mae: metrics::mean_abs_error(&a, &b),
+        ssim: metrics::ssim(&a, &b, gpu.width as usize, gpu.height as usize),
+        gpu,
+        cpu,
+        gpu_s,
+        cpu_s,
+    }
+}
+
+/// `a` and `b` side by side with a 4-pixel black gap.
+pub fn side_by_side(a: &Image, b: &Image) -> Image {
+    let gap = 4;
+    let width = a.width + gap + b.width;
+    let height = a.height.max(b.height);
+    let mut pixels = vec![glam::Vec3::ZERO; (width * height) as usize];
+    for (img, x0) in [(a, 0), (b, a.width + gap)] {
+        for y in 0..img.height {
+            for x in 0..img.width {
+                pixels[(y * width + x0 + x) as usize] = img.pixels[(y * img.width + x) as usize];
+            }
+        }
+    }
+    Image {
+        width,
+        height,
+        pixels,
+    }
+}

@@ -145,7 +145,7 @@ pub fn bush_scene_with(
     let mut materials = Vec::new();
     for (i, variant) in plant.leaf_variants.iter().enumerate() {
         let material =
-            lamina_leaf::LeafMaterial::new(variant.maps.clone(), leaf.material.params().clone())?;
+            lamina_leaf::LeafMaterial::new(variant.maps.clone(), *leaf.material.params())?;
         materials.push(Material::Leaf {
             name: format!("leaf_{i}"),
             leaf: Arc::new(material),

@@ -183,4 +183,21 @@ pub struct ObjectTable {
     pub edge_v: Option<S<[f32; 3]>>,
     pub cards: Option<S<Vec<CardRow>>>,
     pub materials: Option<S<toml::Table>>,
+    /// Name of the object (prototype name in messages).
+    pub name: Option<S<String>>,
+    /// `[object.plant]`: [`lamina_plant::PlantParams`] keys, each spanned for errors.
+    pub plant: Option<S<PlantTable>>,
+    /// The transform keys may also sit on the object itself (not with `transform`).
+    pub scale: Option<S<ColorValue>>,
+    pub rotate_x: Option<S<f32>>,
+    pub rotate_y: Option<S<f32>>,
+    pub rotate_z: Option<S<f32>>,
+    pub translate: Option<S<[f32; 3]>>,
+    /// Inline placements: the object becomes a prototype placed once per entry.
+    pub instances: Option<S<Vec<S<TransformTable>>>>,
+    /// A CSV file of placements (see `docs/scene-format.md`).
+    pub instances_file: Option<S<String>>,
 }
+
+/// `[object.plant]`: plant parameters by name, keys and values spanned.
+pub type PlantTable = std::collections::BTreeMap<S<String>, S<toml::Value>>;

@@ -16,10 +16,12 @@
 //! Metallic, roughness and normal maps have no counterpart in these materials and are
 //! ignored (a scene can override any glTF material by name with a lamina `leaf`, which has
 //! its own bump and roughness). glTF is `+y` up in metres, as lamina is; texture `v` is
-//! flipped to lamina's `v`-up convention. Each mesh instance becomes world-space triangles.
+//! flipped to lamina's `v`-up convention. A mesh that one node uses becomes world-space
+//! triangles; a mesh that several nodes use becomes one [`Prototype`] (in the mesh's own
+//! space) with one [`Instance`] per node, unless the caller asks for everything flattened.
 
 use crate::error::SceneError;
-use crate::scene::{AlphaMask, ColorInput, Material, Mesh};
+use crate::scene::{AlphaMask, ColorInput, Instance, Material, Mesh, Prototype};
 use crate::transform::Transform;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use lamina_leaf::texture::srgb_to_linear;
@@ -44,6 +46,12 @@ const MAX_ELEMENTS: usize = 1 << 28;
 pub struct GltfScene {
     /// World-space meshes; `material` indexes [`GltfScene::materials`].
     pub meshes: Vec<Mesh>,
+    /// glTF meshes used by more than one node, in the mesh's own space (one [`Mesh`] per
+    /// triangle primitive); `material` indexes [`GltfScene::materials`].
+    pub prototypes: Vec<Prototype>,
+    /// One per node using a prototype; `prototype` indexes [`GltfScene::prototypes`],
+    /// `transform` is the node's world transform (after the caller's transform).
+    pub instances: Vec<Instance>,
     /// Materials in glTF order, then one default material (grey diffuse) at the end.
     pub materials: Vec<Material>,
     /// glTF material names, parallel to `materials` (the default one is `"default"`).
@@ -52,8 +60,19 @@ pub struct GltfScene {
     pub warnings: Vec<String>,
 }
 
-/// Loads a glTF or GLB file and applies `xf` after the file's own node transforms.
+/// Loads a glTF or GLB file and applies `xf` after the file's own node transforms; meshes
+/// used by several nodes become prototypes with instances.
 pub fn load_gltf(path: &Path, xf: &Transform) -> Result<GltfScene, SceneError> {
+    load_gltf_with(path, xf, true)
+}
+
+/// [`load_gltf`]; with `instance_repeated` false every mesh use becomes world-space
+/// triangles (no prototypes), as when the whole file is itself one prototype.
+pub fn load_gltf_with(
+    path: &Path,
+    xf: &Transform,
+    instance_repeated: bool,
+) -> Result<GltfScene, SceneError> {
     let fail = |key: &str, msg: String| SceneError::new(path, None, key, msg);
     let gltf = gltf::Gltf::open(path).map_err(|e| fail("", format!("cannot read glTF: {e}")))?;
     for ext in gltf.extensions_required() {
@@ -99,6 +118,8 @@ pub fn load_gltf(path: &Path, xf: &Transform) -> Result<GltfScene, SceneError> {
         .ok_or_else(|| fail("scenes", "the file has no scene".into()))?;
     let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, xf.m)).collect();
     let mut visited = 0usize;
+    // (mesh, world transform) for every node with a mesh, in traversal order.
+    let mut uses: Vec<(gltf::Mesh, Mat4)> = Vec::new();
     while let Some((node, parent)) = stack.pop() {
         visited += 1;
         if visited > 1 << 24 {
@@ -116,42 +137,105 @@ pub fn load_gltf(path: &Path, xf: &Transform) -> Result<GltfScene, SceneError> {
             ));
         }
         if let Some(mesh) = node.mesh() {
-            for (pi, prim) in mesh.primitives().enumerate() {
-                let key = format!("meshes[{}].primitives[{pi}]", mesh.index());
-                if prim.mode() != gltf::mesh::Mode::Triangles {
-                    out.warnings.push(format!(
-                        "{key}: mode {:?} skipped (only triangles are rendered)",
-                        prim.mode()
-                    ));
-                    continue;
-                }
-                let material = prim
-                    .material()
-                    .index()
-                    .map_or(default_material, |i| i as u32);
-                let uv_xf = prim
-                    .material()
-                    .pbr_metallic_roughness()
-                    .base_color_texture()
-                    .and_then(|t| t.texture_transform())
-                    .map(uv_transform);
-                if let Some(m) = read_primitive(
-                    path,
-                    &key,
-                    &prim,
-                    &buffers,
-                    Transform::from_matrix(world),
-                    material,
-                    uv_xf,
-                )? {
-                    out.meshes.push(m);
-                }
-            }
+            uses.push((mesh, world));
         }
         stack.extend(node.children().map(|c| (c, world)));
     }
-    if out.meshes.is_empty() {
+    let mut count: HashMap<usize, usize> = HashMap::new();
+    for (m, _) in &uses {
+        *count.entry(m.index()).or_default() += 1;
+    }
+    // glTF mesh index -> prototype index.
+    let mut proto_of: HashMap<usize, u32> = HashMap::new();
+    for (mesh, world) in &uses {
+        let repeated = instance_repeated && count[&mesh.index()] > 1;
+        if !repeated {
+            let meshes = read_mesh(
+                path,
+                mesh,
+                &buffers,
+                Transform::from_matrix(*world),
+                default_material,
+                &mut out.warnings,
+            )?;
+            out.meshes.extend(meshes);
+            continue;
+        }
+        if Mat3::from_mat4(*world).determinant().abs() < 1e-30 {
+            out.warnings.push(format!(
+                "a node using mesh {} has a singular (zero-scale) transform; skipped",
+                mesh.index()
+            ));
+            continue;
+        }
+        let proto = match proto_of.get(&mesh.index()) {
+            Some(&p) => p,
+            None => {
+                let meshes = read_mesh(
+                    path,
+                    mesh,
+                    &buffers,
+                    Transform::default(),
+                    default_material,
+                    &mut out.warnings,
+                )?;
+                if meshes.is_empty() {
+                    continue;
+                }
+                out.prototypes.push(Prototype {
+                    name: mesh
+                        .name()
+                        .map_or_else(|| format!("mesh{}", mesh.index()), str::to_owned),
+                    meshes,
+                });
+                let p = out.prototypes.len() as u32 - 1;
+                proto_of.insert(mesh.index(), p);
+                p
+            }
+        };
+        out.instances.push(Instance {
+            prototype: proto,
+            transform: glam::Affine3A::from_mat4(*world),
+        });
+    }
+    if out.meshes.is_empty() && out.prototypes.is_empty() {
         return Err(fail("meshes", "the file has no triangles to render".into()));
+    }
+    Ok(out)
+}
+
+/// The triangle primitives of `mesh` transformed by `xf`, one [`Mesh`] each.
+fn read_mesh(
+    path: &Path,
+    mesh: &gltf::Mesh,
+    buffers: &[gltf::buffer::Data],
+    xf: Transform,
+    default_material: u32,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Mesh>, SceneError> {
+    let mut out = Vec::new();
+    for (pi, prim) in mesh.primitives().enumerate() {
+        let key = format!("meshes[{}].primitives[{pi}]", mesh.index());
+        if prim.mode() != gltf::mesh::Mode::Triangles {
+            warnings.push(format!(
+                "{key}: mode {:?} skipped (only triangles are rendered)",
+                prim.mode()
+            ));
+            continue;
+        }
+        let material = prim
+            .material()
+            .index()
+            .map_or(default_material, |i| i as u32);
+        let uv_xf = prim
+            .material()
+            .pbr_metallic_roughness()
+            .base_color_texture()
+            .and_then(|t| t.texture_transform())
+            .map(uv_transform);
+        if let Some(m) = read_primitive(path, &key, &prim, buffers, xf, material, uv_xf)? {
+            out.push(m);
+        }
     }
     Ok(out)
 }

@@ -6,9 +6,11 @@ pub mod cards;
 pub mod error;
 pub mod file;
 pub mod gltf_import;
+pub mod instances;
 mod leaf;
 pub mod load;
 pub mod obj;
+mod plant_object;
 
 pub use error::SceneError;
 pub use lamina_core::{scene, transform};

@@ -346,8 +346,17 @@ impl Ctx {
             materials.push(self.material(i, m)?);
         }
         let mut meshes = Vec::new();
+        let mut prototypes = Vec::new();
+        let mut instances = Vec::new();
         for (i, o) in doc.object.iter().enumerate() {
-            meshes.extend(self.object(i, o, &by_name, &mut materials)?);
+            let g = self.object(i, o, &by_name, &mut materials)?;
+            let first = prototypes.len() as u32;
+            meshes.extend(g.meshes);
+            prototypes.extend(g.prototypes);
+            instances.extend(g.instances.into_iter().map(|mut inst| {
+                inst.prototype += first;
+                inst
+            }));
         }
         let scene = Scene {
             camera,
@@ -357,8 +366,8 @@ impl Ctx {
             sky,
             materials,
             meshes,
-            prototypes: Vec::new(),
-            instances: Vec::new(),
+            prototypes,
+            instances,
         };
         Ok(scene)
     }
@@ -871,10 +880,28 @@ impl Ctx {
         }
     }
 
+    /// A transform from parts, validated (see [`crate::instances::checked_transform`]);
+    /// errors at `span`, key `key.scale` / `key.translate` / `key.rotate`.
+    pub(crate) fn transform_parts(
+        &self,
+        scale: Vec3,
+        rot: Vec3,
+        tr: Vec3,
+        span: Range<usize>,
+        key: &str,
+    ) -> Result<Transform, SceneError> {
+        crate::instances::checked_transform(scale, rot, tr)
+            .map_err(|(k, m)| self.err(span, format!("{key}.{k}"), m))
+    }
+
     fn transform(&self, t: &Option<S<TransformTable>>, key: &str) -> Result<Transform, SceneError> {
         let Some(t) = t else {
             return Ok(Transform::default());
         };
+        self.table_transform(t, key)
+    }
+
+    fn table_transform(&self, t: &S<TransformTable>, key: &str) -> Result<Transform, SceneError> {
         let tt = t.get_ref();
         let scale = tt.scale.map_or(Vec3::ONE, |s| s.0);
         let rot = Vec3::new(
@@ -883,13 +910,85 @@ impl Ctx {
             tt.rotate_z.unwrap_or(0.0),
         );
         let tr = tt.translate.map_or(Vec3::ZERO, Vec3::from);
-        if !(scale.is_finite() && rot.is_finite() && tr.is_finite()) {
-            return Err(self.err(t.span(), key, "values must be finite"));
+        self.transform_parts(scale, rot, tr, t.span(), key)
+    }
+
+    /// The object's transform: `transform = { ... }` or the same keys on the object itself.
+    fn object_transform(&self, o: &ObjectTable, p: &str) -> Result<Transform, SceneError> {
+        let inline: [Option<Range<usize>>; 5] = [
+            o.scale.as_ref().map(|v| v.span()),
+            o.rotate_x.as_ref().map(|v| v.span()),
+            o.rotate_y.as_ref().map(|v| v.span()),
+            o.rotate_z.as_ref().map(|v| v.span()),
+            o.translate.as_ref().map(|v| v.span()),
+        ];
+        let Some(first) = inline.iter().flatten().next().cloned() else {
+            return self.transform(&o.transform, &format!("{p}.transform"));
+        };
+        if let Some(t) = &o.transform {
+            return Err(self.err(
+                t.span(),
+                format!("{p}.transform"),
+                "give the transform either as 'transform = { ... }' or as scale/rotate_x/rotate_y/rotate_z/translate keys on the object, not both",
+            ));
         }
-        if scale.abs().min_element() < 1e-12 {
-            return Err(self.err(t.span(), format!("{key}.scale"), "must not be zero"));
+        let f = |v: &Option<S<f32>>| v.as_ref().map_or(0.0, |v| *v.get_ref());
+        let scale = o.scale.as_ref().map_or(Vec3::ONE, |s| s.get_ref().0);
+        let rot = Vec3::new(f(&o.rotate_x), f(&o.rotate_y), f(&o.rotate_z));
+        let tr = o
+            .translate
+            .as_ref()
+            .map_or(Vec3::ZERO, |t| v3(*t.get_ref()));
+        crate::instances::checked_transform(scale, rot, tr).map_err(|(k, m)| {
+            let span = match k {
+                "scale" => o.scale.as_ref().map(|v| v.span()),
+                "translate" => o.translate.as_ref().map(|v| v.span()),
+                _ => None,
+            };
+            self.err(span.unwrap_or(first), format!("{p}.{k}"), m)
+        })
+    }
+
+    /// The object's placements when it has `instances` and/or `instances_file`.
+    fn placements(
+        &self,
+        p: &str,
+        o: &ObjectTable,
+        table: Range<usize>,
+    ) -> Result<Option<Vec<glam::Affine3A>>, SceneError> {
+        if o.instances.is_none() && o.instances_file.is_none() {
+            return Ok(None);
         }
-        Ok(Transform::from_parts(scale, rot, tr))
+        let mut out = Vec::new();
+        if let Some(rows) = &o.instances {
+            for (j, row) in rows.get_ref().iter().enumerate() {
+                let t = self.table_transform(row, &format!("{p}.instances[{j}]"))?;
+                out.push(crate::instances::affine(&t));
+            }
+        }
+        if let Some(f) = &o.instances_file {
+            let rows = crate::instances::read_instances_csv(&self.path(f))?;
+            out.extend(rows.iter().map(crate::instances::affine));
+        }
+        if out.is_empty() {
+            return Err(self.err(
+                table,
+                format!("{p}.instances"),
+                "no placements: give at least one (or drop 'instances' to place the object once)",
+            ));
+        }
+        if out.len() > crate::instances::MAX_INSTANCES {
+            return Err(self.err(
+                table,
+                format!("{p}.instances"),
+                format!(
+                    "{} instances is more than the {} supported",
+                    out.len(),
+                    crate::instances::MAX_INSTANCES
+                ),
+            ));
+        }
+        Ok(Some(out))
     }
 
     fn object(
@@ -898,7 +997,7 @@ impl Ctx {
         t: &S<ObjectTable>,
         materials: &HashMap<String, u32>,
         scene_materials: &mut Vec<Material>,
-    ) -> Result<Vec<Mesh>, SceneError> {
+    ) -> Result<Geometry, SceneError> {
         let o = t.get_ref();
         let kind = o.kind.get_ref().as_str();
         let p = format!("object[{i}]");
@@ -908,8 +1007,10 @@ impl Ctx {
             ("edge_u", o.edge_u.is_some()),
             ("edge_v", o.edge_v.is_some()),
             ("cards", o.cards.is_some()),
+            ("plant", o.plant.is_some()),
         ];
-        let xf = self.transform(&o.transform, &format!("{p}.transform"))?;
+        let xf = self.object_transform(o, &p)?;
+        let placements = self.placements(&p, o, t.span())?;
         let lookup = |name: &S<String>, key: &str| -> Result<u32, SceneError> {
             materials.get(name.get_ref()).copied().ok_or_else(|| {
                 let mut names: Vec<_> = materials.keys().cloned().collect();
@@ -926,33 +1027,199 @@ impl Ctx {
             })
         };
         let mat_key = format!("{p}.material");
-        if kind == "gltf" {
-            self.only(t.span(), &p, kind, &keys, &["file", "materials"])?;
-            let f = self.require(&o.file, t.span(), &format!("{p}.file"), kind)?;
-            return self.gltf(&p, f, o, &xf, scene_materials, &lookup);
+        let geometry = match kind {
+            "gltf" | "obj" | "plant" => {
+                let imported = match kind {
+                    "gltf" => {
+                        self.only(t.span(), &p, kind, &keys, &["file", "materials"])?;
+                        let f = self.require(&o.file, t.span(), &format!("{p}.file"), kind)?;
+                        let path = self.path(f);
+                        // An instanced object is one prototype: its repeated meshes are
+                        // flattened into it (instances do not nest).
+                        let g =
+                            crate::gltf_import::load_gltf_with(&path, &xf, placements.is_none())?;
+                        for w in &g.warnings {
+                            eprintln!("warning: {}: {w}", path.display());
+                        }
+                        Imported {
+                            geometry: Geometry {
+                                meshes: g.meshes,
+                                prototypes: g.prototypes,
+                                instances: g.instances,
+                            },
+                            materials: g.materials,
+                            material_names: g.material_names,
+                            source: "the glTF file",
+                        }
+                    }
+                    "obj" => {
+                        self.only(t.span(), &p, kind, &keys, &["file", "materials"])?;
+                        let f = self.require(&o.file, t.span(), &format!("{p}.file"), kind)?;
+                        let obj = crate::obj::load_obj(&self.path(f))?;
+                        let mut meshes = obj.meshes;
+                        for m in &mut meshes {
+                            apply_transform(m, &xf);
+                        }
+                        Imported {
+                            geometry: Geometry {
+                                meshes,
+                                ..Default::default()
+                            },
+                            materials: obj.materials,
+                            material_names: obj.material_names,
+                            source: "the OBJ file",
+                        }
+                    }
+                    _ => {
+                        self.only(t.span(), &p, kind, &keys, &["plant", "materials"])?;
+                        let params = crate::plant_object::plant_params(
+                            self,
+                            &p,
+                            o.plant.as_ref(),
+                            t.span(),
+                        )?;
+                        let plant = lamina_plant::generate_plant(&params)
+                            .map_err(|e| self.err(t.span(), format!("{p}.plant"), e.to_string()))?;
+                        let (mut meshes, mats) = plant.into_scene_parts(0);
+                        for m in &mut meshes {
+                            apply_transform(m, &xf);
+                        }
+                        Imported {
+                            geometry: Geometry {
+                                meshes,
+                                ..Default::default()
+                            },
+                            material_names: mats
+                                .iter()
+                                .map(|m| material_name(m).to_owned())
+                                .collect(),
+                            materials: mats,
+                            source: "the plant",
+                        }
+                    }
+                };
+                self.bind_materials(&p, o, imported, scene_materials, &lookup)?
+            }
+            _ => {
+                if let Some(m) = &o.materials {
+                    return Err(self.err(
+                        m.span(),
+                        format!("{p}.materials"),
+                        "only gltf, obj and plant objects take 'materials'; use 'material'",
+                    ));
+                }
+                let material = lookup(
+                    self.require(&o.material, t.span(), &mat_key, kind)?,
+                    &mat_key,
+                )?;
+                let meshes = self.simple_object(&p, kind, t, &keys, &xf, material)?;
+                Geometry {
+                    meshes,
+                    ..Default::default()
+                }
+            }
+        };
+        let geometry = match placements {
+            None => geometry,
+            Some(placements) => {
+                let name = o
+                    .name
+                    .as_ref()
+                    .map_or_else(|| p.clone(), |n| n.get_ref().clone());
+                Geometry {
+                    meshes: Vec::new(),
+                    prototypes: vec![Prototype {
+                        name,
+                        meshes: geometry.meshes,
+                    }],
+                    instances: placements
+                        .into_iter()
+                        .map(|transform| Instance {
+                            prototype: 0,
+                            transform,
+                        })
+                        .collect(),
+                }
+            }
+        };
+        self.check_extent(&p, &geometry, t.span())?;
+        Ok(geometry)
+    }
+
+    /// Rejects geometry that, once placed, lies beyond ±[`crate::instances::MAX_COORD`] m
+    /// or has a non-finite vertex.
+    fn check_extent(&self, p: &str, g: &Geometry, span: Range<usize>) -> Result<(), SceneError> {
+        let max = crate::instances::MAX_COORD;
+        let bad = |v: Vec3| !v.is_finite() || v.abs().max_element() > max;
+        for m in &g.meshes {
+            if let Some(v) = m.positions.iter().find(|&&v| bad(v)) {
+                return Err(self.err(
+                    span,
+                    p,
+                    format!(
+                        "a vertex lands at {:?}, beyond ±{max:e} m (absurd size, or wrong units?)",
+                        v.to_array()
+                    ),
+                ));
+            }
         }
-        if let Some(m) = &o.materials {
-            return Err(self.err(
-                m.span(),
-                format!("{p}.materials"),
-                "only gltf objects take 'materials'; use 'material'",
-            ));
+        let bounds: Vec<Option<(Vec3, Vec3)>> = g
+            .prototypes
+            .iter()
+            .map(|pr| {
+                let mut it = pr.meshes.iter().flat_map(|m| m.positions.iter().copied());
+                let first = it.next()?;
+                Some(it.fold((first, first), |(lo, hi), v| (lo.min(v), hi.max(v))))
+            })
+            .collect();
+        for (j, inst) in g.instances.iter().enumerate() {
+            let Some(Some((lo, hi))) = bounds.get(inst.prototype as usize) else {
+                continue;
+            };
+            for c in 0..8 {
+                let corner = Vec3::new(
+                    if c & 1 == 0 { lo.x } else { hi.x },
+                    if c & 2 == 0 { lo.y } else { hi.y },
+                    if c & 4 == 0 { lo.z } else { hi.z },
+                );
+                let w: Vec3 = inst.transform.transform_point3(corner);
+                if bad(w) {
+                    return Err(self.err(
+                        span,
+                        format!("{p}.instances[{j}]"),
+                        format!(
+                            "places the geometry at {:?}, beyond ±{max:e} m (absurd size, or wrong units?)",
+                            w.to_array()
+                        ),
+                    ));
+                }
+            }
         }
-        let material = lookup(
-            self.require(&o.material, t.span(), &mat_key, kind)?,
-            &mat_key,
-        )?;
+        Ok(())
+    }
+
+    /// `quad` and `leaf_cards`: one scene material, world-space meshes.
+    fn simple_object(
+        &self,
+        p: &str,
+        kind: &str,
+        t: &S<ObjectTable>,
+        keys: &[(&str, bool)],
+        xf: &Transform,
+        material: u32,
+    ) -> Result<Vec<Mesh>, SceneError> {
+        let o = t.get_ref();
         match kind {
             "quad" => {
-                self.only(t.span(), &p, kind, &keys, &["corner", "edge_u", "edge_v"])?;
+                self.only(t.span(), p, kind, keys, &["corner", "edge_u", "edge_v"])?;
                 let (corner, edge_u, edge_v) =
-                    self.parallelogram(&o.corner, &o.edge_u, &o.edge_v, t.span(), &p, kind)?;
+                    self.parallelogram(&o.corner, &o.edge_u, &o.edge_v, t.span(), p, kind)?;
                 let mut mesh = Mesh::quad(corner, edge_u, edge_v, material);
-                apply_transform(&mut mesh, &xf);
+                apply_transform(&mut mesh, xf);
                 Ok(vec![mesh])
             }
             "leaf_cards" => {
-                self.only(t.span(), &p, kind, &keys, &["file", "cards"])?;
+                self.only(t.span(), p, kind, keys, &["file", "cards"])?;
                 let mut cards: Vec<LeafCard> = Vec::new();
                 if let Some(rows) = &o.cards {
                     for (j, row) in rows.get_ref().iter().enumerate() {
@@ -972,7 +1239,7 @@ impl Ctx {
                         "a leaf_cards object needs 'cards' or 'file'",
                     ));
                 }
-                let cards: Vec<LeafCard> = cards.iter().map(|c| c.transformed(&xf)).collect();
+                let cards: Vec<LeafCard> = cards.iter().map(|c| c.transformed(xf)).collect();
                 let mut mesh = Mesh {
                     material,
                     ..Default::default()
@@ -980,39 +1247,25 @@ impl Ctx {
                 append_cards(&mut mesh, &cards);
                 Ok(vec![mesh])
             }
-            "obj" => {
-                self.only(t.span(), &p, kind, &keys, &["file"])?;
-                let f = self.require(&o.file, t.span(), &format!("{p}.file"), kind)?;
-                let mut meshes = crate::obj::load_obj(&self.path(f), material)?;
-                for m in &mut meshes {
-                    apply_transform(m, &xf);
-                }
-                Ok(meshes)
-            }
             other => Err(self.err(
                 o.kind.span(),
                 format!("{p}.type"),
-                format!("unknown object type '{other}' (quad, leaf_cards, obj, gltf)"),
+                format!("unknown object type '{other}' (quad, leaf_cards, obj, gltf, plant)"),
             )),
         }
     }
 
-    /// A glTF object: its meshes, with its materials appended to the scene's unless the
-    /// object's `material` (all) or `materials` (by glTF material name) maps them to scene
-    /// materials.
-    fn gltf(
+    /// Binds an imported object's materials to the scene: the object's `material` replaces
+    /// all of them, `materials = { "their name" = "scene name" }` replaces them by name, and
+    /// the rest are appended to the scene's materials (only those some mesh uses).
+    fn bind_materials(
         &self,
         p: &str,
-        file: &S<String>,
         o: &ObjectTable,
-        xf: &Transform,
+        imported: Imported,
         scene_materials: &mut Vec<Material>,
         lookup: &MaterialLookup,
-    ) -> Result<Vec<Mesh>, SceneError> {
-        let imported = crate::gltf_import::load_gltf(&self.path(file), xf)?;
-        for w in &imported.warnings {
-            eprintln!("warning: {}: {w}", self.path(file).display());
-        }
+    ) -> Result<Geometry, SceneError> {
         let all = o
             .material
             .as_ref()
@@ -1020,8 +1273,8 @@ impl Ctx {
             .transpose()?;
         let mut by_name: HashMap<&str, u32> = HashMap::new();
         if let Some(table) = &o.materials {
-            for (gltf_name, v) in table.get_ref() {
-                let key = format!("{p}.materials.{gltf_name}");
+            for (their_name, v) in table.get_ref() {
+                let key = format!("{p}.materials.{their_name}");
                 let toml::Value::String(scene_name) = v else {
                     return Err(self.err(
                         table.span(),
@@ -1029,22 +1282,31 @@ impl Ctx {
                         "must be the name of a scene material (a string)",
                     ));
                 };
-                if !imported.material_names.iter().any(|n| n == gltf_name) {
+                if !imported.material_names.iter().any(|n| n == their_name) {
                     let have = imported.material_names.join(", ");
                     return Err(self.err(
                         table.span(),
                         key,
-                        format!("the glTF file has no material '{gltf_name}' (it has: {have})"),
+                        format!(
+                            "{} has no material '{their_name}' (it has: {have})",
+                            imported.source
+                        ),
                     ));
                 }
                 let target = lookup(&S::new(table.span(), scene_name.clone()), &key)?;
-                by_name.insert(gltf_name.as_str(), target);
+                by_name.insert(their_name.as_str(), target);
             }
         }
-        // glTF materials that are not overridden become new scene materials.
+        let mut g = imported.geometry;
         let mut used = vec![false; imported.materials.len()];
-        for m in &imported.meshes {
-            used[m.material as usize] = true;
+        for m in g
+            .meshes
+            .iter()
+            .chain(g.prototypes.iter().flat_map(|pr| pr.meshes.iter()))
+        {
+            if let Some(u) = used.get_mut(m.material as usize) {
+                *u = true;
+            }
         }
         let mut remap: Vec<u32> = Vec::with_capacity(imported.materials.len());
         for (i, (mat, name)) in imported
@@ -1063,11 +1325,42 @@ impl Ctx {
                 None => u32::MAX,
             });
         }
-        let mut meshes = imported.meshes;
-        for m in &mut meshes {
-            m.material = remap[m.material as usize];
+        for m in g
+            .meshes
+            .iter_mut()
+            .chain(g.prototypes.iter_mut().flat_map(|pr| pr.meshes.iter_mut()))
+        {
+            m.material = remap.get(m.material as usize).copied().unwrap_or(u32::MAX);
         }
-        Ok(meshes)
+        Ok(g)
+    }
+}
+
+/// What one `[[object]]` adds to the scene: world-space meshes, and prototypes with their
+/// instances (`Instance::prototype` local to `prototypes`).
+#[derive(Debug, Default)]
+pub(crate) struct Geometry {
+    pub(crate) meshes: Vec<Mesh>,
+    pub(crate) prototypes: Vec<Prototype>,
+    pub(crate) instances: Vec<Instance>,
+}
+
+/// Geometry with its own materials (`Mesh::material` indexes `materials`), from a file or
+/// a generator.
+struct Imported {
+    geometry: Geometry,
+    materials: Vec<Material>,
+    material_names: Vec<String>,
+    /// "the glTF file", for messages.
+    source: &'static str,
+}
+
+/// A material's name.
+fn material_name(m: &Material) -> &str {
+    match m {
+        Material::Diffuse { name, .. }
+        | Material::DiffuseTransmission { name, .. }
+        | Material::Leaf { name, .. } => name,
     }
 }
 

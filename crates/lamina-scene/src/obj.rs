@@ -3,13 +3,38 @@
 //! `v` up, as lamina's textures do.
 
 use crate::error::SceneError;
-use crate::scene::Mesh;
+use crate::scene::{ColorInput, Material, Mesh};
 use glam::{Vec2, Vec3};
 use std::path::Path;
 
+/// An OBJ file as meshes (in the file's space) and materials.
+#[derive(Debug, Default)]
+pub struct ObjScene {
+    /// One mesh per shape and material; `material` indexes [`ObjScene::materials`].
+    pub meshes: Vec<Mesh>,
+    /// The MTL materials, then one default material (grey diffuse) at the end.
+    pub materials: Vec<Material>,
+    /// Names parallel to `materials` (the default one is `"default"`).
+    pub material_names: Vec<String>,
+}
+
+/// Loads an OBJ file with its materials.
+pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
+    let meshes = load_obj_meshes(path, 0)?;
+    Ok(ObjScene {
+        meshes,
+        materials: vec![Material::Diffuse {
+            name: "default".into(),
+            reflectance: ColorInput::Constant(Vec3::splat(0.5)),
+            alpha: None,
+        }],
+        material_names: vec!["default".into()],
+    })
+}
+
 /// Loads all shapes of an OBJ file. Errors on unreadable files, non-finite vertices, index
 /// arrays that point outside the vertex arrays, and files with no triangles.
-pub fn load_obj(path: &Path, material: u32) -> Result<Vec<Mesh>, SceneError> {
+pub fn load_obj_meshes(path: &Path, material: u32) -> Result<Vec<Mesh>, SceneError> {
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
@@ -104,7 +129,7 @@ mod tests {
             "q.obj",
             "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n",
         );
-        let m = load_obj(&p, 7).unwrap();
+        let m = load_obj_meshes(&p, 7).unwrap();
         assert_eq!(m.len(), 1);
         assert_eq!(m[0].indices.len(), 2);
         assert_eq!(m[0].uvs.len(), 4);
@@ -115,13 +140,13 @@ mod tests {
     fn rejects_empty_and_nan() {
         let p = write("e.obj", "# nothing\n");
         assert!(
-            load_obj(&p, 0)
+            load_obj_meshes(&p, 0)
                 .unwrap_err()
                 .to_string()
                 .contains("no triangles")
         );
         let p = write("n.obj", "v nan 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n");
-        let e = load_obj(&p, 0).map(|_| ()).unwrap_err().to_string();
+        let e = load_obj_meshes(&p, 0).map(|_| ()).unwrap_err().to_string();
         assert!(e.contains("finite") || e.contains("cannot load"), "{e}");
     }
 }

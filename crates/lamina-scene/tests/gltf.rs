@@ -67,9 +67,26 @@ fn hierarchy_instances_and_diffuse_transmission() {
     let d = scratch("ok");
     let p = d.join("t.gltf");
     std::fs::write(&p, triangle_gltf(TRI, "")).unwrap();
+    // The mesh is used by two nodes: one prototype, two instances.
     let g = load_gltf(&p, &Transform::default()).unwrap();
-    assert_eq!(g.meshes.len(), 2, "the mesh is used by two nodes");
-    let xs: Vec<f32> = g.meshes.iter().map(|m| m.positions[1].x).collect();
+    assert!(g.meshes.is_empty());
+    assert_eq!(g.prototypes.len(), 1);
+    assert_eq!(
+        g.prototypes[0].meshes[0].positions[1].x, 1.0,
+        "object space"
+    );
+    assert_eq!(g.instances.len(), 2);
+    let xs: Vec<f32> = g
+        .instances
+        .iter()
+        .map(|i| i.transform.transform_point3(glam::Vec3::X).x)
+        .collect();
+    assert!(xs.contains(&1.0) && xs.contains(&3.0), "{xs:?}");
+    // Flattened on request (an object that is itself instanced).
+    let flat = lamina_scene::gltf_import::load_gltf_with(&p, &Transform::default(), false).unwrap();
+    assert_eq!(flat.meshes.len(), 2);
+    assert!(flat.prototypes.is_empty() && flat.instances.is_empty());
+    let xs: Vec<f32> = flat.meshes.iter().map(|m| m.positions[1].x).collect();
     assert!(xs.contains(&1.0) && xs.contains(&3.0), "{xs:?}");
     match &g.materials[0] {
         Material::DiffuseTransmission {
@@ -110,18 +127,20 @@ materials = { leafy = "mine" }
 transform = { translate = [0, 1, 0] }
 "#;
     let s = parse_scene(text, &d.join("s.toml")).unwrap();
-    assert_eq!(s.meshes.len(), 2);
-    assert!(s.meshes.iter().all(|m| m.material == 0));
+    assert!(s.meshes.is_empty());
+    assert_eq!((s.prototypes.len(), s.instances.len()), (1, 2));
+    assert!(s.prototypes[0].meshes.iter().all(|m| m.material == 0));
     assert_eq!(
         s.materials.len(),
         1,
         "the overridden glTF material is not added"
     );
-    assert!(
-        (s.meshes[0].positions[0].y - 1.0).abs() < 1e-6,
-        "{:?}",
-        s.meshes[0].positions
-    );
+    // The object's transform is part of each instance's.
+    let y = s.instances[0]
+        .transform
+        .transform_point3(s.prototypes[0].meshes[0].positions[0])
+        .y;
+    assert!((y - 1.0).abs() < 1e-6, "{y}");
     let bad = text.replace("leafy = ", "nosuch = ");
     let e = parse_scene(&bad, &d.join("s.toml")).unwrap_err();
     assert!(

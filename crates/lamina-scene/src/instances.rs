@@ -1,0 +1,179 @@
+//! Placements of an object that becomes a [`crate::Prototype`]: inline
+//! `instances = [{ translate = [..], rotate_y = .., scale = .. }, ...]` and/or an
+//! `instances_file` (CSV), and the size limits every transform must respect.
+
+use crate::error::SceneError;
+use crate::transform::Transform;
+use glam::{Affine3A, Vec3};
+use std::path::Path;
+
+/// Smallest and largest absolute scale factor per axis accepted in a transform. Outside this
+/// range a transform is singular or a units mistake (1e30 metres).
+pub const SCALE_RANGE: (f32, f32) = (1e-6, 1e6);
+
+/// Largest distance from the origin (m, per coordinate) of a translation or of any vertex
+/// after it is placed: 10,000 km. Anything farther is a units mistake and would wreck
+/// single-precision ray tracing.
+pub const MAX_COORD: f32 = 1e7;
+
+/// Most instances one object may have.
+pub const MAX_INSTANCES: usize = 1 << 27;
+
+/// Columns an instances CSV file may have.
+pub const CSV_COLUMNS: &[&str] = &["tx", "ty", "tz", "rx", "ry", "rz", "sx", "sy", "sz", "s"];
+
+/// A transform from its parts (scale, rotations about x, y, z in degrees, translation in
+/// m), validated: finite, every scale factor's magnitude in [`SCALE_RANGE`], translation
+/// within [`MAX_COORD`]. The error is `(sub-key, message)`.
+pub fn checked_transform(
+    scale: Vec3,
+    rotate_deg: Vec3,
+    translate: Vec3,
+) -> Result<Transform, (&'static str, String)> {
+    if !scale.is_finite() {
+        return Err((
+            "scale",
+            format!("must be finite, got {:?}", scale.to_array()),
+        ));
+    }
+    let (lo, hi) = SCALE_RANGE;
+    let a = scale.abs();
+    if a.min_element() < lo || a.max_element() > hi {
+        return Err((
+            "scale",
+            format!(
+                "each factor must be in [{lo:e}, {hi:e}] in magnitude (zero is singular, huge is a units mistake), got {:?}",
+                scale.to_array()
+            ),
+        ));
+    }
+    if !rotate_deg.is_finite() {
+        return Err((
+            "rotate",
+            format!("angles must be finite, got {:?}", rotate_deg.to_array()),
+        ));
+    }
+    if !translate.is_finite() || translate.abs().max_element() > MAX_COORD {
+        return Err((
+            "translate",
+            format!(
+                "must be finite and within ±{MAX_COORD:e} m, got {:?}",
+                translate.to_array()
+            ),
+        ));
+    }
+    Ok(Transform::from_parts(scale, rotate_deg, translate))
+}
+
+/// The transform as an instance's affine matrix.
+pub fn affine(t: &Transform) -> Affine3A {
+    Affine3A::from_mat4(t.m)
+}
+
+/// Reads an instances CSV file: a header naming any of [`CSV_COLUMNS`] (any order; `tx ty
+/// tz` translation in m, `rx ry rz` rotation in degrees about x then y then z, `sx sy sz`
+/// per-axis scale or `s` uniform scale), then one placement per row. Missing columns take
+/// 0 (translation, rotation) or 1 (scale). `#` starts a comment line. Errors name the file,
+/// the line and the column.
+pub fn read_instances_csv(path: &Path) -> Result<Vec<Transform>, SceneError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| SceneError::new(path, None, "", format!("cannot read instances file: {e}")))?;
+    let mut rd = csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let header = rd
+        .headers()
+        .map_err(|e| SceneError::new(path, Some(1), "", format!("bad CSV header: {e}")))?
+        .clone();
+    let header_line = rd.position().line() as usize;
+    let mut cols: Vec<usize> = Vec::new();
+    for (i, h) in header.iter().enumerate() {
+        let Some(c) = CSV_COLUMNS.iter().position(|&c| c == h) else {
+            return Err(SceneError::new(
+                path,
+                Some(header_line.max(1)),
+                h,
+                format!(
+                    "unknown column (the header names any of: {})",
+                    CSV_COLUMNS.join(", ")
+                ),
+            ));
+        };
+        if cols.contains(&c) {
+            return Err(SceneError::new(
+                path,
+                Some(header_line.max(1)),
+                h,
+                "column given twice",
+            ));
+        }
+        let _ = i;
+        cols.push(c);
+    }
+    if cols.contains(&9) && cols.iter().any(|&c| (6..9).contains(&c)) {
+        return Err(SceneError::new(
+            path,
+            Some(header_line.max(1)),
+            "s",
+            "give either 's' (uniform scale) or 'sx', 'sy', 'sz', not both",
+        ));
+    }
+    let mut out = Vec::new();
+    for rec in rd.records() {
+        let rec = rec.map_err(|e| {
+            let line = e.position().map(|p| p.line() as usize);
+            SceneError::new(path, line, "", format!("bad CSV row: {e}"))
+        })?;
+        let line = rec.position().map(|p| p.line() as usize);
+        let mut v = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0f32];
+        for (field, &c) in rec.iter().zip(&cols) {
+            v[c] = field.parse::<f32>().map_err(|_| {
+                SceneError::new(
+                    path,
+                    line,
+                    CSV_COLUMNS[c],
+                    format!("not a number: '{field}'"),
+                )
+            })?;
+        }
+        let scale = if cols.contains(&9) {
+            Vec3::splat(v[9])
+        } else {
+            Vec3::new(v[6], v[7], v[8])
+        };
+        let t = checked_transform(
+            scale,
+            Vec3::new(v[3], v[4], v[5]),
+            Vec3::new(v[0], v[1], v[2]),
+        )
+        .map_err(|(k, m)| SceneError::new(path, line, k, m))?;
+        out.push(t);
+        if out.len() > MAX_INSTANCES {
+            return Err(SceneError::new(
+                path,
+                line,
+                "",
+                format!("more than {MAX_INSTANCES} instances"),
+            ));
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn absurd_and_singular_scales_are_rejected() {
+        assert!(checked_transform(Vec3::ONE, Vec3::ZERO, Vec3::ZERO).is_ok());
+        assert!(checked_transform(Vec3::new(-2.0, 1.0, 1.0), Vec3::ZERO, Vec3::ZERO).is_ok());
+        for s in [0.0, 1e30, f32::NAN, 1e-9] {
+            let (k, m) = checked_transform(Vec3::splat(s), Vec3::ZERO, Vec3::ZERO).unwrap_err();
+            assert_eq!(k, "scale", "{m}");
+        }
+        let (k, _) = checked_transform(Vec3::ONE, Vec3::ZERO, Vec3::splat(1e9)).unwrap_err();
+        assert_eq!(k, "translate");
+    }
+}

@@ -1,0 +1,142 @@
+//! `type = "plant"` objects in scene files: what they add to the scene, material overrides,
+//! and errors that name the file, the line and the key.
+
+use lamina_scene::{Material, Scene, SceneError, parse_scene};
+use std::path::Path;
+
+const CAMERA: &str = "[camera]\nposition = [0, 1, 3]\nlook_at = [0, 0.5, 0]\n";
+
+/// A small, fast plant table (few leaves, tiny leaf maps).
+const SMALL: &str =
+    "leaf_count = 150\nleaf_resolution = 32\nleaf_variants = 2\nattraction_points = 60\n";
+
+fn parse(text: &str) -> Result<Scene, SceneError> {
+    parse_scene(text, Path::new("s.toml"))
+}
+
+fn err(text: &str) -> String {
+    match parse(text) {
+        Ok(_) => panic!("expected an error for:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn name(m: &Material) -> &str {
+    match m {
+        Material::Diffuse { name, .. }
+        | Material::DiffuseTransmission { name, .. }
+        | Material::Leaf { name, .. } => name,
+    }
+}
+
+#[test]
+fn plant_object_adds_branches_leaves_and_their_materials() {
+    let text = format!(
+        "{CAMERA}[[material]]\nname = \"ground\"\ntype = \"diffuse\"\n\
+         [[object]]\ntype = \"plant\"\ntranslate = [2, 0, 0]\nrotate_y = 30\n\
+         [object.plant]\nkind = \"bush\"\nseed = 7\nspecies = \"maple\"\n{SMALL}"
+    );
+    let s = parse(&text).unwrap();
+    // ground, bark, two leaf variants
+    let names: Vec<&str> = s.materials.iter().map(name).collect();
+    assert_eq!(names, ["ground", "bark", "leaf_maple_0", "leaf_maple_1"]);
+    assert!(matches!(s.materials[2], Material::Leaf { .. }));
+    assert!(s.meshes.len() >= 2, "branches and leaves");
+    assert_eq!(s.meshes[0].material, 1, "the branch mesh uses the bark");
+    assert!(s.meshes[1..].iter().all(|m| m.material >= 2));
+    let leaves: usize = s.meshes[1..].iter().map(|m| m.indices.len() / 2).sum();
+    assert!((100..=200).contains(&leaves), "{leaves} leaves");
+    // Translated by +2 in x: the bush (radius ~0.55 m) stands around x = 2.
+    let xs: Vec<f32> = s.meshes[0].positions.iter().map(|p| p.x).collect();
+    let mean = xs.iter().sum::<f32>() / xs.len() as f32;
+    assert!((mean - 2.0).abs() < 0.3, "{mean}");
+    assert!(s.prototypes.is_empty() && s.instances.is_empty());
+
+    // Same parameters, same plant.
+    let again = parse(&text).unwrap();
+    assert_eq!(again.meshes[0].positions, s.meshes[0].positions);
+}
+
+#[test]
+fn plant_materials_can_be_overridden_by_name() {
+    let text = format!(
+        "{CAMERA}[[material]]\nname = \"my_bark\"\ntype = \"diffuse\"\n\
+         [[object]]\ntype = \"plant\"\nmaterials = {{ bark = \"my_bark\" }}\n\
+         [object.plant]\n{SMALL}"
+    );
+    let s = parse(&text).unwrap();
+    let names: Vec<&str> = s.materials.iter().map(name).collect();
+    assert_eq!(names, ["my_bark", "leaf_beech_0", "leaf_beech_1"]);
+    assert_eq!(s.meshes[0].material, 0);
+
+    let bad = format!(
+        "{CAMERA}[[material]]\nname = \"my_bark\"\ntype = \"diffuse\"\n\
+         [[object]]\ntype = \"plant\"\nmaterials = {{ trunk = \"my_bark\" }}\n\
+         [object.plant]\n{SMALL}"
+    );
+    let e = err(&bad);
+    assert!(
+        e.contains("object[0].materials.trunk") && e.contains("bark, leaf_beech_0"),
+        "{e}"
+    );
+}
+
+#[test]
+fn plant_errors_name_line_and_key() {
+    let cases: &[(&str, &str, &[&str])] = &[
+        // Out of range: lamina-plant's validation message at the key's line.
+        (
+            "leaf_count = 0",
+            "leaf_count",
+            &[
+                "s.toml:7: object[0].plant.leaf_count",
+                "must be in [1, 20000000], got 0",
+            ],
+        ),
+        (
+            "height_m = 1e9",
+            "height_m",
+            &["s.toml:7: object[0].plant.height_m", "must be in"],
+        ),
+        (
+            "species = \"banana\"",
+            "species",
+            &["s.toml:7: object[0].plant.species", "banana"],
+        ),
+        // Wrong type and unknown key.
+        (
+            "leaf_count = \"many\"",
+            "leaf_count",
+            &["s.toml:7: object[0].plant.leaf_count"],
+        ),
+        (
+            "leaf_cont = 10",
+            "leaf_cont",
+            &["s.toml:7: object[0].plant.leaf_cont", "unknown field"],
+        ),
+        (
+            "kind = \"cactus\"",
+            "kind",
+            &["s.toml:7: object[0].plant.kind", "cactus"],
+        ),
+        (
+            "light_direction = [0, 0, 0]",
+            "light_direction",
+            &["s.toml:7: object[0].plant.light_direction", "non-zero"],
+        ),
+    ];
+    for (line, _, want) in cases {
+        // Line 7 is the bad key (camera 3 lines, [[object]], type, [object.plant]).
+        let text =
+            format!("{CAMERA}[[object]]\ntype = \"plant\"\n[object.plant]\n{line}\nseed = 3\n");
+        let e = err(&text);
+        for w in *want {
+            assert!(e.contains(w), "{line}: '{w}' not in: {e}");
+        }
+    }
+    // plant keys on another object type
+    let e = err(&format!(
+        "{CAMERA}[[material]]\nname = \"m\"\ntype = \"diffuse\"\n[[object]]\ntype = \"quad\"\nmaterial = \"m\"\ncorner = [0,0,0]\nedge_u = [1,0,0]\nedge_v = [0,1,0]\n[object.plant]\nseed = 1\n"
+    ));
+    assert!(e.contains("object[0].plant") && e.contains("'quad'"), "{e}");
+}

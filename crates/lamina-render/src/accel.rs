@@ -1,13 +1,28 @@
-//! Ray casting: a compressed wide BVH8 (obvhs) over every triangle of every mesh plus the
-//! quad lights, a short list of sphere lights, and the alpha test.
+//! Ray casting: compressed wide BVH8s (obvhs) in two levels, a short list of sphere lights,
+//! and the alpha test.
 //!
+//! * **Two levels**: one BLAS over every triangle of the world-space meshes plus the quad
+//!   lights, one BLAS per prototype (object space, built once however many instances use
+//!   it), and a top-level BVH (TLAS) over the instances' world bounds. A query traverses
+//!   the world BLAS first, then the TLAS with `tmax` already shortened; a TLAS leaf
+//!   transforms the ray into its prototype's object space with the instance's 3x4
+//!   world-to-object matrix *without renormalising the direction*, so `t` means the same
+//!   in both spaces and one `tmax` serves all levels. A scene without instances has no
+//!   TLAS and costs what a single BVH costs. Instance records are 52 bytes (matrix +
+//!   prototype id), stored in TLAS leaf order.
+//! * **Instance shading**: [`Accel::surface`] returns world-space data: the position
+//!   through the object-to-world transform, the geometric normal through the inverse
+//!   transpose (so a mirroring transform keeps the adaxial side on the side of the
+//!   transformed normal, as for a mesh flattened with its winding reversed), the tangent
+//!   `dP/du` through the transform, re-orthogonalised.
 //! * **Alpha test on every ray kind**: a triangle whose material has a matte
 //!   ([`lamina_core::AlphaMask`], or a leaf's [`lamina_leaf::LeafMaterial::opaque`]) is
 //!   hit only where the matte is opaque at the interpolated texture coordinate; the
 //!   traversal rejects the other hits and goes on. [`Accel::intersect`] finds the closest
 //!   opaque hit, [`Accel::occluded`] stops at the first one (any-hit).
-//! * **Self-intersection**: rays leaving a surface skip the triangle they leave (a planar
-//!   triangle cannot be hit again by a ray leaving it) and start a small distance off the
+//! * **Self-intersection**: rays leaving a surface skip the primitive they leave (a
+//!   [`PrimRef`], instance and primitive: a planar triangle cannot be hit again by a ray
+//!   leaving it) and start a small distance off the
 //!   surface on the side they go (see [`spawn_origin`]), which guards against the
 //!   neighbouring triangles of the same card.
 //! * **Cards**: two consecutive triangles of a mesh that form a planar parallelogram with
@@ -17,16 +32,17 @@
 //!   `v0, e1, e2` for the Möller-Trumbore test plus the flags and UVs of the alpha test, so
 //!   a candidate costs one cache line. Shading data (UVs, unit geometric normal, unit
 //!   tangent along `dP/du`, material / light id) sit in a parallel array indexed by the same
-//!   primitive id, read once per final hit. All of it is precomputed at build time.
+//!   primitive id, read once per final hit. All of it is precomputed at build time, per
+//!   BLAS.
 
 use crate::error::RenderError;
-use glam::{Vec2, Vec3, Vec3A};
-use lamina_core::{AlphaMask, Light, Material, Scene};
+use glam::{Affine3A, Vec2, Vec3, Vec3A};
+use lamina_core::{AlphaMask, Light, Material, Mesh, Scene};
 use lamina_leaf::frame::Frame;
 use obvhs::{
     BvhBuildParams,
     aabb::Aabb,
-    cwbvh::{CwBvh, builder::build_cwbvh},
+    cwbvh::{CwBvh, builder::build_cwbvh, node::CwBvhNode},
     ray::{Ray as BvhRay, RayHit},
     triangle::Triangle,
 };
@@ -49,8 +65,9 @@ pub struct Ray {
 pub enum HitKind {
     /// A triangle or parallelogram primitive (mesh triangle, leaf card or quad light).
     Triangle {
-        /// Primitive id (BVH order), for [`Accel::prim`].
-        prim: u32,
+        /// Which primitive (of the world meshes or of one instance), for
+        /// [`Accel::surface`].
+        prim: PrimRef,
         /// Barycentric coordinates of `v1` and `v2`.
         bary: Vec2,
     },
@@ -79,8 +96,28 @@ pub const FLAG_EMITTER: u32 = 0x8000_0000;
 pub const FLAG_QUAD: u32 = 0x2000_0000;
 /// Mask of the material or light index in [`PrimInfo::flags`].
 pub const ID_MASK: u32 = 0x1fff_ffff;
-/// "No primitive" for the skip argument.
+/// "No primitive" in [`PrimRef::prim`].
 pub const NO_PRIM: u32 = u32::MAX;
+/// [`PrimRef::inst`] of the world-space meshes and quad lights (not an instance).
+pub const NO_INSTANCE: u32 = u32::MAX;
+
+/// A primitive of the scene: primitive `prim` (BVH order) of the world meshes
+/// (`inst == NO_INSTANCE`) or of the prototype of instance `inst` (top-level order).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct PrimRef {
+    /// Instance (top-level BVH order), or [`NO_INSTANCE`] for world geometry.
+    pub inst: u32,
+    /// Primitive within that BLAS (its BVH order), or [`NO_PRIM`].
+    pub prim: u32,
+}
+
+impl PrimRef {
+    /// No primitive: nothing to skip.
+    pub const NONE: PrimRef = PrimRef {
+        inst: NO_INSTANCE,
+        prim: NO_PRIM,
+    };
+}
 
 /// Per-triangle shading data, precomputed at build time.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -252,16 +289,6 @@ struct SphereGeom {
     light: u32,
 }
 
-/// The acceleration structure of a scene.
-#[derive(Clone, Debug)]
-pub struct Accel {
-    bvh: Option<CwBvh>,
-    tris: Vec<Tri>,
-    prims: Vec<PrimInfo>,
-    alpha: Vec<AlphaTest>,
-    spheres: Vec<SphereGeom>,
-}
-
 /// Möller-Trumbore (for parallelograms without the `b1 + b2 <= 1` bound): `(t, b1, b2)`, `t = ∞` for a miss or `t ∉ (0, tmax)`.
 #[inline(always)]
 fn intersect_tri(tri: &Tri, o: Vec3A, d: Vec3A, tmax: f32) -> (f32, f32, f32) {
@@ -380,80 +407,84 @@ pub fn spawn_origin(p: Vec3, n: Vec3, dir: Vec3) -> Vec3 {
     }
 }
 
-impl Accel {
-    /// Builds the BVH over every mesh triangle and quad light of `scene`. Degenerate or
-    /// non-finite triangles are left out. An error for out-of-range vertex or material
-    /// indices.
-    pub fn build(scene: &Scene) -> Result<Self, RenderError> {
-        Self::build_with(scene, true)
+/// One bottom-level structure: a BVH over primitives stored in its leaf order (see the
+/// module docs), for the world-space meshes or for one prototype in its object space.
+#[derive(Clone, Debug, Default)]
+struct Blas {
+    bvh: Option<CwBvh>,
+    tris: Vec<Tri>,
+    prims: Vec<PrimInfo>,
+    /// Bounds of all primitives (in the BLAS's own space).
+    bounds: Option<Aabb>,
+}
+
+/// Collects primitives for a [`Blas`].
+#[derive(Default)]
+struct BlasBuilder {
+    tris: Vec<Triangle>,
+    bounds: Vec<Aabb>,
+    prims: Vec<PrimInfo>,
+}
+
+impl BlasBuilder {
+    /// Adds a triangle, or with [`FLAG_QUAD`] the parallelogram `v[0] + b1·e1 + b2·e2`;
+    /// `uv` at `v`. Non-finite or degenerate ones are left out.
+    fn push(&mut self, v: [Vec3; 3], uv: [Vec2; 3], flags: u32) {
+        if !v.iter().all(|p| p.is_finite()) {
+            return;
+        }
+        let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
+        let n = e1.cross(e2).normalize_or_zero();
+        if n == Vec3::ZERO {
+            return;
+        }
+        let (du1, du2, dv1, dv2) = (
+            uv[1].x - uv[0].x,
+            uv[2].x - uv[0].x,
+            uv[1].y - uv[0].y,
+            uv[2].y - uv[0].y,
+        );
+        let det = du1 * dv2 - du2 * dv1;
+        let dpdu = if det.abs() > 1e-20 {
+            (e1 * dv2 - e2 * dv1) / det
+        } else {
+            e1
+        };
+        let frame = Frame::from_normal_tangent(n, if dpdu.is_finite() { dpdu } else { e1 });
+        let mut bb = Aabb::from_points(&[v[0].into(), v[1].into(), v[2].into()]);
+        if flags & FLAG_QUAD != 0 {
+            bb.extend((v[1] + v[2] - v[0]).into());
+        }
+        self.bounds.push(bb);
+        self.tris.push(Triangle {
+            v0: v[0].into(),
+            v1: v[1].into(),
+            v2: v[2].into(),
+        });
+        self.prims.push(PrimInfo {
+            uv,
+            n,
+            s: frame.s,
+            flags,
+        });
     }
 
-    /// [`Accel::build`], with `merge_cards = false` keeping every card as two triangles (for
-    /// benchmarks; the images are the same).
-    pub fn build_with(scene: &Scene, merge_cards: bool) -> Result<Self, RenderError> {
-        let alpha: Vec<AlphaTest> = scene
-            .materials
-            .iter()
-            .map(|m| match m {
-                Material::Diffuse { alpha, .. } | Material::DiffuseTransmission { alpha, .. } => {
-                    alpha.clone().map_or(AlphaTest::None, |m| {
-                        let cells = MaskCells::new(&m);
-                        AlphaTest::Mask(m, cells)
-                    })
-                }
-                Material::Leaf { leaf, .. } => AlphaTest::Leaf(leaf.clone()),
-            })
-            .collect();
-        let mut tris: Vec<Triangle> = Vec::new();
-        let mut bounds: Vec<Aabb> = Vec::new();
-        let mut prims: Vec<PrimInfo> = Vec::new();
-        // `v`: origin, origin + e1, origin + e2 (a triangle, or with FLAG_QUAD the
-        // parallelogram they span); `uv` at the same three points.
-        let mut push = |v: [Vec3; 3], uv: [Vec2; 3], flags: u32| {
-            if !v.iter().all(|p| p.is_finite()) {
-                return;
-            }
-            let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
-            let n = e1.cross(e2).normalize_or_zero();
-            if n == Vec3::ZERO {
-                return;
-            }
-            let (du1, du2, dv1, dv2) = (
-                uv[1].x - uv[0].x,
-                uv[2].x - uv[0].x,
-                uv[1].y - uv[0].y,
-                uv[2].y - uv[0].y,
-            );
-            let det = du1 * dv2 - du2 * dv1;
-            let dpdu = if det.abs() > 1e-20 {
-                (e1 * dv2 - e2 * dv1) / det
-            } else {
-                e1
-            };
-            let frame = Frame::from_normal_tangent(n, if dpdu.is_finite() { dpdu } else { e1 });
-            let mut bb = Aabb::from_points(&[v[0].into(), v[1].into(), v[2].into()]);
-            if flags & FLAG_QUAD != 0 {
-                bb.extend((v[1] + v[2] - v[0]).into());
-            }
-            bounds.push(bb);
-            tris.push(Triangle {
-                v0: v[0].into(),
-                v1: v[1].into(),
-                v2: v[2].into(),
-            });
-            prims.push(PrimInfo {
-                uv,
-                n,
-                s: frame.s,
-                flags,
-            });
-        };
-        for (mi, mesh) in scene.meshes.iter().enumerate() {
+    /// Adds every triangle of `meshes` (cards merged into parallelograms when
+    /// `merge_cards`). `what` names the meshes in errors.
+    fn push_meshes(
+        &mut self,
+        meshes: &[Mesh],
+        alpha: &[AlphaTest],
+        merge_cards: bool,
+        what: &dyn Fn(usize) -> String,
+    ) -> Result<(), RenderError> {
+        for (mi, mesh) in meshes.iter().enumerate() {
             let mat = mesh.material as usize;
-            if mat >= scene.materials.len() || mat > ID_MASK as usize {
+            if mat >= alpha.len() || mat > ID_MASK as usize {
                 return Err(RenderError::InvalidScene(format!(
-                    "mesh {mi} uses material {mat}, but there are {} materials",
-                    scene.materials.len()
+                    "{} uses material {mat}, but there are {} materials",
+                    what(mi),
+                    alpha.len()
                 )));
             }
             let mut flags = mat as u32;
@@ -468,7 +499,8 @@ impl Accel {
                 });
                 if !ok {
                     return Err(RenderError::InvalidScene(format!(
-                        "mesh {mi}, triangle {ti}: vertex index out of range"
+                        "{}, triangle {ti}: vertex index out of range",
+                        what(mi)
                     )));
                 }
             }
@@ -491,7 +523,7 @@ impl Accel {
                     .filter(|_| merge_cards)
                     .and_then(|next| parallelogram(idx, *next, &pos, &tex));
                 if let Some([o, a, b]) = card {
-                    push(
+                    self.push(
                         [pos(o), pos(a), pos(b)],
                         [tex(o), tex(a), tex(b)],
                         flags | FLAG_QUAD,
@@ -499,10 +531,173 @@ impl Accel {
                     ti += 2;
                     continue;
                 }
-                push(idx.map(pos), idx.map(tex), flags);
+                self.push(idx.map(pos), idx.map(tex), flags);
                 ti += 1;
             }
         }
+        Ok(())
+    }
+
+    fn finish(self) -> Blas {
+        if self.tris.is_empty() {
+            return Blas::default();
+        }
+        // Small leaves (2 primitives): with alpha-tested cards every primitive in a leaf
+        // costs an intersection plus a matte lookup, so a deeper tree pays off (measured
+        // with benches/rays.rs: random rays +15 % per CPU-second).
+        let mut bvh = build_cwbvh(
+            &self.bounds,
+            BvhBuildParams {
+                max_prims_per_leaf: 2,
+                collapse_traversal_cost: 1.0,
+                ..BvhBuildParams::slow_build()
+            },
+            &mut Default::default(),
+        );
+        // Lay the triangles out in BVH leaf order so the traversal indexes them directly.
+        let order = std::mem::take(&mut bvh.primitive_indices);
+        let tris: Vec<Tri> = order
+            .iter()
+            .map(|&i| {
+                let (tr, info) = (&self.tris[i as usize], &self.prims[i as usize]);
+                Tri {
+                    v0: tr.v0.to_array(),
+                    e1: (tr.v1 - tr.v0).to_array(),
+                    e2: (tr.v2 - tr.v0).to_array(),
+                    flags: info.flags,
+                    uv: info.uv,
+                }
+            })
+            .collect();
+        let prims: Vec<PrimInfo> = order.iter().map(|&i| self.prims[i as usize]).collect();
+        let bounds = self.bounds.iter().fold(Aabb::empty(), |a, b| a.union(b));
+        Blas {
+            bvh: Some(bvh),
+            tris,
+            prims,
+            bounds: Some(bounds),
+        }
+    }
+}
+
+impl Blas {
+    fn bytes(&self) -> usize {
+        self.bvh.as_ref().map_or(0, bvh_bytes)
+            + self.tris.len() * std::mem::size_of::<Tri>()
+            + self.prims.len() * std::mem::size_of::<PrimInfo>()
+    }
+}
+
+/// Heap bytes of a BVH's nodes and index arrays.
+fn bvh_bytes(bvh: &CwBvh) -> usize {
+    bvh.nodes.len() * std::mem::size_of::<CwBvhNode>()
+        + bvh.primitive_indices.len() * 4
+        + bvh.exact_node_aabbs.as_ref().map_or(0, |a| a.len()) * std::mem::size_of::<Aabb>()
+}
+
+/// One placed prototype, as the traversal stores it: the world-to-object transform as a
+/// 3x4 matrix (columns `x`, `y`, `z`, translation: `p_obj = x·p.x + y·p.y + z·p.z + w`) and
+/// the prototype index. 52 bytes; the object-to-world transform is recomputed (one 3x3
+/// inverse) only for a ray's final hit.
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+struct InstanceRec {
+    world_to_object: [f32; 12],
+    prototype: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<InstanceRec>() == 52);
+
+impl InstanceRec {
+    #[inline(always)]
+    fn world_to_object(&self) -> Affine3A {
+        Affine3A::from_cols_slice(&self.world_to_object)
+    }
+}
+
+/// Memory held by an [`Accel`], in bytes (heap arrays: BVH nodes, primitive records,
+/// shading records, instance records).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AccelMemory {
+    /// The BVH and primitives of the world-space meshes and quad lights.
+    pub world: usize,
+    /// The BVHs and primitives of all prototypes (object space), each stored once.
+    pub prototypes: usize,
+    /// The instance records (52 bytes each) plus the top-level BVH over them.
+    pub instances: usize,
+    /// Number of instances.
+    pub instance_count: usize,
+}
+
+impl AccelMemory {
+    /// All of it (bytes).
+    pub fn total(&self) -> usize {
+        self.world + self.prototypes + self.instances
+    }
+
+    /// Bytes per instance of the instance level (record + its share of the top-level
+    /// BVH); 0 without instances.
+    pub fn bytes_per_instance(&self) -> f64 {
+        if self.instance_count == 0 {
+            0.0
+        } else {
+            self.instances as f64 / self.instance_count as f64
+        }
+    }
+}
+
+/// The acceleration structure of a scene: a BLAS over the world-space meshes and quad
+/// lights, one BLAS per prototype, and a top-level BVH over the instances.
+#[derive(Clone, Debug)]
+pub struct Accel {
+    world: Blas,
+    prototypes: Vec<Blas>,
+    /// Top-level BVH over the instances' world bounds; `None` without instances.
+    tlas: Option<CwBvh>,
+    /// Instances in top-level leaf order: a TLAS primitive id indexes this directly.
+    instances: Vec<InstanceRec>,
+    alpha: Vec<AlphaTest>,
+    spheres: Vec<SphereGeom>,
+}
+
+/// A ray in the space of one BLAS: origin, direction (not renormalised, so `t` is the
+/// same as in world space) and the primitive to skip.
+#[derive(Clone, Copy)]
+struct LocalRay {
+    o: Vec3A,
+    d: Vec3A,
+    skip: u32,
+}
+
+impl Accel {
+    /// Builds the BVHs of `scene`: world meshes and quad lights, one per prototype, and
+    /// the top level over the instances. Degenerate or non-finite triangles are left out.
+    /// An error for out-of-range vertex, material or prototype indices and for
+    /// instance transforms that are not finite and invertible.
+    pub fn build(scene: &Scene) -> Result<Self, RenderError> {
+        Self::build_with(scene, true)
+    }
+
+    /// [`Accel::build`], with `merge_cards = false` keeping every card as two triangles (for
+    /// benchmarks; the images are the same).
+    pub fn build_with(scene: &Scene, merge_cards: bool) -> Result<Self, RenderError> {
+        let alpha: Vec<AlphaTest> = scene
+            .materials
+            .iter()
+            .map(|m| match m {
+                Material::Diffuse { alpha, .. } | Material::DiffuseTransmission { alpha, .. } => {
+                    alpha.clone().map_or(AlphaTest::None, |m| {
+                        let cells = MaskCells::new(&m);
+                        AlphaTest::Mask(m, cells)
+                    })
+                }
+                Material::Leaf { leaf, .. } => AlphaTest::Leaf(leaf.clone()),
+            })
+            .collect();
+        let mut world = BlasBuilder::default();
+        world.push_meshes(&scene.meshes, &alpha, merge_cards, &|mi| {
+            format!("mesh {mi}")
+        })?;
         let mut spheres = Vec::new();
         for (li, light) in scene.lights.iter().enumerate() {
             match light {
@@ -512,7 +707,7 @@ impl Accel {
                     edge_v,
                     ..
                 } => {
-                    push(
+                    world.push(
                         [*corner, *corner + *edge_u, *corner + *edge_v],
                         [Vec2::ZERO, Vec2::X, Vec2::Y],
                         FLAG_EMITTER | FLAG_QUAD | li as u32,
@@ -528,76 +723,168 @@ impl Accel {
                 _ => {}
             }
         }
-        let (bvh, tris, prims) = if tris.is_empty() {
-            (None, Vec::new(), Vec::new())
+        let world = world.finish();
+
+        // Only prototypes that some instance uses get a BVH.
+        let mut used = vec![false; scene.prototypes.len()];
+        for (ii, inst) in scene.instances.iter().enumerate() {
+            let Some(u) = used.get_mut(inst.prototype as usize) else {
+                return Err(RenderError::InvalidScene(format!(
+                    "instance {ii} uses prototype {}, but there are {} prototypes",
+                    inst.prototype,
+                    scene.prototypes.len()
+                )));
+            };
+            *u = true;
+        }
+        let prototypes = scene
+            .prototypes
+            .iter()
+            .zip(&used)
+            .enumerate()
+            .map(|(pi, (proto, &used))| {
+                let mut b = BlasBuilder::default();
+                if used {
+                    b.push_meshes(&proto.meshes, &alpha, merge_cards, &|mi| {
+                        format!("prototype {pi} ('{}'), mesh {mi}", proto.name)
+                    })?;
+                }
+                Ok(b.finish())
+            })
+            .collect::<Result<Vec<Blas>, RenderError>>()?;
+
+        let mut recs = Vec::with_capacity(scene.instances.len());
+        let mut inst_bounds = Vec::with_capacity(scene.instances.len());
+        for (ii, inst) in scene.instances.iter().enumerate() {
+            let m = inst.transform;
+            let det = m.matrix3.determinant();
+            let inv = m.inverse();
+            if !(det.abs() > 0.0 && m.is_finite() && inv.is_finite()) {
+                return Err(RenderError::InvalidScene(format!(
+                    "instance {ii}: the transform is not finite and invertible"
+                )));
+            }
+            let Some(b) = prototypes[inst.prototype as usize].bounds else {
+                continue; // an empty prototype: nothing to hit
+            };
+            let mut wb = Aabb::empty();
+            for k in 0..8 {
+                let c = Vec3A::new(
+                    if k & 1 == 0 { b.min.x } else { b.max.x },
+                    if k & 2 == 0 { b.min.y } else { b.max.y },
+                    if k & 4 == 0 { b.min.z } else { b.max.z },
+                );
+                wb.extend(m.transform_point3a(c));
+            }
+            let mut w2o = [0.0f32; 12];
+            inv.write_cols_to_slice(&mut w2o);
+            recs.push(InstanceRec {
+                world_to_object: w2o,
+                prototype: inst.prototype,
+            });
+            inst_bounds.push(wb);
+        }
+        let (tlas, instances) = if recs.is_empty() {
+            (None, Vec::new())
         } else {
-            // Small leaves (2 primitives) and spatial pre-splits: with alpha-tested cards every
-            // primitive in a leaf costs an intersection plus a matte lookup, so a deeper tree
-            // pays off (measured with benches/rays.rs: random rays +15 % per CPU-second).
-            let bvh = build_cwbvh(
-                &bounds,
+            let mut tlas = build_cwbvh(
+                &inst_bounds,
                 BvhBuildParams {
-                    max_prims_per_leaf: 2,
-                    collapse_traversal_cost: 1.0,
-                    ..BvhBuildParams::slow_build()
+                    max_prims_per_leaf: 1,
+                    ..BvhBuildParams::medium_build()
                 },
                 &mut Default::default(),
             );
-            // Lay the triangles out in BVH leaf order so the traversal indexes them directly.
-            let order = &bvh.primitive_indices;
-            let t: Vec<Tri> = order
-                .iter()
-                .map(|&i| {
-                    let (tr, info) = (&tris[i as usize], &prims[i as usize]);
-                    Tri {
-                        v0: tr.v0.to_array(),
-                        e1: (tr.v1 - tr.v0).to_array(),
-                        e2: (tr.v2 - tr.v0).to_array(),
-                        flags: info.flags,
-                        uv: info.uv,
-                    }
-                })
-                .collect();
-            let p: Vec<PrimInfo> = order.iter().map(|&i| prims[i as usize]).collect();
-            (Some(bvh), t, p)
+            let order = std::mem::take(&mut tlas.primitive_indices);
+            let instances = order.iter().map(|&i| recs[i as usize]).collect();
+            (Some(tlas), instances)
         };
         Ok(Accel {
-            bvh,
-            tris,
-            prims,
+            world,
+            prototypes,
+            tlas,
+            instances,
             alpha,
             spheres,
         })
     }
 
-    /// Number of primitives in the BVH: triangles, plus parallelograms for leaf cards
-    /// (pairs of mesh triangles) and quad lights.
+    /// Number of primitives stored: triangles, plus parallelograms for leaf cards (pairs of
+    /// mesh triangles) and quad lights, of the world meshes and of every prototype once.
     pub fn primitive_count(&self) -> usize {
-        self.tris.len()
+        self.world.tris.len() + self.prototypes.iter().map(|b| b.tris.len()).sum::<usize>()
     }
 
-    /// Shading data of primitive `prim` (from a [`HitKind::Triangle`]).
-    #[inline]
-    pub fn prim(&self, prim: u32) -> &PrimInfo {
-        &self.prims[prim as usize]
+    /// Number of instances in the top level (instances of empty prototypes are dropped).
+    pub fn instance_count(&self) -> usize {
+        self.instances.len()
     }
 
-    /// World position at barycentric `bary` on triangle `prim` (more precise than
-    /// `origin + t·dir`).
+    /// Bytes held by the BVHs and primitive records, by level.
+    pub fn memory(&self) -> AccelMemory {
+        AccelMemory {
+            world: self.world.bytes(),
+            prototypes: self.prototypes.iter().map(Blas::bytes).sum(),
+            instances: self.tlas.as_ref().map_or(0, bvh_bytes)
+                + self.instances.len() * std::mem::size_of::<InstanceRec>(),
+            instance_count: self.instances.len(),
+        }
+    }
+
+    /// The surface at barycentric `bary` on primitive `prim` (from a [`HitKind::Triangle`]),
+    /// in world space: the position (from the primitive's vertices, more precise than
+    /// `origin + t·dir`) and the shading data. For an instance the geometric normal is
+    /// transformed by the inverse transpose (so a mirroring transform keeps the adaxial
+    /// side on the side of the transformed normal) and the tangent by the transform.
     #[inline]
-    pub fn position(&self, prim: u32, bary: Vec2) -> Vec3 {
-        let t = &self.tris[prim as usize];
-        Vec3::from_array(t.v0) + Vec3::from_array(t.e1) * bary.x + Vec3::from_array(t.e2) * bary.y
+    pub fn surface(&self, prim: PrimRef, bary: Vec2) -> (Vec3, PrimInfo) {
+        let blas = self.blas_of(prim);
+        let t = &blas.tris[prim.prim as usize];
+        let p = Vec3::from_array(t.v0)
+            + Vec3::from_array(t.e1) * bary.x
+            + Vec3::from_array(t.e2) * bary.y;
+        let info = blas.prims[prim.prim as usize];
+        if prim.inst == NO_INSTANCE {
+            return (p, info);
+        }
+        let w2o = self.instances[prim.inst as usize].world_to_object();
+        let o2w = w2o.inverse();
+        let n = (w2o.matrix3.transpose() * Vec3A::from(info.n)).normalize_or_zero();
+        let s = o2w.matrix3 * Vec3A::from(info.s);
+        let frame = Frame::from_normal_tangent(n.into(), s.into());
+        (
+            o2w.transform_point3(p),
+            PrimInfo {
+                n: frame.n,
+                s: frame.s,
+                ..info
+            },
+        )
+    }
+
+    /// The flags (material or light id and `FLAG_*`) of primitive `prim`.
+    #[inline]
+    pub fn flags(&self, prim: PrimRef) -> u32 {
+        self.blas_of(prim).tris[prim.prim as usize].flags
+    }
+
+    #[inline(always)]
+    fn blas_of(&self, prim: PrimRef) -> &Blas {
+        if prim.inst == NO_INSTANCE {
+            &self.world
+        } else {
+            &self.prototypes[self.instances[prim.inst as usize].prototype as usize]
+        }
     }
 
     /// The closest opaque hit along `ray`, if any.
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        self.intersect_skip(ray, NO_PRIM)
+        self.intersect_skip(ray, PrimRef::NONE)
     }
 
     /// Whether any opaque surface lies along `ray` in `(0, tmax)`.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.occluded_skip(ray, NO_PRIM)
+        self.occluded_skip(ray, PrimRef::NONE)
     }
 
     #[inline(always)]
@@ -608,36 +895,121 @@ impl Accel {
         self.alpha[(tri.flags & ID_MASK) as usize].opaque(tri.uv_at(b1, b2))
     }
 
-    /// [`Accel::intersect`], ignoring triangle `skip` (the one the ray leaves).
+    /// Closest opaque hit in `blas` with `t < tmax`: `(t, prim, bary)`.
+    #[inline(always)]
+    fn blas_closest(&self, blas: &Blas, r: LocalRay, tmax: f32) -> Option<(f32, u32, Vec2)> {
+        let bvh = blas.bvh.as_ref()?;
+        let bray = BvhRay::new(r.o, r.d, 0.0, tmax);
+        let mut hit = RayHit::none();
+        let mut bary = Vec2::ZERO;
+        let found = bvh.ray_traverse(bray, &mut hit, |ray, id| {
+            if id as u32 == r.skip {
+                return f32::INFINITY;
+            }
+            let tri = &blas.tris[id];
+            let (t, b1, b2) = intersect_tri(tri, r.o, r.d, ray.tmax);
+            if t < ray.tmax && self.accept(tri, b1, b2) {
+                bary = Vec2::new(b1, b2);
+                t
+            } else {
+                f32::INFINITY
+            }
+        });
+        found.then_some((hit.t, hit.primitive_id, bary))
+    }
+
+    /// Whether `blas` has an opaque hit with `t < tmax`.
+    #[inline(always)]
+    fn blas_occluded(&self, blas: &Blas, r: LocalRay, tmax: f32) -> bool {
+        let Some(bvh) = &blas.bvh else {
+            return false;
+        };
+        let bray = BvhRay::new(r.o, r.d, 0.0, tmax);
+        !bvh.ray_traverse_miss(bray, |ray, id| {
+            if id as u32 == r.skip {
+                return f32::INFINITY;
+            }
+            let tri = &blas.tris[id];
+            let (t, b1, b2) = intersect_tri(tri, r.o, r.d, ray.tmax);
+            if t < ray.tmax && self.accept(tri, b1, b2) {
+                t
+            } else {
+                f32::INFINITY
+            }
+        })
+    }
+
+    /// The ray of TLAS primitive `inst` in its prototype's object space.
+    #[inline(always)]
+    fn local_ray(&self, inst: usize, o: Vec3A, d: Vec3A, skip: PrimRef) -> (&Blas, LocalRay) {
+        let rec = &self.instances[inst];
+        let w2o = rec.world_to_object();
+        (
+            &self.prototypes[rec.prototype as usize],
+            LocalRay {
+                o: w2o.transform_point3a(o),
+                d: w2o.transform_vector3a(d),
+                skip: if skip.inst == inst as u32 {
+                    skip.prim
+                } else {
+                    NO_PRIM
+                },
+            },
+        )
+    }
+
+    /// [`Accel::intersect`], ignoring primitive `skip` (the one the ray leaves).
     #[inline]
-    pub fn intersect_skip(&self, ray: &Ray, skip: u32) -> Option<Hit> {
+    pub fn intersect_skip(&self, ray: &Ray, skip: PrimRef) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut tmax = ray.tmax;
-        if let Some(bvh) = &self.bvh {
-            let o = Vec3A::from(ray.origin);
-            let d = Vec3A::from(ray.dir);
+        let o = Vec3A::from(ray.origin);
+        let d = Vec3A::from(ray.dir);
+        let world_skip = if skip.inst == NO_INSTANCE {
+            skip.prim
+        } else {
+            NO_PRIM
+        };
+        let wr = LocalRay {
+            o,
+            d,
+            skip: world_skip,
+        };
+        if let Some((t, prim, bary)) = self.blas_closest(&self.world, wr, tmax) {
+            tmax = t;
+            best = Some(Hit {
+                t,
+                kind: HitKind::Triangle {
+                    prim: PrimRef {
+                        inst: NO_INSTANCE,
+                        prim,
+                    },
+                    bary,
+                },
+            });
+        }
+        if let Some(tlas) = &self.tlas {
             let bray = BvhRay::new(o, d, 0.0, tmax);
             let mut hit = RayHit::none();
-            let mut bary = Vec2::ZERO;
-            let found = bvh.ray_traverse(bray, &mut hit, |r, id| {
-                if id as u32 == skip {
-                    return f32::INFINITY;
+            let (mut prim, mut bary) = (0, Vec2::ZERO);
+            if tlas.ray_traverse(bray, &mut hit, |r, inst| {
+                let (blas, lr) = self.local_ray(inst, o, d, skip);
+                match self.blas_closest(blas, lr, r.tmax) {
+                    Some((t, p, b)) => {
+                        (prim, bary) = (p, b);
+                        t
+                    }
+                    None => f32::INFINITY,
                 }
-                let tri = &self.tris[id];
-                let (t, b1, b2) = intersect_tri(tri, o, d, r.tmax);
-                if t < r.tmax && self.accept(tri, b1, b2) {
-                    bary = Vec2::new(b1, b2);
-                    t
-                } else {
-                    f32::INFINITY
-                }
-            });
-            if found {
+            }) {
                 tmax = hit.t;
                 best = Some(Hit {
                     t: hit.t,
                     kind: HitKind::Triangle {
-                        prim: hit.primitive_id,
+                        prim: PrimRef {
+                            inst: hit.primitive_id,
+                            prim,
+                        },
                         bary,
                     },
                 });
@@ -656,28 +1028,37 @@ impl Accel {
         best
     }
 
-    /// [`Accel::occluded`], ignoring triangle `skip` (the one the ray leaves).
+    /// [`Accel::occluded`], ignoring primitive `skip` (the one the ray leaves).
     #[inline]
-    pub fn occluded_skip(&self, ray: &Ray, skip: u32) -> bool {
+    pub fn occluded_skip(&self, ray: &Ray, skip: PrimRef) -> bool {
         for s in &self.spheres {
             if intersect_sphere(s, ray.origin, ray.dir, ray.tmax) < ray.tmax {
                 return true;
             }
         }
-        let Some(bvh) = &self.bvh else {
-            return false;
-        };
         let o = Vec3A::from(ray.origin);
         let d = Vec3A::from(ray.dir);
+        let world_skip = if skip.inst == NO_INSTANCE {
+            skip.prim
+        } else {
+            NO_PRIM
+        };
+        let wr = LocalRay {
+            o,
+            d,
+            skip: world_skip,
+        };
+        if self.blas_occluded(&self.world, wr, ray.tmax) {
+            return true;
+        }
+        let Some(tlas) = &self.tlas else {
+            return false;
+        };
         let bray = BvhRay::new(o, d, 0.0, ray.tmax);
-        !bvh.ray_traverse_miss(bray, |r, id| {
-            if id as u32 == skip {
-                return f32::INFINITY;
-            }
-            let tri = &self.tris[id];
-            let (t, b1, b2) = intersect_tri(tri, o, d, r.tmax);
-            if t < r.tmax && self.accept(tri, b1, b2) {
-                t
+        !tlas.ray_traverse_miss(bray, |r, inst| {
+            let (blas, lr) = self.local_ray(inst, o, d, skip);
+            if self.blas_occluded(blas, lr, r.tmax) {
+                0.0
             } else {
                 f32::INFINITY
             }

@@ -565,3 +565,260 @@ fn area_lights_match_analytic_irradiance() {
         );
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// Instancing: two-level BVH.
+
+use crate::Accel;
+use crate::accel::{HitKind, Ray};
+use glam::{Affine3A, Quat};
+use lamina_core::{Instance, Prototype};
+
+/// `mesh` moved to world space by `m` the way scene loaders flatten transformed meshes:
+/// positions transformed, winding reversed when `m` mirrors (front faces stay in front).
+fn flatten(mesh: &Mesh, m: Affine3A) -> Mesh {
+    let mut out = mesh.clone();
+    for p in &mut out.positions {
+        *p = m.transform_point3(*p);
+    }
+    if m.matrix3.determinant() < 0.0 {
+        for t in &mut out.indices {
+            t.swap(1, 2);
+        }
+    }
+    out
+}
+
+/// The test placements: a rotation, a rotation with non-uniform scale, and a mirror.
+fn test_transforms() -> Vec<Affine3A> {
+    vec![
+        Affine3A::from_rotation_translation(
+            Quat::from_rotation_y(0.7) * Quat::from_rotation_x(-0.3),
+            Vec3::new(-0.9, 0.1, -0.5),
+        ),
+        Affine3A::from_scale_rotation_translation(
+            Vec3::new(1.6, 0.5, 0.8),
+            Quat::from_rotation_z(0.4) * Quat::from_rotation_y(-1.1),
+            Vec3::new(0.8, -0.3, 0.2),
+        ),
+        Affine3A::from_scale_rotation_translation(
+            Vec3::new(-1.0, 1.0, 1.0),
+            Quat::from_rotation_y(0.5),
+            Vec3::new(0.1, 0.6, -0.8),
+        ),
+    ]
+}
+
+/// [`small_canopy_scene`] with its cards as one prototype placed by `transforms`, and the
+/// same scene flattened into world-space meshes.
+fn instanced_and_flat(transforms: &[Affine3A]) -> (Scene, Scene) {
+    let base = small_canopy_scene();
+    let mut inst = base.clone();
+    inst.meshes = Vec::new();
+    inst.prototypes = vec![Prototype {
+        name: "cards".into(),
+        meshes: base.meshes.clone(),
+    }];
+    inst.instances = transforms
+        .iter()
+        .map(|&transform| Instance {
+            prototype: 0,
+            transform,
+        })
+        .collect();
+    // A ground card in world space, shared by both.
+    let ground = {
+        let mut g = card(3.0, 0.0, 1);
+        for p in &mut g.positions {
+            *p = Vec3::new(p.x, -1.2, p.y);
+        }
+        g.indices = vec![[0, 2, 1], [0, 3, 2]]; // facing +y
+        g
+    };
+    inst.meshes.push(ground.clone());
+    let mut flat = base;
+    flat.meshes = transforms
+        .iter()
+        .flat_map(|&m| flat.meshes.iter().map(move |mesh| flatten(mesh, m)))
+        .collect();
+    flat.meshes.push(ground);
+    (inst, flat)
+}
+
+/// Instanced geometry answers every query like the same geometry flattened into world
+/// space: closest hit (distance, position, adaxial normal, dP/du, uv, material) and any-hit,
+/// through rotations, non-uniform scale and a mirror. Rays that graze an edge may differ by
+/// rounding, so a few disagreements (< 1 %) are allowed, never a wrong frame.
+#[test]
+fn instanced_queries_match_flattened_geometry() {
+    let (inst, flat) = instanced_and_flat(&test_transforms());
+    let (a, b) = (Accel::build(&inst).unwrap(), Accel::build(&flat).unwrap());
+    assert_eq!(a.instance_count(), 3);
+    let (mut n, mut hits, mut disagree) = (0, 0, 0);
+    for i in 0..4000u32 {
+        let s = crate::sampler::sobol_2d(i, 3);
+        let q = crate::sampler::sobol_2d(i, 4);
+        let origin = Vec3::new(s.x * 4.0 - 2.0, s.y * 4.0 - 2.0, 3.0);
+        let target = Vec3::new(q.x * 3.0 - 1.5, q.y * 3.0 - 1.5, (q.x - q.y) * 2.0 - 1.0);
+        let ray = Ray {
+            origin,
+            dir: (target - origin).normalize(),
+            tmax: f32::INFINITY,
+        };
+        n += 1;
+        let (ha, hb) = (a.intersect(&ray), b.intersect(&ray));
+        assert_eq!(a.occluded(&ray), ha.is_some());
+        match (ha, hb) {
+            (None, None) => {}
+            (Some(ha), Some(hb)) if (ha.t - hb.t).abs() < 1e-4 * hb.t => {
+                hits += 1;
+                let (
+                    HitKind::Triangle { prim: pa, bary: ba },
+                    HitKind::Triangle { prim: pb, bary: bb },
+                ) = (ha.kind, hb.kind)
+                else {
+                    assert_eq!(ha.kind, hb.kind, "both hit the same sphere light");
+                    continue;
+                };
+                let (xa, ia) = a.surface(pa, ba);
+                let (xb, ib) = b.surface(pb, bb);
+                assert!((xa - xb).length() < 1e-4, "position {xa} vs {xb}");
+                assert!(ia.n.dot(ib.n) > 0.9999, "normal {} vs {}", ia.n, ib.n);
+                assert!(ia.s.dot(ib.s) > 0.999, "dP/du {} vs {}", ia.s, ib.s);
+                assert!(ia.s.dot(ia.n).abs() < 1e-4);
+                assert!((ia.uv_at(ba) - ib.uv_at(bb)).length() < 1e-4);
+                // Material (and alpha flag); a mirrored card may be stored as a
+                // parallelogram on one side and as two triangles on the other.
+                let q = crate::accel::FLAG_QUAD;
+                assert_eq!(ia.flags & !q, ib.flags & !q);
+            }
+            _ => disagree += 1,
+        }
+    }
+    assert!(hits > n / 4, "{hits} of {n} rays hit");
+    assert!(disagree * 100 < n, "{disagree} of {n} rays disagree");
+}
+
+/// Rendered images of instanced and flattened geometry agree: each pixel's samples use
+/// the same random numbers, so only rounding differences remain (tiny, in a few pixels).
+/// With identity transforms the geometry is bit-identical and so is almost every pixel.
+#[test]
+fn instanced_render_matches_flattened_render() {
+    for transforms in [test_transforms(), vec![Affine3A::IDENTITY]] {
+        let (inst, flat) = instanced_and_flat(&transforms);
+        let a = render(&inst, &opts(8, 2)).unwrap().image;
+        let b = render(&flat, &opts(8, 2)).unwrap().image;
+        let (ma, mb) = (mean(&a), mean(&b));
+        assert!(mb.max_element() > 0.01, "not black: {mb}");
+        assert!(
+            (ma - mb).abs().max_element() < 0.01 * mb.max_element(),
+            "{ma} vs {mb}"
+        );
+        let peak = b.pixels.iter().map(|p| p.max_element()).fold(0.0, f32::max);
+        let off = a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .filter(|(p, q)| (**p - **q).abs().max_element() > 1e-3 * peak)
+            .count();
+        assert!(
+            off * 50 < a.pixels.len(),
+            "{off} of {} pixels differ",
+            a.pixels.len()
+        );
+    }
+}
+
+/// Test (c) with the matte card as an instance (non-uniformly scaled unit card), and again
+/// mirrored with the sun on the other side: the mirror moves the transparent half to the
+/// right but keeps the adaxial side toward `+z`; camera and shadow rays pass the holes.
+#[test]
+fn alpha_tested_instances_cast_shadows_through_holes() {
+    let matte = Texture::from_texels(2, 1, vec![Vec4::ZERO, Vec4::ONE], Wrap::Clamp);
+    let card_mat = Material::Diffuse {
+        name: "matte".into(),
+        reflectance: ColorInput::Constant(Vec3::splat(0.5)),
+        alpha: Some(AlphaMask {
+            map: matte,
+            use_alpha_channel: false,
+            cutoff: 0.5,
+        }),
+    };
+    let e = 100.0;
+    let c = (PI / 4.0).cos() * e / PI;
+    // (mirror, sun x, lit ground px, shadowed ground px, card px)
+    for (mirror, sun_x, lit, shadowed, card_px) in [(1.0, 1.0, 3, 15, 32), (-1.0, -1.0, 36, 24, 7)]
+    {
+        let scene = Scene {
+            camera: camera_at(20.0, 4.0),
+            film: film(40, 8, 4),
+            integrator: Integrator::Path {
+                max_depth: 1,
+                rr_depth: 5,
+            },
+            lights: vec![Light::Sun {
+                direction: Vec3::new(sun_x, 0.0, 1.0),
+                irradiance: Vec3::splat(e),
+                angular_diameter_deg: 0.0,
+            }],
+            sky: None,
+            materials: vec![diffuse(0.8), card_mat.clone()],
+            meshes: vec![card(5.0, 0.0, 0)],
+            prototypes: vec![Prototype {
+                name: "unit card".into(),
+                meshes: vec![card(0.5, 0.0, 1)],
+            }],
+            instances: vec![Instance {
+                prototype: 0,
+                transform: Affine3A::from_scale_rotation_translation(
+                    Vec3::new(2.0 * mirror, 2.0, 3.0),
+                    Quat::IDENTITY,
+                    Vec3::new(0.0, 0.0, 0.5),
+                ),
+            }],
+        };
+        let out = render(&scene, &opts(4, 2)).unwrap();
+        let px = |x| out.image.at(x, 4).x;
+        assert!(
+            (px(lit) - 0.8 * c).abs() < 1e-3 * c,
+            "lit ground {}",
+            px(lit)
+        );
+        assert!(
+            px(shadowed).abs() < 1e-6,
+            "shadowed ground {}",
+            px(shadowed)
+        );
+        assert!(
+            (px(card_px) - 0.5 * c).abs() < 1e-3 * c,
+            "card {}",
+            px(card_px)
+        );
+    }
+}
+
+/// Instanced scenes render bit-identically for any thread count.
+#[test]
+fn instanced_render_is_deterministic() {
+    let (inst, _) = instanced_and_flat(&test_transforms());
+    let a = render(&inst, &opts(4, 1)).unwrap();
+    let b = render(&inst, &opts(4, 2)).unwrap();
+    assert_eq!(a.image, b.image);
+    assert_eq!(a.stats.rays, b.stats.rays);
+    assert!(mean(&a.image).max_element() > 0.0);
+}
+
+/// Bad instances are errors, not panics; memory is counted per level.
+#[test]
+fn instance_errors_and_memory() {
+    let (mut inst, _) = instanced_and_flat(&test_transforms());
+    let mem = Accel::build(&inst).unwrap().memory();
+    assert_eq!(mem.instance_count, 3);
+    assert!(mem.prototypes > 0 && mem.world > 0 && mem.instances >= 3 * 52);
+    assert!(mem.bytes_per_instance() >= 52.0);
+    inst.instances[1].transform = Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0));
+    assert!(Accel::build(&inst).is_err(), "singular transform");
+    inst.instances[1].transform = Affine3A::IDENTITY;
+    inst.instances[2].prototype = 5;
+    assert!(Accel::build(&inst).is_err(), "prototype out of range");
+}

@@ -4,7 +4,7 @@
 pub mod paper;
 pub mod path;
 
-use crate::accel::{Accel, FLAG_EMITTER, HitKind, ID_MASK, Ray, spawn_origin};
+use crate::accel::{Accel, FLAG_EMITTER, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
 use crate::camera::CameraModel;
 use crate::error::RenderError;
 use crate::film::FilterSampler;
@@ -46,7 +46,7 @@ impl<'a> SceneContext<'a> {
         &self,
         p: Vec3,
         n: Vec3,
-        prim: u32,
+        prim: PrimRef,
         ls: &LightSample,
         rays: &mut u64,
     ) -> bool {
@@ -71,7 +71,7 @@ impl<'a> SceneContext<'a> {
         let light = match kind {
             HitKind::Sphere { light } => light,
             HitKind::Triangle { prim, .. } => {
-                let flags = self.accel.prim(prim).flags;
+                let flags = self.accel.flags(prim);
                 if flags & FLAG_EMITTER == 0 {
                     return None;
                 }

@@ -41,8 +41,7 @@ pub fn radiance(
     let HitKind::Triangle { prim, bary } = hit.kind else {
         return Vec3::ZERO;
     };
-    let info = *ctx.accel.prim(prim);
-    let p = ctx.accel.position(prim, bary);
+    let (p, info) = ctx.accel.surface(prim, bary);
     let frame = info.frame();
     let bsdf = SurfaceBsdf::at(
         &ctx.scene.materials[(info.flags & ID_MASK) as usize],

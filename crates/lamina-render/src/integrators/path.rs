@@ -14,7 +14,7 @@
 //! * Emitters end paths (they are black).
 
 use super::SceneContext;
-use crate::accel::{FLAG_EMITTER, HitKind, ID_MASK, NO_PRIM, Ray, spawn_origin};
+use crate::accel::{FLAG_EMITTER, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
 use crate::lights::power_heuristic;
 use crate::materials::SurfaceBsdf;
 use crate::sampler::PixelSampler;
@@ -35,7 +35,7 @@ pub fn radiance(
     let mut beta = Vec3::ONE;
     let mut prev_pdf = 0.0f32;
     let mut camera_ray = true;
-    let mut skip = NO_PRIM;
+    let mut skip = PrimRef::NONE;
     let mut bounces = 0u32;
     let lights = &ctx.lights.lights;
     loop {
@@ -69,9 +69,8 @@ pub fn radiance(
         if bounces >= max_depth {
             break;
         }
-        let info = *ctx.accel.prim(prim);
+        let (p, info) = ctx.accel.surface(prim, bary);
         debug_assert!(info.flags & FLAG_EMITTER == 0);
-        let p = ctx.accel.position(prim, bary);
         let frame = info.frame();
         let bsdf = SurfaceBsdf::at(
             &ctx.scene.materials[(info.flags & ID_MASK) as usize],

@@ -1055,7 +1055,11 @@ impl Ctx {
                     "obj" => {
                         self.only(t.span(), &p, kind, &keys, &["file", "materials"])?;
                         let f = self.require(&o.file, t.span(), &format!("{p}.file"), kind)?;
-                        let obj = crate::obj::load_obj(&self.path(f))?;
+                        let path = self.path(f);
+                        let obj = crate::obj::load_obj(&path)?;
+                        for w in &obj.warnings {
+                            eprintln!("warning: {}: {w}", path.display());
+                        }
                         let mut meshes = obj.meshes;
                         for m in &mut meshes {
                             apply_transform(m, &xf);

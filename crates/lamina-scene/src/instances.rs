@@ -78,21 +78,28 @@ pub fn affine(t: &Transform) -> Affine3A {
 pub fn read_instances_csv(path: &Path) -> Result<Vec<Transform>, SceneError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| SceneError::new(path, None, "", format!("cannot read instances file: {e}")))?;
-    let mut rd = csv::ReaderBuilder::new()
-        .comment(Some(b'#'))
-        .trim(csv::Trim::All)
-        .from_reader(text.as_bytes());
-    let header = rd
-        .headers()
-        .map_err(|e| SceneError::new(path, Some(1), "", format!("bad CSV header: {e}")))?
-        .clone();
-    let header_line = rd.position().line() as usize;
+    // Plain comma-separated numbers: read by hand so that every line number is exact
+    // (blank lines and `#` comments included).
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    let Some((header_line, header)) = lines.next() else {
+        return Err(SceneError::new(
+            path,
+            None,
+            "",
+            "the instances file is empty (it needs a header such as 'tx,ty,tz')",
+        ));
+    };
+    let header_line = Some(header_line);
     let mut cols: Vec<usize> = Vec::new();
-    for (i, h) in header.iter().enumerate() {
+    for h in header.split(',').map(str::trim) {
         let Some(c) = CSV_COLUMNS.iter().position(|&c| c == h) else {
             return Err(SceneError::new(
                 path,
-                Some(header_line.max(1)),
+                header_line,
                 h,
                 format!(
                     "unknown column (the header names any of: {})",
@@ -101,33 +108,36 @@ pub fn read_instances_csv(path: &Path) -> Result<Vec<Transform>, SceneError> {
             ));
         };
         if cols.contains(&c) {
-            return Err(SceneError::new(
-                path,
-                Some(header_line.max(1)),
-                h,
-                "column given twice",
-            ));
+            return Err(SceneError::new(path, header_line, h, "column given twice"));
         }
-        let _ = i;
         cols.push(c);
     }
     if cols.contains(&9) && cols.iter().any(|&c| (6..9).contains(&c)) {
         return Err(SceneError::new(
             path,
-            Some(header_line.max(1)),
+            header_line,
             "s",
             "give either 's' (uniform scale) or 'sx', 'sy', 'sz', not both",
         ));
     }
     let mut out = Vec::new();
-    for rec in rd.records() {
-        let rec = rec.map_err(|e| {
-            let line = e.position().map(|p| p.line() as usize);
-            SceneError::new(path, line, "", format!("bad CSV row: {e}"))
-        })?;
-        let line = rec.position().map(|p| p.line() as usize);
+    for (line, row) in lines {
+        let fields: Vec<&str> = row.split(',').map(str::trim).collect();
+        let line = Some(line);
+        if fields.len() != cols.len() {
+            return Err(SceneError::new(
+                path,
+                line,
+                "",
+                format!(
+                    "bad CSV row: {} fields, the header has {}",
+                    fields.len(),
+                    cols.len()
+                ),
+            ));
+        }
         let mut v = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0f32];
-        for (field, &c) in rec.iter().zip(&cols) {
+        for (field, &c) in fields.iter().zip(&cols) {
             v[c] = field.parse::<f32>().map_err(|_| {
                 SceneError::new(
                     path,

@@ -14,6 +14,7 @@
 
 pub mod branches;
 mod glb;
+pub mod instanced;
 pub mod leaves;
 pub mod params;
 mod rng;

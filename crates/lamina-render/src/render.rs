@@ -12,7 +12,7 @@
 //! render seed, the pixel and `i`; per-pixel sums are added in sample order and passes in
 //! pass order, so the image is bit-identical for a seed whatever the thread count.
 
-use crate::accel::Ray;
+use crate::accel::{AccelMemory, Ray};
 use crate::error::RenderError;
 use crate::film::Accumulator;
 use crate::integrators::{SceneContext, paper, path};
@@ -97,6 +97,14 @@ pub struct RenderStats {
     pub rays: u64,
     /// Whether the time limit or the cancel flag stopped the render before `spp`.
     pub stopped_early: bool,
+    /// Wall-clock time of the BVH build (part of `elapsed`).
+    pub accel_build: Duration,
+    /// Bytes held by the BVHs and primitive / instance records.
+    pub accel_memory: AccelMemory,
+    /// Primitives stored in the BVHs (each prototype's once).
+    pub primitives: usize,
+    /// Instances in the top-level BVH.
+    pub instances: usize,
 }
 
 /// The result of [`render`].
@@ -236,6 +244,10 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
             samples: spp_done as u64 * film.width as u64 * film.height as u64,
             rays,
             stopped_early,
+            accel_build: ctx.accel_build,
+            accel_memory: ctx.accel.memory(),
+            primitives: ctx.accel.primitive_count(),
+            instances: ctx.accel.instance_count(),
         },
     })
 }

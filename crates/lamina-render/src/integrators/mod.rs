@@ -24,17 +24,24 @@ pub struct SceneContext<'a> {
     pub camera: CameraModel,
     /// The pixel filter sampler.
     pub filter: FilterSampler,
+    /// Wall-clock time [`Accel::build`] took.
+    pub accel_build: std::time::Duration,
 }
 
 impl<'a> SceneContext<'a> {
     /// Builds everything a render needs from `scene`.
     pub fn new(scene: &'a Scene) -> Result<Self, RenderError> {
+        let camera = CameraModel::new(&scene.camera, &scene.film)?;
+        let start = std::time::Instant::now();
+        let accel = Accel::build(scene)?;
+        let accel_build = start.elapsed();
         Ok(SceneContext {
             scene,
-            camera: CameraModel::new(&scene.camera, &scene.film)?,
-            accel: Accel::build(scene)?,
+            camera,
+            accel,
             lights: LightSet::new(scene)?,
             filter: FilterSampler::new(scene.film.filter),
+            accel_build,
         })
     }
 

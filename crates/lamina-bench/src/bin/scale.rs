@@ -1,0 +1,292 @@
+//! The scale benchmark: trees of 10k, 100k and 1M leaves rendered at 1920x1080, 16 spp,
+//! with flat leaf cards and with instanced curved leaves.
+//!
+//! `cargo run --release -p lamina-bench --bin scale` (all levels; minutes), or quicker:
+//! `... --bin scale -- --levels 10000 --width 480 --height 270 --spp 4`.
+//!
+//! Every (level, representation) runs in a child process (this binary re-executed with
+//! `--child`), so the peak memory (VmHWM) is that level's alone. Prints the table and
+//! writes `scale.csv`, `scale.json`, one PNG frame per run and, through
+//! `crates/lamina-bench/plot_scale.py` (matplotlib), the scaling plot `scale.png` into `--out`
+//! (default `crates/lamina-bench/results`).
+
+use anyhow::{Context, Result, bail};
+use clap::Parser;
+use lamina_bench::{Measurement, Representation, peak_rss_bytes, tree_scene, triangle_counts};
+use lamina_plant::{PlantParams, generate_plant};
+use lamina_render::{RenderOptions, render, write_image};
+use std::path::PathBuf;
+use std::process::Command;
+use std::time::Instant;
+
+#[derive(Parser, Debug, Clone)]
+#[command(about = "Render trees of growing leaf counts; print build time, memory and speed")]
+struct Args {
+    /// Leaf counts of the trees, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000")]
+    levels: Vec<u32>,
+    /// Representations to measure, comma-separated: flat, instanced.
+    #[arg(long, value_delimiter = ',', default_value = "flat,instanced")]
+    reps: Vec<String>,
+    /// Forest rows: numbers of copies of the first level's tree, placed as instances of
+    /// one tree prototype, comma-separated (empty: none).
+    #[arg(long, value_delimiter = ',', default_value = "")]
+    forest: Vec<String>,
+    /// Image width (pixels).
+    #[arg(long, default_value_t = 1920)]
+    width: u32,
+    /// Image height (pixels).
+    #[arg(long, default_value_t = 1080)]
+    height: u32,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 16)]
+    spp: u32,
+    /// Render threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+    /// Seed of the tree.
+    #[arg(long, default_value_t = 11)]
+    seed: u64,
+    /// Output folder for the table, the frames and the plot.
+    #[arg(long, default_value = "crates/lamina-bench/results")]
+    out: PathBuf,
+    /// Skip the plot (no Python needed).
+    #[arg(long)]
+    no_plot: bool,
+    /// Internal: measure one level in this process and print it as a `RESULT` JSON line.
+    #[arg(long, hide = true)]
+    child: Option<String>,
+    /// Internal: forest copies for `--child forest`.
+    #[arg(long, hide = true, default_value_t = 1)]
+    copies: u32,
+}
+
+fn parse_rep(s: &str) -> Result<Representation> {
+    Ok(match s {
+        "flat" => Representation::Flat,
+        "instanced" => Representation::Instanced,
+        "forest" => Representation::Forest,
+        _ => bail!("unknown representation '{s}' (flat, instanced)"),
+    })
+}
+
+/// Measures one level in this process.
+fn child(args: &Args, rep: Representation) -> Result<Measurement> {
+    let leaves = *args
+        .levels
+        .first()
+        .context("--child needs one --levels value")?;
+    let t = Instant::now();
+    let mut params = PlantParams::tree(args.seed, leaves);
+    params.light_direction = [0.5, 0.8, 0.6];
+    let plant = generate_plant(&params)?;
+    let generate_s = t.elapsed().as_secs_f64();
+    let leaves_placed = plant.leaf_count() as u64;
+    let copies = if rep == Representation::Forest {
+        args.copies
+    } else {
+        1
+    };
+    let scene = tree_scene(plant, rep, copies, args.width, args.height, args.spp);
+    let (triangles, unique_triangles) = triangle_counts(&scene);
+    eprintln!(
+        "  {rep} {leaves} leaves x{copies}: generated in {generate_s:.1} s, {triangles} triangles ({unique_triangles} unique); rendering {}x{} {} spp",
+        args.width, args.height, args.spp
+    );
+    let out = render(
+        &scene,
+        &RenderOptions {
+            spp: Some(args.spp),
+            threads: Some(args.threads),
+            seed: 1,
+            ..Default::default()
+        },
+    )?;
+    let s = out.stats;
+    let render_s = (s.elapsed - s.accel_build).as_secs_f64();
+    std::fs::create_dir_all(&args.out)?;
+    let name = if rep == Representation::Forest {
+        format!("frame_forest_{copies}x{leaves}.png")
+    } else {
+        format!("frame_{rep}_{leaves}.png")
+    };
+    write_image(&args.out.join(name), &out.image, &scene.film)?;
+    let scene_leaves = leaves_placed * copies as u64;
+    let mem = s.accel_memory;
+    Ok(Measurement {
+        leaves: leaves as u64 * copies as u64,
+        representation: rep,
+        trees: copies as u64,
+        triangles,
+        unique_triangles,
+        primitives: s.primitives as u64,
+        instances: s.instances as u64,
+        generate_s,
+        bvh_build_s: s.accel_build.as_secs_f64(),
+        bvh_bytes: mem.total() as u64,
+        bvh_bytes_per_leaf: mem.total() as f64 / scene_leaves.max(1) as f64,
+        bytes_per_instance: mem.bytes_per_instance(),
+        peak_rss_bytes: peak_rss_bytes(),
+        mrays_per_s: s.rays as f64 / render_s / 1e6,
+        render_s,
+        spp: s.spp_done,
+        resolution: [args.width, args.height],
+        threads: args.threads,
+    })
+}
+
+/// Runs one level in a child process and reads its `RESULT` line.
+fn spawn(args: &Args, rep: &str, leaves: u32, copies: u32) -> Result<Measurement> {
+    let exe = std::env::current_exe()?;
+    let output = Command::new(exe)
+        .args(["--child", rep, "--levels", &leaves.to_string()])
+        .args(["--copies", &copies.to_string()])
+        .args(["--width", &args.width.to_string()])
+        .args(["--height", &args.height.to_string()])
+        .args(["--spp", &args.spp.to_string()])
+        .args(["--threads", &args.threads.to_string()])
+        .args(["--seed", &args.seed.to_string()])
+        .arg("--out")
+        .arg(&args.out)
+        .stderr(std::process::Stdio::inherit())
+        .output()?;
+    if !output.status.success() {
+        bail!(
+            "the {rep} run of {leaves} leaves failed ({})",
+            output.status
+        );
+    }
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let line = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("RESULT "))
+        .context("the child printed no RESULT line")?;
+    Ok(serde_json::from_str(line)?)
+}
+
+fn mib(b: u64) -> f64 {
+    b as f64 / (1024.0 * 1024.0)
+}
+
+fn print_table(rows: &[Measurement]) {
+    println!(
+        "\n{:>9} {:>9} {:>5} {:>12} {:>10} {:>8} {:>10} {:>9} {:>9} {:>9} {:>7} {:>8}",
+        "leaves",
+        "repr",
+        "trees",
+        "triangles",
+        "unique",
+        "build s",
+        "BVH MiB",
+        "B/leaf",
+        "B/inst",
+        "peak MiB",
+        "Mrays/s",
+        "s/frame"
+    );
+    for r in rows {
+        println!(
+            "{:>9} {:>9} {:>5} {:>12} {:>10} {:>8.2} {:>10.1} {:>9.1} {:>9.1} {:>9.0} {:>7.3} {:>8.1}",
+            r.leaves,
+            r.representation.to_string(),
+            r.trees,
+            r.triangles,
+            r.unique_triangles,
+            r.bvh_build_s,
+            mib(r.bvh_bytes),
+            r.bvh_bytes_per_leaf,
+            r.bytes_per_instance,
+            mib(r.peak_rss_bytes),
+            r.mrays_per_s,
+            r.render_s
+        );
+    }
+}
+
+fn write_csv(path: &std::path::Path, rows: &[Measurement]) -> Result<()> {
+    let mut s = String::from(
+        "leaves,representation,trees,triangles,unique_triangles,primitives,instances,generate_s,bvh_build_s,bvh_bytes,bvh_bytes_per_leaf,bytes_per_instance,peak_rss_bytes,mrays_per_s,render_s,spp,width,height,threads\n",
+    );
+    for r in rows {
+        s += &format!(
+            "{},{},{},{},{},{},{},{:.3},{:.3},{},{:.2},{:.2},{},{:.4},{:.2},{},{},{},{}\n",
+            r.leaves,
+            r.representation,
+            r.trees,
+            r.triangles,
+            r.unique_triangles,
+            r.primitives,
+            r.instances,
+            r.generate_s,
+            r.bvh_build_s,
+            r.bvh_bytes,
+            r.bvh_bytes_per_leaf,
+            r.bytes_per_instance,
+            r.peak_rss_bytes,
+            r.mrays_per_s,
+            r.render_s,
+            r.spp,
+            r.resolution[0],
+            r.resolution[1],
+            r.threads
+        );
+    }
+    std::fs::write(path, s)?;
+    Ok(())
+}
+
+fn main() -> Result<()> {
+    let args = Args::parse();
+    if let Some(rep) = &args.child {
+        let m = child(&args, parse_rep(rep)?)?;
+        println!("RESULT {}", serde_json::to_string(&m)?);
+        return Ok(());
+    }
+    if args.levels.is_empty() {
+        bail!("--levels needs at least one leaf count");
+    }
+    for r in &args.reps {
+        parse_rep(r)?;
+    }
+    let forest: Vec<u32> = args
+        .forest
+        .iter()
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse().context("--forest takes copy counts"))
+        .collect::<Result<_>>()?;
+    std::fs::create_dir_all(&args.out)?;
+    let mut rows = Vec::new();
+    for &leaves in &args.levels {
+        for rep in &args.reps {
+            eprintln!("{rep}, {leaves} leaves:");
+            rows.push(spawn(&args, rep, leaves, 1)?);
+        }
+    }
+    for &copies in &forest {
+        eprintln!("forest of {copies} trees of {} leaves:", args.levels[0]);
+        rows.push(spawn(&args, "forest", args.levels[0], copies)?);
+    }
+    print_table(&rows);
+    let (csv, json) = (args.out.join("scale.csv"), args.out.join("scale.json"));
+    write_csv(&csv, &rows)?;
+    std::fs::write(&json, serde_json::to_string_pretty(&rows)?)?;
+    println!("\nwrote {} and {}", csv.display(), json.display());
+    if !args.no_plot {
+        let png = args.out.join("scale.png");
+        let script = concat!(env!("CARGO_MANIFEST_DIR"), "/plot_scale.py");
+        let status = Command::new("python3")
+            .arg(script)
+            .arg(&json)
+            .arg(&png)
+            .status();
+        match status {
+            Ok(s) if s.success() => println!("wrote {}", png.display()),
+            _ => eprintln!(
+                "no plot: run `python3 {script} {} {}` (needs matplotlib)",
+                json.display(),
+                png.display()
+            ),
+        }
+    }
+    Ok(())
+}

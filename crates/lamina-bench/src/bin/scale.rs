@@ -255,21 +255,26 @@ fn main() -> Result<()> {
         .map(|s| s.parse().context("--forest takes copy counts"))
         .collect::<Result<_>>()?;
     std::fs::create_dir_all(&args.out)?;
+    let (csv, json) = (args.out.join("scale.csv"), args.out.join("scale.json"));
     let mut rows = Vec::new();
+    // The table is rewritten after every run, so an interrupted benchmark keeps its rows.
+    let mut record = |m: Measurement| -> Result<()> {
+        rows.push(m);
+        write_csv(&csv, &rows)?;
+        std::fs::write(&json, serde_json::to_string_pretty(&rows)?)?;
+        Ok(())
+    };
     for &leaves in &args.levels {
         for rep in &args.reps {
             eprintln!("{rep}, {leaves} leaves:");
-            rows.push(spawn(&args, rep, leaves, 1)?);
+            record(spawn(&args, rep, leaves, 1)?)?;
         }
     }
     for &copies in &forest {
         eprintln!("forest of {copies} trees of {} leaves:", args.levels[0]);
-        rows.push(spawn(&args, "forest", args.levels[0], copies)?);
+        record(spawn(&args, "forest", args.levels[0], copies)?)?;
     }
     print_table(&rows);
-    let (csv, json) = (args.out.join("scale.csv"), args.out.join("scale.json"));
-    write_csv(&csv, &rows)?;
-    std::fs::write(&json, serde_json::to_string_pretty(&rows)?)?;
     println!("\nwrote {} and {}", csv.display(), json.display());
     if !args.no_plot {
         let png = args.out.join("scale.png");

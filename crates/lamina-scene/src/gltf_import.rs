@@ -330,7 +330,11 @@ fn read_primitive(
                 [t[0], t[1], t[2]]
             }
         })
-        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+        // Degenerate triangles (repeated index or zero area) can never be hit.
+        .filter(|t| {
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && (b - a).cross(c - a) != Vec3::ZERO
+        })
         .collect();
     if indices.is_empty() {
         return Ok(None);

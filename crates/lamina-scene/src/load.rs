@@ -1123,6 +1123,7 @@ impl Ctx {
                 }
             }
         };
+        let user_placed = placements.is_some();
         let geometry = match placements {
             None => geometry,
             Some(placements) => {
@@ -1146,13 +1147,19 @@ impl Ctx {
                 }
             }
         };
-        self.check_extent(&p, &geometry, t.span())?;
+        self.check_extent(&p, &geometry, t.span(), user_placed)?;
         Ok(geometry)
     }
 
     /// Rejects geometry that, once placed, lies beyond ±[`crate::instances::MAX_COORD`] m
     /// or has a non-finite vertex.
-    fn check_extent(&self, p: &str, g: &Geometry, span: Range<usize>) -> Result<(), SceneError> {
+    fn check_extent(
+        &self,
+        p: &str,
+        g: &Geometry,
+        span: Range<usize>,
+        user_placed: bool,
+    ) -> Result<(), SceneError> {
         let max = crate::instances::MAX_COORD;
         let bad = |v: Vec3| !v.is_finite() || v.abs().max_element() > max;
         for m in &g.meshes {
@@ -1188,11 +1195,17 @@ impl Ctx {
                 );
                 let w: Vec3 = inst.transform.transform_point3(corner);
                 if bad(w) {
+                    let (key, what) = if user_placed {
+                        (format!("{p}.instances[{j}]"), "places".to_string())
+                    } else {
+                        let name = &g.prototypes[inst.prototype as usize].name;
+                        (p.to_string(), format!("a node using mesh '{name}' places"))
+                    };
                     return Err(self.err(
                         span,
-                        format!("{p}.instances[{j}]"),
+                        key,
                         format!(
-                            "places the geometry at {:?}, beyond ±{max:e} m (absurd size, or wrong units?)",
+                            "{what} the geometry at {:?}, beyond ±{max:e} m (absurd size, or wrong units?)",
                             w.to_array()
                         ),
                     ));

@@ -378,7 +378,11 @@ fn meshes(
                     "a face refers to a vertex that does not exist",
                 ));
             }
-            indices.push([t[0], t[1], t[2]]);
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| positions[i as usize]);
+            // Zero-area triangles can never be hit.
+            if (b - a).cross(c - a) != Vec3::ZERO {
+                indices.push([t[0], t[1], t[2]]);
+            }
         }
         if indices.is_empty() {
             continue;

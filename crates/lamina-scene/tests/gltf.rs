@@ -235,3 +235,59 @@ fn real_plant_when_shared_data_exists() {
             .any(|w| w.contains("KHR_materials_translucency"))
     );
 }
+
+/// A scene file with one glTF object `t.gltf` in `d`.
+fn gltf_scene(d: &Path, gltf: &str, object_extra: &str) -> Result<lamina_scene::Scene, String> {
+    std::fs::write(d.join("t.gltf"), gltf).unwrap();
+    let text = format!(
+        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n[[object]]\ntype = \"gltf\"\nfile = \"t.gltf\"\n{object_extra}\n"
+    );
+    parse_scene(&text, &d.join("s.toml")).map_err(|e| e.to_string())
+}
+
+#[test]
+fn bad_gltf_in_a_scene_file_missing_texture_absurd_scale() {
+    let d = scratch("bad-scene");
+    // A base-colour texture whose image file does not exist.
+    let tex = triangle_gltf(
+        TRI,
+        r#""images": [{"uri": "textures/gone.png"}], "textures": [{"source": 0}],"#,
+    )
+    .replace(
+        r#""baseColorFactor": [0.2, 0.4, 0.1, 1]"#,
+        r#""baseColorFactor": [0.2, 0.4, 0.1, 1], "baseColorTexture": {"index": 0}"#,
+    );
+    let e = gltf_scene(&d, &tex, "").unwrap_err();
+    assert!(
+        e.contains("t.gltf") && e.contains("images[0]") && e.contains("textures/gone.png"),
+        "{e}"
+    );
+    // A node scaled by 1e30: each vertex is small, the placed mesh is absurd. The mesh is
+    // used by two nodes, so this is an instance.
+    let huge = triangle_gltf(TRI, "").replace(
+        r#"{"mesh": 0, "translation": [2, 0, 0]}"#,
+        r#"{"mesh": 0, "scale": [1e30, 1e30, 1e30]}"#,
+    );
+    let e = gltf_scene(&d, &huge, "").unwrap_err();
+    assert!(
+        e.contains("s.toml:4: object[0]: a node using mesh 'mesh0' places") && e.contains("beyond"),
+        "{e}"
+    );
+    // The same file placed by the object's own instances: flattened, still caught.
+    let e = gltf_scene(&d, &huge, "instances = [{}]").unwrap_err();
+    assert!(e.contains("object[0]") && e.contains("beyond"), "{e}");
+    // The object's scale is checked before anything is loaded.
+    let e = gltf_scene(&d, &triangle_gltf(TRI, ""), "scale = 1e30").unwrap_err();
+    assert!(e.contains("object[0].scale") && e.contains("1e30"), "{e}");
+    // An accessor that reads past the end of its buffer.
+    let short = triangle_gltf(TRI, "").replace(r#""count": 3"#, r#""count": 300"#);
+    let e = gltf_scene(&d, &short, "").unwrap_err();
+    assert!(e.contains("t.gltf"), "{e}");
+    // A primitive whose triangles are all degenerate: no triangles to render.
+    let degenerate = triangle_gltf([[0.0; 3], [0.0; 3], [0.0; 3]], "").replace(
+        r#""min": [-10, -10, -10], "max": [10, 10, 10]"#,
+        r#""min": [0, 0, 0], "max": [0, 0, 0]"#,
+    );
+    let e = gltf_scene(&d, &degenerate, "").unwrap_err();
+    assert!(e.contains("t.gltf") && e.contains("no triangles"), "{e}");
+}

@@ -140,3 +140,17 @@ fn plant_errors_name_line_and_key() {
     ));
     assert!(e.contains("object[0].plant") && e.contains("'quad'"), "{e}");
 }
+
+#[test]
+fn plant_and_forest_examples_load() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    let t = std::time::Instant::now();
+    let s = lamina_scene::load_scene(&dir.join("plant.toml")).unwrap();
+    let leaves: usize = s.meshes[2..].iter().map(|m| m.indices.len() / 2).sum();
+    assert!((2900..=3100).contains(&leaves), "{leaves}");
+    eprintln!("plant.toml loaded in {:.1} s", t.elapsed().as_secs_f64());
+    let f = lamina_scene::load_scene(&dir.join("forest.toml")).unwrap();
+    assert_eq!(f.meshes.len(), 1, "the meadow");
+    assert_eq!((f.prototypes.len(), f.instances.len()), (1, 10));
+    eprintln!("examples loaded in {:.1} s", t.elapsed().as_secs_f64());
+}

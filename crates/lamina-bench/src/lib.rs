@@ -21,8 +21,8 @@ pub enum Representation {
     Flat,
     /// One curved leaf mesh (64 triangles) per leaf variant, placed by one instance per leaf.
     Instanced,
-    /// A forest: `copies` instances of one whole tree (instanced leaves inside the tree
-    /// prototype are flattened into it), on a grid.
+    /// A forest: `copies` instances of one whole tree (its branches and flat leaf cards in
+    /// one prototype; instances do not nest), on a grid, each turned about `+y`.
     Forest,
 }
 

@@ -186,6 +186,94 @@ mod tests {
         assert!(m.matrix3.determinant() > 0.0);
     }
 
+    /// A plant with flat (unbent) instanced leaves renders like the same plant with flat
+    /// cards: same leaves, same sides, same texture orientation, through the renderer's
+    /// two-level BVH. Only rounding separates them (the same random numbers per pixel).
+    #[test]
+    fn flat_instanced_plant_renders_like_cards() {
+        use lamina_core::scene::*;
+        let mut params = crate::PlantParams::bush(5);
+        params.leaf_count = Some(300);
+        params.leaf_resolution = 64;
+        let plant = crate::generate_plant(&params).unwrap();
+        let [lo, hi] = plant.stats.bounds;
+        let c = 0.5 * (lo + hi);
+        let scene = |meshes, materials, prototypes, instances| Scene {
+            camera: Camera {
+                position: c + Vec3::new(0.3, 0.4, 1.0) * (hi - lo).length(),
+                look_at: c,
+                up: Vec3::Y,
+                fov_deg: 40.0,
+                aperture_radius: 0.0,
+                focus_distance: 1.0,
+            },
+            film: Film {
+                width: 48,
+                height: 48,
+                spp: 4,
+                filter: PixelFilter::Box,
+                exposure: 0.0,
+                tonemap: ToneMap::Clamp,
+            },
+            integrator: Integrator::Path {
+                max_depth: 3,
+                rr_depth: 3,
+            },
+            lights: vec![Light::Sun {
+                direction: Vec3::new(0.5, 0.8, 0.6).normalize(),
+                irradiance: Vec3::splat(3.0),
+                angular_diameter_deg: 0.0,
+            }],
+            sky: Some(Sky::Constant(Vec3::new(0.2, 0.3, 0.4))),
+            materials,
+            meshes,
+            prototypes,
+            instances,
+        };
+        let (meshes, materials) = plant.clone().into_scene_parts(0);
+        let flat = scene(meshes, materials, Vec::new(), Vec::new());
+        let parts = plant.into_instanced_parts(
+            0,
+            0,
+            LeafBend {
+                midrib: 0.0,
+                cup: 0.0,
+            },
+        );
+        let inst = scene(
+            parts.meshes,
+            parts.materials,
+            parts.prototypes,
+            parts.instances,
+        );
+        let opts = lamina_render::RenderOptions {
+            threads: Some(2),
+            seed: 3,
+            ..Default::default()
+        };
+        let a = lamina_render::render(&flat, &opts).unwrap().image;
+        let b = lamina_render::render(&inst, &opts).unwrap().image;
+        let mean = |i: &lamina_render::Image| i.pixels.iter().sum::<Vec3>() / i.pixels.len() as f32;
+        let (ma, mb) = (mean(&a), mean(&b));
+        assert!(ma.min_element() > 0.0);
+        assert!(
+            (ma - mb).abs().max_element() < 0.01 * ma.max_element(),
+            "{ma} vs {mb}"
+        );
+        let peak = a.pixels.iter().map(|p| p.max_element()).fold(0.0, f32::max);
+        let off = a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .filter(|(p, q)| (**p - **q).abs().max_element() > 1e-3 * peak)
+            .count();
+        assert!(
+            off * 20 < a.pixels.len(),
+            "{off} of {} pixels differ",
+            a.pixels.len()
+        );
+    }
+
     #[test]
     fn curved_leaf_bends_as_documented() {
         let bend = LeafBend::default();

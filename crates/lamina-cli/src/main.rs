@@ -7,9 +7,11 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod demo;
+mod gpu_cmd;
 mod leaf_cmd;
 mod plant_cmd;
 mod render_cmd;
+mod view_cmd;
 
 /// A renderer for plant leaves and whole plants.
 #[derive(Parser, Debug)]
@@ -23,6 +25,8 @@ struct Cli {
 enum Command {
     /// Render a scene file (TOML) to PNG and/or EXR.
     Render(render_cmd::RenderArgs),
+    /// Open a window with the real-time (GPU) view of a scene: orbit the camera, move the sun.
+    View(view_cmd::ViewArgs),
     /// Render the built-in demo: a leaf lit from the front and from behind, and a bush.
     Demo(demo::DemoArgs),
     /// Leaf maps: generate procedural leaves, prepare captures, make contact sheets.
@@ -44,6 +48,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render_cmd::run(args),
         Command::Demo(args) => demo::run(args),
+        Command::View(args) => view_cmd::run(args),
         Command::Leaf(cmd) => leaf_cmd::run(cmd),
         Command::Plant(PlantCommand::Generate(args)) => plant_cmd::run_generate(args),
     };

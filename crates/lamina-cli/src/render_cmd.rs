@@ -38,6 +38,10 @@ pub struct RenderArgs {
     /// Default: the scene's name with `.png`, in the current directory.
     #[arg(short, long = "output", value_name = "OUT")]
     pub output: Vec<PathBuf>,
+    /// Render with the real-time GPU approximation (wgpu; Mesa's lavapipe runs it without a
+    /// GPU) instead of the offline path tracer. Same film size, exposure and tone map.
+    #[arg(long)]
+    pub gpu: bool,
     #[command(flatten)]
     pub flags: RenderFlags,
 }
@@ -170,6 +174,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     check_outputs(&outputs)?;
     let scene = lamina_scene::load_scene(&args.scene)?;
     let label = args.scene.display().to_string();
+    if args.gpu {
+        return crate::gpu_cmd::render_gpu(&scene, &label, &outputs);
+    }
     let (opts, bar) = options(&args.flags, &label)?;
     let out = render_scene(&scene, &opts, bar, &label)?;
     write_all(&outputs, &out.image, &scene.film)

@@ -19,7 +19,8 @@
 //!   transmission. A Lambertian lobe gives `1/pi` everywhere. The GPU evaluates
 //!   `f cos = albedo_X(texel) * g_X(mu_o, mu_i) * mu_i`. Layer 3 holds the Fresnel
 //!   reflectance of the adaxial (`r`) and abaxial (`g`) epidermis against the cosine
-//!   (row 0), from [`lamina_leaf::layers::fresnel_dielectric`].
+//!   (row 0), from [`lamina_leaf::layers::fresnel_dielectric`], and the specular lobe's
+//!   directional albedo per side (`b`, `a`) from [`lamina_leaf::specular::eval`].
 //! * **Uniforms**: GGX roughness per side, specular weight, the sine of the blend width,
 //!   all read from [`LeafParams`].
 //!
@@ -241,16 +242,45 @@ pub fn leaf_lut(params: &LeafParams) -> Vec<[f32; 4]> {
         }
     }
     let eta = [params.upper.ior, params.lower.ior];
+    let alpha = [params.roughness_adaxial, params.roughness_abaxial];
     for i in 0..LUT_N {
         let c = mu(i);
+        let [sa, sb] = [0, 1].map(|side| specular_albedo(c, alpha[side], eta[side], params));
         lut[3 * LUT_N * LUT_N + i] = [
             lamina_leaf::layers::fresnel_dielectric(c, eta[0]),
             lamina_leaf::layers::fresnel_dielectric(c, eta[1]),
-            0.0,
-            0.0,
+            sa,
+            sb,
         ];
     }
     lut
+}
+
+/// Directional albedo of the leaf's specular lobe (weight 1) for viewing cosine `mu_o`:
+/// `int f_spec cos dw_i` of [`lamina_leaf::specular::eval`] with the blend-band fade of
+/// `LeafBsdf`, by midpoint quadrature (the GPU scales sky light reflected by the surface
+/// with it).
+fn specular_albedo(mu_o: f32, alpha: f32, eta: f32, params: &LeafParams) -> f32 {
+    const NM: usize = 48;
+    const NP: usize = 48;
+    let blend = params.blend_width_deg.to_radians().sin();
+    let smooth = |x: f32| {
+        let x = x.clamp(0.0, 1.0);
+        x * x * (3.0 - 2.0 * x)
+    };
+    let wo = Vec3::new((1.0 - mu_o * mu_o).max(0.0).sqrt(), 0.0, mu_o);
+    let mut acc = 0.0;
+    for a in 0..NM {
+        let mi = (a as f32 + 0.5) / NM as f32;
+        let si = (1.0 - mi * mi).max(0.0).sqrt();
+        for b in 0..NP {
+            let phi = std::f32::consts::TAU * (b as f32 + 0.5) / NP as f32;
+            let wi = Vec3::new(si * phi.cos(), si * phi.sin(), mi);
+            let fade = smooth(mu_o / blend) * smooth(mi / blend);
+            acc += lamina_leaf::specular::eval(wo, wi, alpha, eta) * fade;
+        }
+    }
+    acc * std::f32::consts::TAU / (NM * NP) as f32
 }
 
 /// The shading constants of a leaf, from its parameters.

@@ -48,3 +48,5 @@ pub fn render_scene(
     let img = r.render_image()?;
     Ok((img, r.warnings().to_vec()))
 }
+/// The wgpu this crate is built with (for window surfaces in the CLI).
+pub use wgpu;

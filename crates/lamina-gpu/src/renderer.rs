@@ -44,6 +44,11 @@ pub struct RenderSettings {
     pub shadow_map_size: u32,
     /// Supersampling factor per axis for [`Renderer::render_image`] (box-filtered down).
     pub supersample: u32,
+    /// Directions (0-16) of the sky-visibility maps baked at load time: how much of the
+    /// sky each surface sees, and through how many leaves. 0 leaves sky light unshadowed.
+    pub sky_directions: u32,
+    /// Side of each sky-visibility map, in texels.
+    pub sky_map_size: u32,
 }
 
 impl Default for RenderSettings {
@@ -51,6 +56,8 @@ impl Default for RenderSettings {
         RenderSettings {
             shadow_map_size: 2048,
             supersample: 2,
+            sky_directions: 16,
+            sky_map_size: 512,
         }
     }
 }
@@ -89,6 +96,39 @@ struct Globals {
     sky: [[f32; 4]; 9],
     lights: [GpuLight; MAX_LIGHTS],
     counts: [u32; 4],
+}
+
+/// Most sky-visibility directions.
+pub const MAX_SKY_DIRS: usize = 16;
+
+/// The sky-visibility maps' matrices and directions (see `SkyVis` in scene.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct SkyVis {
+    view_proj: [[[f32; 4]; 4]; MAX_SKY_DIRS],
+    dir: [[f32; 4]; MAX_SKY_DIRS],
+    params: [f32; 4],
+}
+
+/// `n` directions spread evenly over the sphere (a Fibonacci lattice, `+y` up), each
+/// standing for `4 pi / n` sr of sky.
+pub fn sphere_directions(n: usize) -> Vec<Vec3> {
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    (0..n)
+        .map(|i| {
+            let y = 1.0 - (2 * i + 1) as f32 / n as f32;
+            let r = (1.0 - y * y).max(0.0).sqrt();
+            let phi = golden * i as f32;
+            Vec3::new(r * phi.cos(), y, r * phi.sin())
+        })
+        .collect()
+}
+
+/// World-to-clip matrix of the orthographic light camera looking along `-dir` at the
+/// bounding sphere `(c, r)`: the sphere fills the map, depth 0..1 over its diameter.
+fn light_matrix(dir: Vec3, c: Vec3, r: f32) -> Mat4 {
+    let up = if dir.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+    orthographic(r, r, 3.0 * r) * look_at(c + dir * (2.0 * r), c, up)
 }
 
 /// Uniforms of the post pass (see `Post` in post.wgsl).
@@ -136,6 +176,9 @@ pub struct Renderer {
     shadow_bg_peel: wgpu::BindGroup,
     main_bg: wgpu::BindGroup,
     shadow_views: [wgpu::TextureView; 4],
+    sky_textures: [wgpu::Texture; 4],
+    sky_buf: wgpu::Buffer,
+    bgl_shadow: wgpu::BindGroupLayout,
     targets: Option<Targets>,
     post_layout: wgpu::BindGroupLayout,
     post_module: wgpu::ShaderModule,
@@ -670,7 +713,45 @@ impl Renderer {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let sky_size = settings.sky_map_size.clamp(16, ctx.max_texture_dim);
+        let sky_layers = settings.sky_directions.clamp(1, MAX_SKY_DIRS as u32);
+        let mk_array = |label: &str, format: wgpu::TextureFormat| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width: sky_size,
+                    height: sky_size,
+                    depth_or_array_layers: sky_layers,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            })
+        };
+        let sky_textures = [
+            mk_array("sky d1", DEPTH_FORMAT),
+            mk_array("sky d2", DEPTH_FORMAT),
+            mk_array("sky c1", SHADOW_COLOR_FORMAT),
+            mk_array("sky c2", SHADOW_COLOR_FORMAT),
+        ];
+        let sky_array_views = sky_textures.each_ref().map(|t| {
+            t.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            })
+        });
+        let sky_buf = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("sky visibility"),
+            size: std::mem::size_of::<SkyVis>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let depth_tex = wgpu::TextureSampleType::Depth;
+        let d2a = wgpu::TextureViewDimension::D2Array;
         let bgl_shadow = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shadow globals"),
             entries: &[uniform_entry(0), tex_entry(1, depth_tex, D2)],
@@ -683,6 +764,11 @@ impl Renderer {
                 tex_entry(2, depth_tex, D2),
                 tex_entry(3, UNFILTERED, D2),
                 tex_entry(4, UNFILTERED, D2),
+                uniform_entry(5),
+                tex_entry(6, depth_tex, d2a),
+                tex_entry(7, depth_tex, d2a),
+                tex_entry(8, UNFILTERED, d2a),
+                tex_entry(9, UNFILTERED, d2a),
             ],
         });
         fn view_entry(binding: u32, v: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
@@ -719,6 +805,14 @@ impl Renderer {
                 view_entry(2, &shadow_views[1]),
                 view_entry(3, &shadow_views[2]),
                 view_entry(4, &shadow_views[3]),
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: sky_buf.as_entire_binding(),
+                },
+                view_entry(6, &sky_array_views[0]),
+                view_entry(7, &sky_array_views[1]),
+                view_entry(8, &sky_array_views[2]),
+                view_entry(9, &sky_array_views[3]),
             ],
         });
 
@@ -845,7 +939,7 @@ impl Renderer {
             // The mean radiance: SH band 0 is E = pi * mean.
             Some(Sky::Image { .. }) => sky_sh[0] * 0.282_095 / std::f32::consts::PI,
         };
-        Ok(Renderer {
+        let mut renderer = Renderer {
             ctx: ctx.clone(),
             settings,
             meshes,
@@ -859,6 +953,9 @@ impl Renderer {
             shadow_bg_peel,
             main_bg,
             shadow_views,
+            sky_textures,
+            sky_buf,
+            bgl_shadow,
             targets: None,
             post_layout,
             post_module,
@@ -876,7 +973,112 @@ impl Renderer {
             },
             warnings,
             triangles,
-        })
+        };
+        renderer.bake_sky_visibility()?;
+        Ok(renderer)
+    }
+
+    /// Renders the sky-visibility maps (once: geometry and sky are static): for each of
+    /// [`RenderSettings::sky_directions`] directions over the sphere, the same two-layer
+    /// depth and transmittance maps as the sun's.
+    fn bake_sky_visibility(&mut self) -> Result<(), GpuError> {
+        let n = (self.settings.sky_directions as usize).min(MAX_SKY_DIRS);
+        let dirs = sphere_directions(n);
+        let (c, r) = self.bounds;
+        let size = self.sky_textures[0].width();
+        let mut vis = SkyVis {
+            view_proj: [[[0.0; 4]; 4]; MAX_SKY_DIRS],
+            dir: [[0.0; 4]; MAX_SKY_DIRS],
+            params: [n as f32, size as f32, 2.0 * r / size as f32, 2.0 * r],
+        };
+        let device = self.ctx.device.clone();
+        let mut encoder = device.create_command_encoder(&Default::default());
+        let layer_view = |t: &wgpu::Texture, k: usize| {
+            t.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(D2),
+                base_array_layer: k as u32,
+                array_layer_count: Some(1),
+                ..Default::default()
+            })
+        };
+        for (k, d) in dirs.iter().enumerate() {
+            let m = light_matrix(*d, c, r);
+            vis.view_proj[k] = m.to_cols_array_2d();
+            vis.dir[k] = d.extend(0.0).to_array();
+            let mut g = self.globals(&FrameView {
+                camera: self.base.camera,
+                sun_dir: None,
+                width: 1,
+                height: 1,
+            });
+            g.light_view_proj = m.to_cols_array_2d();
+            let buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("sky direction"),
+                contents: bytemuck::bytes_of(&g),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let views = self.sky_textures.each_ref().map(|t| layer_view(t, k));
+            for layer in 0..2 {
+                let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("sky direction"),
+                    layout: &self.bgl_shadow,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: buf.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            // Layer 1 reads nothing; layer 2 peels behind layer 1's depth.
+                            resource: wgpu::BindingResource::TextureView(&views[1 - layer]),
+                        },
+                    ],
+                });
+                let pipeline = if layer == 0 {
+                    &self.shadow_first
+                } else {
+                    &self.shadow_peel
+                };
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("sky visibility"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: &views[2 + layer],
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::WHITE),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view: &views[layer],
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(1.0),
+                            store: wgpu::StoreOp::Store,
+                        }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &bg, &[]);
+                self.draw_all(&mut pass);
+            }
+        }
+        self.ctx
+            .queue
+            .write_buffer(&self.sky_buf, 0, bytemuck::bytes_of(&vis));
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        self.ctx.queue.submit([encoder.finish()]);
+        match pollster::block_on(scope.pop()) {
+            None => Ok(()),
+            Some(e) => Err(GpuError::Validation {
+                what: "baking the sky-visibility maps".into(),
+                message: e.to_string(),
+            }),
+        }
     }
 
     /// Messages about the upload (downscaled maps); empty when all went as asked.
@@ -978,13 +1180,7 @@ impl Renderer {
             .shadow_map_size
             .clamp(16, self.ctx.max_texture_dim);
         let (sun_dir, sun_irr, light_view_proj) = match sun {
-            Some((d, e)) => {
-                let up = if d.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
-                let eye = c + d * (2.0 * r);
-                let lv = look_at(eye, c, up);
-                let lp = orthographic(r, r, 3.0 * r);
-                (d.extend(1.0), e.extend(0.0), lp * lv)
-            }
+            Some((d, e)) => (d.extend(1.0), e.extend(0.0), light_matrix(d, c, r)),
             None => (Vec3::Y.extend(0.0), Vec3::ZERO.extend(0.0), Mat4::IDENTITY),
         };
         let mut sky = [[0.0; 4]; 9];

@@ -55,13 +55,28 @@ struct MaterialParams {
 @group(0) @binding(3) var shadow_c1: texture_2d<f32>;
 @group(0) @binding(4) var shadow_c2: texture_2d<f32>;
 
+// Sky visibility, baked once per scene: for each of `params.x` directions `dir[k]`
+// (spread over the sphere), a two-layer depth/transmittance map like the sun's.
+// params: x count, y map side (texels), z world size of a texel (m), w depth range (m).
+struct SkyVis {
+    view_proj: array<mat4x4<f32>, 16>,
+    dir: array<vec4<f32>, 16>,
+    params: vec4<f32>,
+}
+@group(0) @binding(5) var<uniform> skyvis: SkyVis;
+@group(0) @binding(6) var sky_d1: texture_depth_2d_array;
+@group(0) @binding(7) var sky_d2: texture_depth_2d_array;
+@group(0) @binding(8) var sky_c1: texture_2d_array<f32>;
+@group(0) @binding(9) var sky_c2: texture_2d_array<f32>;
+
 // Material maps baked from lamina-leaf (see bake.rs): white-sky albedos, sRGB-encoded
 // 8-bit, sampled as linear. front.a = alpha matte.
 @group(1) @binding(0) var t_front: texture_2d<f32>;
 @group(1) @binding(1) var t_back: texture_2d<f32>;
 @group(1) @binding(2) var t_trans: texture_2d<f32>;
 // Angular tables g_X(mu_o, mu_i) (1/sr) for layers 0 adaxial R, 1 abaxial R, 2 T;
-// layer 3 row 0: Fresnel of the adaxial (r) and abaxial (g) epidermis vs cosine.
+// layer 3 row 0: Fresnel of the adaxial (r) and abaxial (g) epidermis vs cosine, and the
+// specular lobe's directional albedo (b adaxial, a abaxial).
 @group(1) @binding(3) var t_lut: texture_2d_array<f32>;
 @group(1) @binding(4) var s_map: sampler;
 @group(1) @binding(5) var s_lut: sampler;
@@ -162,6 +177,12 @@ fn lut(l: i32, mu_o: f32, mu_i: f32) -> vec3<f32> {
 fn fresnel(c: f32, adaxial: bool) -> f32 {
     let f = textureSampleLevel(t_lut, s_lut, vec2<f32>(c, 0.5 / 32.0), 3, 0.0);
     return select(f.g, f.r, adaxial);
+}
+
+// Directional albedo of the specular lobe (weight 1) at viewing cosine `c`, per side.
+fn specular_albedo(c: f32, adaxial: bool) -> f32 {
+    let f = textureSampleLevel(t_lut, s_lut, vec2<f32>(c, 0.5 / 32.0), 3, 0.0);
+    return select(f.a, f.b, adaxial);
 }
 
 fn ggx_lambda(c: f32, a: f32) -> f32 {
@@ -281,6 +302,59 @@ fn sun_transmittance(p: vec3<f32>, n_l: vec3<f32>) -> vec3<f32> {
     return acc / 9.0;
 }
 
+// Fraction of the sky (per RGB channel, through leaves) seen by the two faces of the
+// surface at `p` with unit normal `n`: `.front` for the face `n` points to, `.back` for the
+// other, each the cosine-weighted mean over the baked directions on its side of the
+// visibility 1 / c1 / c1 c2 (one tap per direction; the normal offset as for the sun).
+struct SkyVisibility {
+    front: vec3<f32>,
+    back: vec3<f32>,
+}
+
+fn sky_visibility(p: vec3<f32>, n: vec3<f32>) -> SkyVisibility {
+    var out: SkyVisibility;
+    let count = u32(skyvis.params.x);
+    if count == 0u {
+        out.front = vec3<f32>(1.0);
+        out.back = vec3<f32>(1.0);
+        return out;
+    }
+    let size = i32(skyvis.params.y);
+    let bias = 2.0 * skyvis.params.z / skyvis.params.w;
+    var front = vec3<f32>(0.0);
+    var back = vec3<f32>(0.0);
+    var wf = 0.0;
+    var wb = 0.0;
+    for (var k = 0u; k < count; k++) {
+        let d = skyvis.dir[k].xyz;
+        let c = dot(n, d);
+        let side = select(-1.0, 1.0, c >= 0.0);
+        let q = p + n * (side * 1.5 * skyvis.params.z);
+        let h = skyvis.view_proj[k] * vec4<f32>(q, 1.0);
+        let ndc = h.xyz / h.w;
+        let t = clamp(vec2<i32>(floor(vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * skyvis.params.y)),
+                      vec2<i32>(0), vec2<i32>(size - 1));
+        var v = vec3<f32>(1.0);
+        if ndc.z > textureLoad(sky_d1, t, k, 0) + bias {
+            v = textureLoad(sky_c1, t, k, 0).rgb;
+            if ndc.z > textureLoad(sky_d2, t, k, 0) + bias {
+                v *= textureLoad(sky_c2, t, k, 0).rgb;
+            }
+        }
+        let w = abs(c);
+        if c >= 0.0 {
+            front += v * w;
+            wf += w;
+        } else {
+            back += v * w;
+            wb += w;
+        }
+    }
+    out.front = select(vec3<f32>(1.0), front / wf, wf > 0.0);
+    out.back = select(vec3<f32>(1.0), back / wb, wb > 0.0);
+    return out;
+}
+
 // Radiance toward the camera (linear RGB, W m^-2 sr^-1).
 @fragment
 fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
@@ -321,8 +395,11 @@ fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) 
     }
     // Sky: the diffuse lobes integrate the irradiance on each face with their white-sky
     // albedos (exactly what the maps mean), plus the specular reflection of the sky
-    // approximated by the Fresnel-weighted irradiance around the mirror direction.
-    let spec_sky = mat.spec.z * fresnel(s.mu_o, s.adaxial) * sky_irradiance(reflect(-s.v, n));
-    col += (s.refl * sky_irradiance(n) + s.trans * sky_irradiance(-n) + spec_sky) / PI;
+    // approximated by the lobe's directional albedo times the irradiance around the mirror
+    // direction (GGX shadowing keeps it small at grazing views, as on the CPU).
+    // Both scale with the sky visibility of their face.
+    let vis = sky_visibility(in.world, n);
+    let spec_sky = mat.spec.z * specular_albedo(s.mu_o, s.adaxial) * sky_irradiance(reflect(-s.v, n));
+    col += (vis.front * (s.refl * sky_irradiance(n) + spec_sky) + vis.back * s.trans * sky_irradiance(-n)) / PI;
     return vec4<f32>(col, 1.0);
 }

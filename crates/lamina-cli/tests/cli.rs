@@ -307,3 +307,217 @@ fn unwritable_output() {
         .unwrap();
     assert_fails(&o, &["out.jpg", ".png or .exr"], &d, &["s.toml", "file"]);
 }
+
+/// A one-triangle glTF whose buffer is the external file `t.bin` (36 bytes: 3 f32 vec3s).
+fn gltf_with_bin(extra: &str) -> String {
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, {extra}
+  "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+  "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                  "min": [-1, -1, -1], "max": [1, 1, 1]}}],
+  "bufferViews": [{{"buffer": 0, "byteLength": 36}}],
+  "buffers": [{{"byteLength": 36, "uri": "t.bin"}}]}}"#
+    )
+}
+
+fn triangle_bin(first_x: f32) -> Vec<u8> {
+    [first_x, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect()
+}
+
+/// GOOD plus one more object (lines 30 onward are `extra`).
+fn good_with(extra: &str) -> String {
+    format!("{GOOD}\n{extra}\n")
+}
+
+#[test]
+fn bad_gltf_files() {
+    let gltf_object = "[[object]]\ntype = \"gltf\"\nfile = \"t.gltf\"\n";
+    let cases: Vec<(&str, String, Option<Vec<u8>>, Vec<&str>)> = vec![
+        (
+            "missing buffer",
+            gltf_with_bin(""),
+            None,
+            vec!["t.gltf", "buffers[0]", "cannot read buffer 't.bin'"],
+        ),
+        (
+            "NaN vertex",
+            gltf_with_bin(""),
+            Some(triangle_bin(f32::NAN)),
+            vec![
+                "t.gltf",
+                "meshes[0].primitives[0]",
+                "vertex 0 is not finite",
+            ],
+        ),
+        (
+            "required extension",
+            gltf_with_bin(
+                r#""extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"],"#,
+            ),
+            Some(triangle_bin(0.0)),
+            vec![
+                "t.gltf",
+                "extensionsRequired",
+                "KHR_draco_mesh_compression",
+                "upported", // the gltf crate's "Unsupported extension" or ours
+            ],
+        ),
+        (
+            "empty mesh",
+            gltf_with_bin("").replace(r#""nodes": [{"mesh": 0}]"#, r#""nodes": [{}]"#),
+            Some(triangle_bin(0.0)),
+            vec!["t.gltf", "no triangles"],
+        ),
+        (
+            "absurd node scale",
+            gltf_with_bin("").replace(
+                r#"{"mesh": 0}"#,
+                r#"{"mesh": 0, "scale": [1e30, 1e30, 1e30]}"#,
+            ),
+            Some(triangle_bin(0.0)),
+            vec!["s.toml:", "object[1]", "beyond"],
+        ),
+    ];
+    for (what, gltf, bin, words) in cases {
+        let d = scratch(&format!("gltf-{}", what.replace(' ', "-")));
+        write(&d, "t.gltf", &gltf);
+        let mut inputs = vec!["s.toml", "t.gltf"];
+        if let Some(b) = bin {
+            std::fs::write(d.join("t.bin"), b).unwrap();
+            inputs.push("t.bin");
+        }
+        let s = write(&d, "s.toml", &good_with(gltf_object));
+        let o = render(&d, &s, &[]);
+        eprintln!("{what}: {}", stderr(&o).trim());
+        assert_fails(&o, &words, &d, &inputs);
+    }
+}
+
+#[test]
+fn bad_obj_files() {
+    let obj_object = "[[object]]\ntype = \"obj\"\nfile = \"t.obj\"\n";
+    for (what, obj, words) in [
+        (
+            "missing MTL",
+            "mtllib gone.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+            vec!["t.obj:1: mtllib", "gone.mtl"],
+        ),
+        (
+            "NaN vertex",
+            "v 0 0 0\nv 1 NaN 0\nv 0 1 0\nf 1 2 3\n",
+            vec!["t.obj:2: v", "'NaN' is not a finite number"],
+        ),
+        (
+            "index out of range",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
+            vec!["t.obj:4: f", "vertex index '4' is out of range"],
+        ),
+    ] {
+        let d = scratch(&format!("obj-{}", what.replace(' ', "-")));
+        write(&d, "t.obj", obj);
+        let s = write(&d, "s.toml", &good_with(obj_object));
+        let o = render(&d, &s, &[]);
+        eprintln!("{what}: {}", stderr(&o).trim());
+        assert_fails(&o, &words, &d, &["s.toml", "t.obj"]);
+    }
+    // A texture the MTL names but that is not there.
+    let d = scratch("obj-missing-texture");
+    write(
+        &d,
+        "t.obj",
+        "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl leaf\nf 1 2 3\n",
+    );
+    write(&d, "t.mtl", "newmtl leaf\nmap_Kd maps/leaf.png\n");
+    let s = write(&d, "s.toml", &good_with(obj_object));
+    let o = render(&d, &s, &[]);
+    assert_fails(
+        &o,
+        &["t.mtl", "newmtl leaf: map_Kd", "maps/leaf.png"],
+        &d,
+        &["s.toml", "t.obj", "t.mtl"],
+    );
+}
+
+#[test]
+fn bad_plant_parameters_and_absurd_sizes() {
+    let d = scratch("plant-bad");
+    let plant = |keys: &str| {
+        good_with(&format!(
+            "[[object]]\ntype = \"plant\"\n[object.plant]\nleaf_resolution = 16\n{keys}\n"
+        ))
+    };
+    let line = GOOD.lines().count() + 6; // the line after leaf_resolution
+    let at = format!("s.toml:{line}: object[1].plant");
+    for (keys, words) in [
+        (
+            "leaf_count = 0",
+            vec![
+                at.clone() + ".leaf_count",
+                "must be in [1, 20000000], got 0".into(),
+            ],
+        ),
+        (
+            "height_m = -1",
+            vec![at.clone() + ".height_m", "got -1".into()],
+        ),
+        (
+            "species = \"palm\"",
+            vec![at.clone() + ".species", "palm".into()],
+        ),
+        (
+            "leaves = 10",
+            vec![at.clone() + ".leaves", "unknown field".into()],
+        ),
+    ] {
+        let s = write(&d, "s.toml", &plant(keys));
+        let o = render(&d, &s, &[]);
+        let words: Vec<&str> = words.iter().map(String::as_str).collect();
+        assert_fails(&o, &words, &d, &["s.toml"]);
+    }
+    for (extra, words) in [
+        ("scale = 1e30", vec!["object[0].scale", "1e30"]),
+        (
+            "instances = [{ translate = [1, 0, 0] }, { scale = 0 }]",
+            vec!["object[0].instances[1].scale", "singular"],
+        ),
+    ] {
+        let s = write(
+            &d,
+            "s.toml",
+            &GOOD.replace(
+                "edge_v = [0, 1, 0]",
+                &format!("edge_v = [0, 1, 0]\n{extra}"),
+            ),
+        );
+        let o = render(&d, &s, &[]);
+        assert_fails(&o, &words, &d, &["s.toml"]);
+    }
+    // A mesh of 1e9 m.
+    let s = write(
+        &d,
+        "s.toml",
+        &GOOD.replace("edge_u = [1, 0, 0]", "edge_u = [1e9, 0, 0]"),
+    );
+    let o = render(&d, &s, &[]);
+    assert_fails(&o, &["object[0]", "beyond"], &d, &["s.toml"]);
+}
+
+#[test]
+fn instanced_plant_renders() {
+    let d = scratch("plant-instances");
+    let s = write(
+        &d,
+        "s.toml",
+        &good_with(
+            "[[object]]\ntype = \"plant\"\nscale = 0.3\ninstances = [{ translate = [-0.2, -0.3, -0.5] }, { translate = [0.2, -0.3, -0.5], rotate_y = 90 }]\n\
+             [object.plant]\nleaf_count = 60\nleaf_resolution = 16\nleaf_variants = 1\nattraction_points = 50\n",
+        ),
+    );
+    let o = render(&d, &s, &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(d.join("out.png").exists());
+}

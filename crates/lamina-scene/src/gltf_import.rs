@@ -85,6 +85,20 @@ pub fn load_gltf_with(
     }
     let base = path.parent().unwrap_or(Path::new(""));
     let doc = gltf.document;
+    // Name the missing buffer file (the gltf crate only says "No such file").
+    for b in doc.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = b.source()
+            && !uri.starts_with("data:")
+        {
+            let file = base.join(uri);
+            if let Err(e) = std::fs::metadata(&file) {
+                return Err(fail(
+                    &format!("buffers[{}]", b.index()),
+                    format!("cannot read buffer '{uri}' ({}): {e}", file.display()),
+                ));
+            }
+        }
+    }
     let buffers = gltf::import_buffers(&doc, Some(base), gltf.blob)
         .map_err(|e| fail("buffers", format!("cannot load buffers: {e}")))?;
     let mut out = GltfScene::default();

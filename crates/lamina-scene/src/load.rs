@@ -293,8 +293,13 @@ impl Ctx {
                     table.clone(),
                     format!("{what}.{name}"),
                     format!(
-                        "is not a key of a {what} of type '{kind}' (it takes: type, {})",
-                        allowed.join(", ")
+                        "is not a key of a {what} of type '{kind}' (it takes: type, {}{})",
+                        allowed.join(", "),
+                        if what.starts_with("object[") {
+                            ", and on every object: name, material, transform (or scale, rotate_x, rotate_y, rotate_z, translate), instances, instances_file"
+                        } else {
+                            ""
+                        }
                     ),
                 ));
             }

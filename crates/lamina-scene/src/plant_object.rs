@@ -6,6 +6,22 @@ use crate::file::{PlantTable, S};
 use crate::load::Ctx;
 use lamina_plant::{PlantError, PlantParams};
 
+/// Keys of the `[[object]]` itself, easily written below `[object.plant]` by mistake.
+const OBJECT_KEYS: &[&str] = &[
+    "type",
+    "name",
+    "material",
+    "materials",
+    "transform",
+    "scale",
+    "rotate_x",
+    "rotate_y",
+    "rotate_z",
+    "translate",
+    "instances",
+    "instances_file",
+];
+
 /// The plant parameters of object `p` (`object[3]`): the defaults of a bush when there is
 /// no `[object.plant]` table. Unknown keys, wrong types and out-of-range values are errors
 /// at the key's line, with the lamina-plant validation message.
@@ -24,7 +40,13 @@ pub(crate) fn plant_params(
             one.insert(k.get_ref().clone(), v.get_ref().clone());
             if let Err(e) = toml::Value::Table(one).try_into::<PlantParams>() {
                 let msg = e.to_string();
-                let msg = msg.trim().trim_end_matches('.').replace('\n', " ");
+                let mut msg = msg.trim().trim_end_matches('.').replace('\n', " ");
+                if OBJECT_KEYS.contains(&k.get_ref().as_str()) {
+                    msg = format!(
+                        "'{}' is a key of the object, not of the plant: in TOML every key after the [object.plant] header belongs to the plant, so put it above that header",
+                        k.get_ref()
+                    );
+                }
                 return Err(cx.err(v.span(), key(k.get_ref()), msg));
             }
             all.insert(k.get_ref().clone(), v.get_ref().clone());

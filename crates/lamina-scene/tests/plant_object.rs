@@ -134,6 +134,14 @@ fn plant_errors_name_line_and_key() {
             assert!(e.contains(w), "{line}: '{w}' not in: {e}");
         }
     }
+    // An object key written below the [object.plant] header.
+    let e = err(&format!(
+        "{CAMERA}[[object]]\ntype = \"plant\"\n[object.plant]\nseed = 2\ninstances = [{{}}]\n"
+    ));
+    assert!(
+        e.contains("s.toml:8: object[0].plant.instances") && e.contains("above that header"),
+        "{e}"
+    );
     // plant keys on another object type
     let e = err(&format!(
         "{CAMERA}[[material]]\nname = \"m\"\ntype = \"diffuse\"\n[[object]]\ntype = \"quad\"\nmaterial = \"m\"\ncorner = [0,0,0]\nedge_u = [1,0,0]\nedge_v = [0,1,0]\n[object.plant]\nseed = 1\n"

@@ -1080,11 +1080,12 @@ impl Ctx {
                         }
                     }
                     _ => {
-                        self.only(t.span(), &p, kind, &keys, &["plant", "materials"])?;
+                        self.only(t.span(), &p, kind, &keys, &["plant", "file", "materials"])?;
                         let params = crate::plant_object::plant_params(
                             self,
                             &p,
                             o.plant.as_ref(),
+                            o.file.as_ref(),
                             t.span(),
                         )?;
                         let plant = lamina_plant::generate_plant(&params)

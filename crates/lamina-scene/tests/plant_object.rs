@@ -162,3 +162,48 @@ fn plant_and_forest_examples_load() {
     assert_eq!((f.prototypes.len(), f.instances.len()), (1, 10));
     eprintln!("examples loaded in {:.1} s", t.elapsed().as_secs_f64());
 }
+
+#[test]
+fn plant_parameter_file_with_scene_overrides() {
+    let d = std::env::temp_dir().join(format!("lamina-plantfile-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(
+        d.join("bush.toml"),
+        format!("# a parameter file\nspecies = \"oak\"\nseed = 4\n{SMALL}"),
+    )
+    .unwrap();
+    let scene = |plant: &str| {
+        parse_scene(
+            &format!("{CAMERA}[[object]]\ntype = \"plant\"\nfile = \"bush.toml\"\n{plant}"),
+            &d.join("s.toml"),
+        )
+        .map_err(|e| e.to_string())
+    };
+    let s = scene("").unwrap();
+    assert_eq!(name(&s.materials[1]), "leaf_oak_0");
+    // [object.plant] keys override the file's.
+    let s = scene("[object.plant]\nspecies = \"birch\"\n").unwrap();
+    assert_eq!(name(&s.materials[1]), "leaf_birch_0");
+    // Errors in the file name the file and its line; errors in the scene, the scene's.
+    std::fs::write(d.join("bush.toml"), "species = \"oak\"\nleaf_scale = 99\n").unwrap();
+    let e = scene("").unwrap_err();
+    assert!(
+        e.contains("bush.toml:2: leaf_scale") && e.contains("got 99"),
+        "{e}"
+    );
+    let e = scene("[object.plant]\nleaf_scale = 0\n").unwrap_err();
+    assert!(e.contains("s.toml:8: object[0].plant.leaf_scale"), "{e}");
+    std::fs::write(d.join("bush.toml"), "species = oak\n").unwrap();
+    let e = scene("").unwrap_err();
+    assert!(e.contains("bush.toml:1"), "{e}");
+    let e = parse_scene(
+        &format!("{CAMERA}[[object]]\ntype = \"plant\"\nfile = \"nothere.toml\"\n"),
+        &d.join("s.toml"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("s.toml:6: object[0].file") && e.contains("nothere.toml"),
+        "{e}"
+    );
+}

@@ -321,6 +321,18 @@ fn read_primitive(
             "attribute counts differ from the POSITION count".into(),
         ));
     }
+    if let Some(bad) = normals.iter().position(|v| !v.is_finite()) {
+        return Err(fail(format!(
+            "normal {bad} is not finite: {:?}",
+            normals[bad]
+        )));
+    }
+    if let Some(bad) = uvs.iter().position(|v| !v.is_finite()) {
+        return Err(fail(format!(
+            "texture coordinate {bad} is not finite: {:?}",
+            uvs[bad]
+        )));
+    }
     let flat: Vec<u32> = match reader.read_indices() {
         Some(i) => i.into_u32().collect(),
         None => (0..n as u32).collect(),

@@ -291,3 +291,38 @@ fn bad_gltf_in_a_scene_file_missing_texture_absurd_scale() {
     let e = gltf_scene(&d, &degenerate, "").unwrap_err();
     assert!(e.contains("t.gltf") && e.contains("no triangles"), "{e}");
 }
+
+#[test]
+fn nan_normals_are_rejected() {
+    let d = scratch("nan-normal");
+    let mut bytes = Vec::new();
+    for v in TRI.iter().flatten() {
+        bytes.extend(v.to_le_bytes());
+    }
+    for v in [0.0, 0.0, 1.0, f32::NAN, 0.0, 1.0, 0.0, 0.0, 1.0] {
+        bytes.extend(f32::to_le_bytes(v));
+    }
+    let text = format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}],
+  "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1}}}}]}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 0, "byteOffset": 36, "componentType": 5126, "count": 3, "type": "VEC3"}}],
+  "bufferViews": [{{"buffer": 0, "byteLength": 72}}],
+  "buffers": [{{"byteLength": 72, "uri": "data:application/octet-stream;base64,{}"}}]}}"#,
+        b64(&bytes)
+    );
+    let p = d.join("n.gltf");
+    std::fs::write(&p, text).unwrap();
+    let e = load_gltf(&p, &Transform::default())
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("n.gltf")
+            && e.contains("meshes[0].primitives[0]")
+            && e.contains("normal 1 is not finite"),
+        "{e}"
+    );
+}

@@ -68,65 +68,9 @@ pub fn load_view_scene(spec: &str, size: (u32, u32)) -> Result<Scene> {
         let n: u32 = n
             .parse()
             .map_err(|_| anyhow!("'tree:{n}': the leaf count must be a whole number"))?;
-        return tree_scene(n, size);
+        return Ok(lamina_gpu::scenes::tree_scene(n, size)?);
     }
     Ok(lamina_scene::load_scene(std::path::Path::new(spec))?)
-}
-
-/// A generated tree of `leaves` leaves on a ground, under a sun and a blue sky, the camera
-/// framing the whole crown.
-pub fn tree_scene(leaves: u32, size: (u32, u32)) -> Result<Scene> {
-    let plant = lamina_plant::generate_plant(&lamina_plant::PlantParams::tree(1, leaves))?;
-    let [lo, hi] = plant.stats.bounds;
-    let (mut meshes, mut materials) = plant.into_scene_parts(0);
-    let ground = materials.len() as u32;
-    materials.push(lamina_scene::Material::Diffuse {
-        name: "ground".into(),
-        reflectance: lamina_scene::ColorInput::Constant(Vec3::new(0.12, 0.09, 0.06)),
-        alpha: None,
-    });
-    let half = 0.75 * (hi - lo).max_element();
-    meshes.push(lamina_scene::Mesh::quad(
-        Vec3::new(-half, 0.0, half),
-        Vec3::new(2.0 * half, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, -2.0 * half),
-        ground,
-    ));
-    let target = 0.5 * (lo + hi);
-    let radius = 0.5 * (hi - lo).length();
-    let dist = radius / (20f32.to_radians().tan());
-    Ok(Scene {
-        camera: Camera {
-            position: target + Vec3::new(0.0, 0.25, 1.0).normalize() * dist,
-            look_at: target,
-            up: Vec3::Y,
-            fov_deg: 50.0,
-            aperture_radius: 0.0,
-            focus_distance: dist,
-        },
-        film: Film {
-            width: size.0,
-            height: size.1,
-            spp: 1,
-            filter: lamina_scene::PixelFilter::Box,
-            exposure: 0.0,
-            tonemap: lamina_scene::ToneMap::Aces,
-        },
-        integrator: lamina_scene::Integrator::Path {
-            max_depth: 8,
-            rr_depth: 3,
-        },
-        lights: vec![lamina_scene::Light::Sun {
-            direction: Vec3::new(0.5, 0.7, 0.4).normalize(),
-            irradiance: Vec3::new(3.2, 3.0, 2.7),
-            angular_diameter_deg: 0.53,
-        }],
-        sky: Some(lamina_scene::Sky::Constant(Vec3::new(0.16, 0.22, 0.32))),
-        materials,
-        meshes,
-        prototypes: Vec::new(),
-        instances: Vec::new(),
-    })
 }
 
 /// Camera orbiting a target, `+y` up.
@@ -330,6 +274,7 @@ impl Viewer {
             RenderSettings {
                 shadow_map_size: self.args.shadow_map,
                 supersample: 1,
+                ..Default::default()
             },
         )?;
         for w in renderer.warnings() {
@@ -397,10 +342,11 @@ impl Viewer {
 
 impl ApplicationHandler for Viewer {
     fn resumed(&mut self, el: &ActiveEventLoop) {
-        if self.state.is_none() && self.error.is_none() {
-            if let Err(e) = self.init(el) {
-                self.fail(el, e);
-            }
+        if self.state.is_none()
+            && self.error.is_none()
+            && let Err(e) = self.init(el)
+        {
+            self.fail(el, e);
         }
     }
 
@@ -412,12 +358,10 @@ impl ApplicationHandler for Viewer {
         let step = 5f32.to_radians();
         match event {
             WindowEvent::CloseRequested => el.exit(),
-            WindowEvent::Resized(size) => {
-                if size.width > 0 && size.height > 0 {
-                    s.config.width = size.width;
-                    s.config.height = size.height;
-                    s.surface.configure(&s.renderer.context().device, &s.config);
-                }
+            WindowEvent::Resized(size) if size.width > 0 && size.height > 0 => {
+                s.config.width = size.width;
+                s.config.height = size.height;
+                s.surface.configure(&s.renderer.context().device, &s.config);
             }
             WindowEvent::RedrawRequested => {
                 if let Err(e) = s.redraw() {

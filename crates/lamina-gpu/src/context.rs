@@ -29,13 +29,17 @@ pub struct ContextOptions {
     /// Cap the texture side below the device limit (tests use this to exercise the
     /// oversized-texture path); `None` keeps the device limit.
     pub max_texture_dim: Option<u32>,
+    /// Backends to look for adapters on; `None` is Vulkan (GPUs and lavapipe). Tests pass
+    /// `Some(Backends::empty())` to exercise the no-adapter path.
+    pub backends: Option<wgpu::Backends>,
 }
 
 impl GpuContext {
     /// A context for headless rendering (no window).
     pub fn headless(opts: &ContextOptions) -> Result<Self, GpuError> {
-        let instance = new_instance(None);
-        Self::with_instance(instance, None, opts)
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = opts.backends.unwrap_or(wgpu::Backends::VULKAN);
+        Self::with_instance(wgpu::Instance::new(desc), None, opts)
     }
 
     /// A context on `instance` whose adapter can present to `surface` (when given).

@@ -15,6 +15,7 @@
 //!   tone map), headless image readback and window frames.
 //! * [`metrics`]: mean absolute error and SSIM for comparing with the offline renderer.
 //! * [`overlay`]: a tiny bitmap font for the frame-time overlay.
+//! * [`scenes`]: the benchmark tree (lamina-plant) as a scene.
 //! * [`context`]: adapter/device creation and the error-scoped shader compile path.
 //!
 //! Known approximations (see the crate README section in the notes): sky light and point
@@ -31,6 +32,7 @@ pub mod error;
 pub mod metrics;
 pub mod overlay;
 pub mod renderer;
+pub mod scenes;
 pub mod sky;
 
 pub use context::{ContextOptions, GpuContext, context_for_tests};

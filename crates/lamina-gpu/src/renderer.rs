@@ -1676,7 +1676,7 @@ mod tests {
 
     #[test]
     fn half_floats_round_trip() {
-        for x in [0.0f32, 1.0, 0.5, 0.318_31, 3.0, 1e-3, 65000.0, -2.5] {
+        for x in [0.0f32, 1.0, 0.5, 0.3, 3.0, 1e-3, 65000.0, -2.5] {
             let y = half_to_f32(f32_to_half(x));
             assert!((x - y).abs() <= x.abs() * 1e-3 + 1e-7, "{x} -> {y}");
         }

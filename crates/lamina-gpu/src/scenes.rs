@@ -1,0 +1,63 @@
+//! Scenes the GPU path is measured with: a procedural tree of any leaf count from
+//! lamina-plant, framed by the camera, on a ground under a sun and a blue sky.
+
+use glam::Vec3;
+use lamina_scene::{
+    Camera, ColorInput, Film, Integrator, Light, Material, Mesh, PixelFilter, Scene, Sky, ToneMap,
+};
+
+/// A generated tree of `leaves` leaves on a ground, under a sun and a blue sky, the camera
+/// framing the whole crown.
+pub fn tree_scene(leaves: u32, size: (u32, u32)) -> Result<Scene, lamina_plant::PlantError> {
+    let plant = lamina_plant::generate_plant(&lamina_plant::PlantParams::tree(1, leaves))?;
+    let [lo, hi] = plant.stats.bounds;
+    let (mut meshes, mut materials) = plant.into_scene_parts(0);
+    let ground = materials.len() as u32;
+    materials.push(Material::Diffuse {
+        name: "ground".into(),
+        reflectance: ColorInput::Constant(Vec3::new(0.12, 0.09, 0.06)),
+        alpha: None,
+    });
+    let half = 0.75 * (hi - lo).max_element();
+    meshes.push(Mesh::quad(
+        Vec3::new(-half, 0.0, half),
+        Vec3::new(2.0 * half, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -2.0 * half),
+        ground,
+    ));
+    let target = 0.5 * (lo + hi);
+    let radius = 0.5 * (hi - lo).length();
+    let dist = radius / (20f32.to_radians().tan());
+    Ok(Scene {
+        camera: Camera {
+            position: target + Vec3::new(0.0, 0.25, 1.0).normalize() * dist,
+            look_at: target,
+            up: Vec3::Y,
+            fov_deg: 50.0,
+            aperture_radius: 0.0,
+            focus_distance: dist,
+        },
+        film: Film {
+            width: size.0,
+            height: size.1,
+            spp: 1,
+            filter: PixelFilter::Box,
+            exposure: 0.0,
+            tonemap: ToneMap::Aces,
+        },
+        integrator: Integrator::Path {
+            max_depth: 8,
+            rr_depth: 3,
+        },
+        lights: vec![Light::Sun {
+            direction: Vec3::new(0.5, 0.7, 0.4).normalize(),
+            irradiance: Vec3::new(3.2, 3.0, 2.7),
+            angular_diameter_deg: 0.53,
+        }],
+        sky: Some(Sky::Constant(Vec3::new(0.16, 0.22, 0.32))),
+        materials,
+        meshes,
+        prototypes: Vec::new(),
+        instances: Vec::new(),
+    })
+}

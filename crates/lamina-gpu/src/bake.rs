@@ -45,6 +45,11 @@ pub struct MaterialUniform {
     /// `z`: specular weight in `[0, 1]` (0 for non-leaf materials); `w`: `sin` of the
     /// front/back blend width (`LeafParams::blend_width_deg`).
     pub spec: [f32; 4],
+    /// `x`: radius (m) of a disc with the area of one card (two triangles) of this
+    /// material, set by the renderer from the meshes: light a leaf transmits leaves it
+    /// diffusely, so a receiver `d` behind it gets the fraction `a² / (a² + d²)` of it (the
+    /// on-axis form factor of a disc of radius `a`). `yzw` unused.
+    pub shape: [f32; 4],
 }
 
 /// One 2D RGBA8 map with its mip chain (level 0 first), sRGB-encoded colour, linear alpha.
@@ -292,6 +297,7 @@ pub fn leaf_uniform(params: &LeafParams) -> MaterialUniform {
             params.specular,
             params.blend_width_deg.to_radians().sin(),
         ],
+        shape: [0.0; 4],
     }
 }
 

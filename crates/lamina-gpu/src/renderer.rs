@@ -5,7 +5,9 @@
 //!    alpha-tested surface: depth `d1` of the nearest and its diffuse transmittance `c1`.
 //! 2. **Light view, layer 2** (`fs_shadow_peel`): depth peeling: the nearest surface behind
 //!    layer 1, `d2` and `c2`. Together a two-layer translucent shadow map: sunlight reaches
-//!    a point unattenuated, through one leaf (`c1`), or through two (`c1 c2`).
+//!    a point unattenuated, through one leaf (`c1`), or through two (`c1 c2`), each leaf's
+//!    share scaled by the form factor `a² / (a² + d²)` of its card (radius `a`) seen from
+//!    `d` behind it, since a leaf passes light on diffusely.
 //! 3. **Camera** (`fs_main`): every mesh and instance with the alpha test, shaded with the
 //!    baked leaf model ([`crate::bake`]), the sun through the transmittance map, unshadowed
 //!    point and extra directional lights, and the SH sky ([`crate::sky`]). Output: linear
@@ -32,7 +34,8 @@ pub const POST_WGSL: &str = include_str!("shaders/post.wgsl");
 
 const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-const SHADOW_COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// Transmittance maps: rgb = diffuse transmittance of the occluder, a = its card radius (m).
+const SHADOW_COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Overlay text texture size (pixels).
 pub const OVERLAY_SIZE: (u32, u32) = (512, 24);
 const MAX_LIGHTS: usize = 8;
@@ -506,10 +509,34 @@ impl Renderer {
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
+        // Card radius per material: the mean area of two of its triangles, as a disc.
+        let mut area = vec![(0.0f64, 0usize); scene.materials.len()];
+        let mut add_area = |m: &Mesh, scale: f32| {
+            if let Some(a) = area.get_mut(m.material as usize) {
+                for t in &m.indices {
+                    let p = t.map(|i| m.positions.get(i as usize).copied().unwrap_or(Vec3::ZERO));
+                    a.0 += (0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length() * scale) as f64;
+                    a.1 += 1;
+                }
+            }
+        };
+        scene.meshes.iter().for_each(|m| add_area(m, 1.0));
+        for inst in &scene.instances {
+            if let Some(p) = scene.prototypes.get(inst.prototype as usize) {
+                let s = inst.transform.matrix3.determinant().abs().powf(2.0 / 3.0);
+                p.meshes.iter().for_each(|m| add_area(m, s));
+            }
+        }
         let mut warnings = Vec::new();
         let mut material_groups = Vec::new();
-        for m in &scene.materials {
-            let b: BakedMaterial = bake::bake_material(m, ctx.max_texture_dim);
+        for (mi, m) in scene.materials.iter().enumerate() {
+            let mut b: BakedMaterial = bake::bake_material(m, ctx.max_texture_dim);
+            let (sum, n) = area[mi];
+            b.uniform.shape[0] = if n > 0 {
+                (2.0 * sum / n as f64 / std::f64::consts::PI).sqrt() as f32
+            } else {
+                0.0
+            };
             warnings.extend(b.warnings.iter().cloned());
             let group = ctx.validated(&format!("uploading material '{}'", b.name), || {
                 let front = upload_mips(ctx, "front", &b.front);

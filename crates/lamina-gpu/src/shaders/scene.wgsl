@@ -43,13 +43,16 @@ struct Globals {
 
 // Per-material constants (Rust: `bake::MaterialUniform`): x/y GGX alpha adaxial/abaxial,
 // z specular weight, w sin(blend width).
+// shape.x: card radius a (m): light transmitted by this material reaches a receiver d
+// behind it scaled by a^2 / (a^2 + d^2) (it leaves the leaf diffusely).
 struct MaterialParams {
     spec: vec4<f32>,
+    shape: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> g: Globals;
 // Light-view depth of the nearest alpha-tested occluder (layer 1) and of the next one
-// behind it (layer 2), and their diffuse transmittance colours.
+// behind it (layer 2), and their diffuse transmittance colours (rgb) and card radii (a).
 @group(0) @binding(1) var shadow_d1: texture_depth_2d;
 @group(0) @binding(2) var shadow_d2: texture_depth_2d;
 @group(0) @binding(3) var shadow_c1: texture_2d<f32>;
@@ -126,8 +129,9 @@ fn map_uv(uv: vec2<f32>) -> vec2<f32> {
 // ---------------------------------------------------------------------------------
 // Light-view passes. Layer 1: nearest alpha-tested surface (depth) and its transmittance
 // colour. Layer 2 (depth peeling): the nearest surface strictly behind layer 1. Light
-// reaching a point behind one layer is scaled by c1, behind two by c1 * c2 (a third
-// leaf leaves almost nothing: a green leaf transmits 5-20 %).
+// reaching a point behind one layer is scaled by c1, behind two by c1 * c2, each times the
+// form factor of `passed` (a third leaf leaves almost nothing: a green leaf transmits
+// 5-20 %).
 
 @vertex
 fn vs_shadow(v: VIn) -> VOut {
@@ -141,7 +145,7 @@ fn fs_shadow_first(in: VOut) -> @location(0) vec4<f32> {
     if textureSample(t_front, s_map, uv).a < 0.5 {
         discard;
     }
-    return vec4<f32>(textureSample(t_trans, s_map, uv).rgb, 1.0);
+    return vec4<f32>(textureSample(t_trans, s_map, uv).rgb, mat.shape.x);
 }
 
 @fragment
@@ -153,7 +157,7 @@ fn fs_shadow_peel(in: VOut) -> @location(0) vec4<f32> {
     if a < 0.5 || in.clip.z <= d1 + 1e-6 {
         discard;
     }
-    return vec4<f32>(t, 1.0);
+    return vec4<f32>(t, mat.shape.x);
 }
 
 // ---------------------------------------------------------------------------------
@@ -269,9 +273,18 @@ fn sky_irradiance(n: vec3<f32>) -> vec3<f32> {
 }
 
 // Fraction of the sun's light (per RGB channel) reaching world point `p` with unit normal
-// `n_l` on the sun's side: 1 in front of the nearest occluder, c1 behind one leaf, c1*c2
-// behind two, 3x3 percentage-closer filtered. The point is offset 1.5 shadow texels along
-// the normal toward the sun so a surface never shadows itself.
+// `n_l` on the sun's side: 1 in front of the nearest occluder, what `passed` leaves of c1
+// behind one leaf, of c1 and c2 behind two; 3x3 percentage-closer filtered. The point is
+// offset 1.5 shadow texels along the normal toward the sun so a surface never shadows
+// itself.
+// Light passed on by an occluder with transmittance `c.rgb` and card radius `c.a` to a
+// receiver `d` metres behind it: the diffusely transmitted light's on-axis disc form
+// factor a^2 / (a^2 + d^2) (near the leaf all of it, far behind little).
+fn passed(c: vec4<f32>, d: f32) -> vec3<f32> {
+    let a2 = c.a * c.a;
+    return c.rgb * (a2 / max(a2 + d * d, 1e-12));
+}
+
 fn sun_transmittance(p: vec3<f32>, n_l: vec3<f32>) -> vec3<f32> {
     let q = p + n_l * (1.5 * g.shadow.y);
     let c = g.light_view_proj * vec4<f32>(q, 1.0);
@@ -287,13 +300,15 @@ fn sun_transmittance(p: vec3<f32>, n_l: vec3<f32>) -> vec3<f32> {
             let t = clamp(base + vec2<i32>(dx, dy), vec2<i32>(0), vec2<i32>(size - 1));
             let d1 = textureLoad(shadow_d1, t, 0);
             let d2 = textureLoad(shadow_d2, t, 0);
-            let c1 = textureLoad(shadow_c1, t, 0).rgb;
-            let c2 = textureLoad(shadow_c2, t, 0).rgb;
             var v = vec3<f32>(1.0);
             if ndc.z > d1 + bias {
-                v = c1;
+                let c1 = textureLoad(shadow_c1, t, 0);
                 if ndc.z > d2 + bias {
-                    v = c1 * c2;
+                    // Through two leaves: the second passes on what reached it from the first.
+                    let c2 = textureLoad(shadow_c2, t, 0);
+                    v = passed(c1, (d2 - d1) * g.shadow.z) * passed(c2, (ndc.z - d2) * g.shadow.z);
+                } else {
+                    v = passed(c1, (ndc.z - d1) * g.shadow.z);
                 }
             }
             acc += v;
@@ -335,10 +350,15 @@ fn sky_visibility(p: vec3<f32>, n: vec3<f32>) -> SkyVisibility {
         let t = clamp(vec2<i32>(floor(vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * skyvis.params.y)),
                       vec2<i32>(0), vec2<i32>(size - 1));
         var v = vec3<f32>(1.0);
-        if ndc.z > textureLoad(sky_d1, t, k, 0) + bias {
-            v = textureLoad(sky_c1, t, k, 0).rgb;
-            if ndc.z > textureLoad(sky_d2, t, k, 0) + bias {
-                v *= textureLoad(sky_c2, t, k, 0).rgb;
+        let d1 = textureLoad(sky_d1, t, k, 0);
+        if ndc.z > d1 + bias {
+            let c1 = textureLoad(sky_c1, t, k, 0);
+            let d2 = textureLoad(sky_d2, t, k, 0);
+            if ndc.z > d2 + bias {
+                let c2 = textureLoad(sky_c2, t, k, 0);
+                v = passed(c1, (d2 - d1) * skyvis.params.w) * passed(c2, (ndc.z - d2) * skyvis.params.w);
+            } else {
+                v = passed(c1, (ndc.z - d1) * skyvis.params.w);
             }
         }
         let w = abs(c);

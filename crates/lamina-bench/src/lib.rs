@@ -14,13 +14,17 @@ use serde::{Deserialize, Serialize};
 
 /// How the leaves of a tree are put into the scene.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[serde(rename_all = "kebab-case")]
 pub enum Representation {
     /// One flat card (two triangles, merged into one parallelogram primitive) per leaf, in
     /// world space: the path scene files and `into_scene_parts` take.
     Flat,
     /// One curved leaf mesh (64 triangles) per leaf variant, placed by one instance per leaf.
     Instanced,
+    /// Flat cards as instances: one unit-card prototype per leaf variant, one instance per
+    /// leaf. The same geometry as [`Representation::Flat`], so the difference measures the
+    /// two-level BVH's own cost.
+    InstancedCards,
     /// A forest: `copies` instances of one whole tree (its branches and flat leaf cards in
     /// one prototype; instances do not nest), on a grid, each turned about `+y`.
     Forest,
@@ -31,6 +35,7 @@ impl std::fmt::Display for Representation {
         f.write_str(match self {
             Representation::Flat => "flat",
             Representation::Instanced => "instanced",
+            Representation::InstancedCards => "instanced-cards",
             Representation::Forest => "forest",
         })
     }
@@ -60,6 +65,16 @@ pub struct Measurement {
     pub bvh_build_s: f64,
     /// Bytes of all BVH nodes and primitive / instance records.
     pub bvh_bytes: u64,
+    /// Of `bvh_bytes`: the world-space meshes' BVH and records (branches, ground, flat
+    /// cards).
+    #[serde(default)]
+    pub bvh_world_bytes: u64,
+    /// Of `bvh_bytes`: the prototypes' BVHs and records (each once).
+    #[serde(default)]
+    pub bvh_prototype_bytes: u64,
+    /// Of `bvh_bytes`: the instance records and the top-level BVH.
+    #[serde(default)]
+    pub bvh_instance_bytes: u64,
     /// `bvh_bytes` divided by the number of leaves in the scene.
     pub bvh_bytes_per_leaf: f64,
     /// Bytes of the instance level per instance (record + top-level BVH share); 0 for flat.
@@ -112,6 +127,22 @@ pub fn tree_scene(
             materials.extend(parts.materials);
             meshes.extend(parts.meshes);
             prototypes.extend(parts.prototypes);
+            instances.extend(parts.instances);
+        }
+        Representation::InstancedCards => {
+            let parts = plant.into_instanced_parts(1, 0, LeafBend::default());
+            materials.extend(parts.materials);
+            meshes.extend(parts.meshes);
+            for mut p in parts.prototypes {
+                let material = p.meshes[0].material;
+                p.meshes = vec![Mesh::quad(
+                    Vec3::new(-0.5, -0.5, 0.0),
+                    Vec3::X,
+                    Vec3::Y,
+                    material,
+                )];
+                prototypes.push(p);
+            }
             instances.extend(parts.instances);
         }
         Representation::Forest => {

@@ -25,7 +25,8 @@ struct Args {
     /// Leaf counts of the trees, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000")]
     levels: Vec<u32>,
-    /// Representations to measure, comma-separated: flat, instanced.
+    /// Representations to measure, comma-separated: flat, instanced, instanced-cards (flat
+    /// cards as instances: the two-level BVH's own cost).
     #[arg(long, value_delimiter = ',', default_value = "flat,instanced")]
     reps: Vec<String>,
     /// Forest rows: numbers of copies of the first level's tree, placed as instances of
@@ -65,8 +66,9 @@ fn parse_rep(s: &str) -> Result<Representation> {
     Ok(match s {
         "flat" => Representation::Flat,
         "instanced" => Representation::Instanced,
+        "instanced-cards" => Representation::InstancedCards,
         "forest" => Representation::Forest,
-        _ => bail!("unknown representation '{s}' (flat, instanced)"),
+        _ => bail!("unknown representation '{s}' (flat, instanced, instanced-cards)"),
     })
 }
 
@@ -124,6 +126,9 @@ fn child(args: &Args, rep: Representation) -> Result<Measurement> {
         generate_s,
         bvh_build_s: s.accel_build.as_secs_f64(),
         bvh_bytes: mem.total() as u64,
+        bvh_world_bytes: mem.world as u64,
+        bvh_prototype_bytes: mem.prototypes as u64,
+        bvh_instance_bytes: mem.instances as u64,
         bvh_bytes_per_leaf: mem.total() as f64 / scene_leaves.max(1) as f64,
         bytes_per_instance: mem.bytes_per_instance(),
         peak_rss_bytes: peak_rss_bytes(),
@@ -170,7 +175,7 @@ fn mib(b: u64) -> f64 {
 
 fn print_table(rows: &[Measurement]) {
     println!(
-        "\n{:>9} {:>9} {:>5} {:>12} {:>10} {:>8} {:>10} {:>9} {:>9} {:>9} {:>7} {:>8}",
+        "\n{:>9} {:>15} {:>5} {:>12} {:>10} {:>8} {:>10} {:>9} {:>9} {:>9} {:>7} {:>8}",
         "leaves",
         "repr",
         "trees",
@@ -186,7 +191,7 @@ fn print_table(rows: &[Measurement]) {
     );
     for r in rows {
         println!(
-            "{:>9} {:>9} {:>5} {:>12} {:>10} {:>8.2} {:>10.1} {:>9.1} {:>9.1} {:>9.0} {:>7.3} {:>8.1}",
+            "{:>9} {:>15} {:>5} {:>12} {:>10} {:>8.2} {:>10.1} {:>9.1} {:>9.1} {:>9.0} {:>7.3} {:>8.1}",
             r.leaves,
             r.representation.to_string(),
             r.trees,
@@ -205,11 +210,11 @@ fn print_table(rows: &[Measurement]) {
 
 fn write_csv(path: &std::path::Path, rows: &[Measurement]) -> Result<()> {
     let mut s = String::from(
-        "leaves,representation,trees,triangles,unique_triangles,primitives,instances,generate_s,bvh_build_s,bvh_bytes,bvh_bytes_per_leaf,bytes_per_instance,peak_rss_bytes,mrays_per_s,render_s,spp,width,height,threads\n",
+        "leaves,representation,trees,triangles,unique_triangles,primitives,instances,generate_s,bvh_build_s,bvh_bytes,bvh_world_bytes,bvh_prototype_bytes,bvh_instance_bytes,bvh_bytes_per_leaf,bytes_per_instance,peak_rss_bytes,mrays_per_s,render_s,spp,width,height,threads\n",
     );
     for r in rows {
         s += &format!(
-            "{},{},{},{},{},{},{},{:.3},{:.3},{},{:.2},{:.2},{},{:.4},{:.2},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{:.3},{:.3},{},{},{},{},{:.2},{:.2},{},{:.4},{:.2},{},{},{},{}\n",
             r.leaves,
             r.representation,
             r.trees,
@@ -220,6 +225,9 @@ fn write_csv(path: &std::path::Path, rows: &[Measurement]) -> Result<()> {
             r.generate_s,
             r.bvh_build_s,
             r.bvh_bytes,
+            r.bvh_world_bytes,
+            r.bvh_prototype_bytes,
+            r.bvh_instance_bytes,
             r.bvh_bytes_per_leaf,
             r.bytes_per_instance,
             r.peak_rss_bytes,

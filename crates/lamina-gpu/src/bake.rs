@@ -188,6 +188,31 @@ fn bake_texels(w: u32, h: u32, f: &(dyn Fn(Vec2) -> [Texel; 3] + Sync)) -> [Vec<
     out
 }
 
+/// Gives the transparent texels (front alpha < 0.5) of all three maps the mean colour of
+/// the opaque ones, so that bilinear filtering and mip levels at the matte's edge blend
+/// leaf with leaf rather than with whatever the maps hold outside the blade (a bright rim
+/// otherwise).
+fn fill_transparent(maps: &mut [Vec<Texel>; 3]) {
+    let opaque: Vec<bool> = maps[0].iter().map(|t| t[3] >= 0.5).collect();
+    let n = opaque.iter().filter(|&&o| o).count();
+    if n == 0 || n == opaque.len() {
+        return;
+    }
+    for m in maps.iter_mut() {
+        let mut mean = [0.0f64; 3];
+        for (t, _) in m.iter().zip(&opaque).filter(|(_, o)| **o) {
+            for c in 0..3 {
+                mean[c] += t[c] as f64 / n as f64;
+            }
+        }
+        for (t, _) in m.iter_mut().zip(&opaque).filter(|(_, o)| !**o) {
+            for c in 0..3 {
+                t[c] = mean[c] as f32;
+            }
+        }
+    }
+}
+
 /// Lambertian angular tables (`1/pi` for the three lobes, no Fresnel).
 fn lambert_lut() -> Vec<[f32; 4]> {
     let mut lut = vec![[std::f32::consts::FRAC_1_PI; 4]; LUT_N * LUT_N * LUT_LAYERS];
@@ -331,7 +356,7 @@ pub fn bake_material(material: &Material, max_dim: u32) -> BakedMaterial {
             }
             let (w, h) = fit(name, "the leaf maps", w, h, max_dim, &mut warnings);
             let leaf = leaf.clone();
-            let [f, b, t] = bake_texels(w, h, &move |uv| {
+            let mut maps = bake_texels(w, h, &move |uv| {
                 let bsdf = leaf.bsdf(uv);
                 let (r, t) = bsdf.diffuse_albedo();
                 let rb = bsdf.diffuse_albedo_abaxial();
@@ -342,6 +367,8 @@ pub fn bake_material(material: &Material, max_dim: u32) -> BakedMaterial {
                     [t.x, t.y, t.z, 1.0],
                 ]
             });
+            fill_transparent(&mut maps);
+            let [f, b, t] = maps;
             let params = *leaf_params(material);
             BakedMaterial {
                 name: name.clone(),
@@ -398,7 +425,7 @@ fn bake_diffuse(
         (w, h) = (w.max(a.map.width()), h.max(a.map.height()));
     }
     let (w, h) = fit(name, "the colour/alpha maps", w, h, max_dim, &mut warnings);
-    let [f, b, t] = bake_texels(w, h, &|uv| {
+    let mut maps = bake_texels(w, h, &|uv| {
         let r = reflectance.at(uv).clamp(Vec3::ZERO, Vec3::ONE);
         let t = transmittance.map_or(Vec3::ZERO, |t| t.at(uv).clamp(Vec3::ZERO, Vec3::ONE));
         let a = alpha.is_none_or(|m| m.opaque(uv));
@@ -408,6 +435,8 @@ fn bake_diffuse(
             [t.x, t.y, t.z, 1.0],
         ]
     });
+    fill_transparent(&mut maps);
+    let [f, b, t] = maps;
     BakedMaterial {
         name: name.to_string(),
         front: mip_chain(w, h, f),

@@ -56,7 +56,7 @@ fn glyph(c: char) -> [u8; 5] {
 }
 
 /// Pixel scale of the font (each glyph cell is 4x6 font pixels including spacing).
-const SCALE: usize = 3;
+const SCALE: usize = 2;
 
 /// Rasterises `text` (one line, clipped) into an R8 image of [`OVERLAY_SIZE`]: 255 on
 /// glyph pixels, 0 elsewhere.

@@ -191,6 +191,8 @@ pub struct Renderer {
     overlay_view: wgpu::TextureView,
     /// Scene bounds: centre and radius (m).
     bounds: (Vec3, f32),
+    /// The region the sun's and sky's maps cover (see [`caster_bounds`]).
+    shadow_bounds: (Vec3, f32),
     base: Scene0,
     warnings: Vec<String>,
     triangles: u64,
@@ -333,6 +335,47 @@ fn orthographic(h: f32, near: f32, far: f32) -> Mat4 {
         glam::Vec4::new(0.0, 0.0, r, 0.0),
         glam::Vec4::new(0.0, 0.0, near * r, 1.0),
     )
+}
+
+/// Bounding sphere of the *shadow casters' core*: per axis, the 0.5th to 99.5th percentile of
+/// the vertex positions (instances by their transformed prototype corners, weighted by
+/// vertex count). A large ground quad has four vertices, a plant thousands, so the sun's
+/// and the sky's maps spend their texels on the plants instead of on the ground's extent.
+/// Points outside the maps count as unshadowed.
+fn caster_bounds(scene: &Scene) -> (Vec3, f32) {
+    let mut pts: Vec<Vec3> = scene
+        .meshes
+        .iter()
+        .flat_map(|m| m.positions.iter().copied())
+        .filter(|p| p.is_finite())
+        .collect();
+    for inst in &scene.instances {
+        if let Some(p) = scene.prototypes.get(inst.prototype as usize) {
+            for m in &p.meshes {
+                // Every 16th vertex is plenty for the percentiles.
+                pts.extend(
+                    m.positions
+                        .iter()
+                        .step_by(16)
+                        .map(|&q| inst.transform.transform_point3(q)),
+                );
+            }
+        }
+    }
+    if pts.len() < 16 {
+        return scene_bounds(scene);
+    }
+    let n = pts.len();
+    let (lo_i, hi_i) = (n / 200, n - 1 - n / 200);
+    let mut lo = Vec3::ZERO;
+    let mut hi = Vec3::ZERO;
+    for axis in 0..3 {
+        let mut v: Vec<f32> = pts.iter().map(|p| p[axis]).collect();
+        lo[axis] = *v.select_nth_unstable_by(lo_i, f32::total_cmp).1;
+        hi[axis] = *v.select_nth_unstable_by(hi_i, f32::total_cmp).1;
+    }
+    let c = 0.5 * (lo + hi);
+    (c, (0.5 * (hi - lo).length()).max(1e-3))
 }
 
 /// World-to-clip matrix of a lamina camera for a `width x height` image (the camera's
@@ -991,6 +1034,7 @@ impl Renderer {
             overlay_tex,
             overlay_view,
             bounds: scene_bounds(scene),
+            shadow_bounds: caster_bounds(scene),
             base: Scene0 {
                 lights: scene.lights.clone(),
                 sky: sky_sh,
@@ -1011,7 +1055,7 @@ impl Renderer {
     fn bake_sky_visibility(&mut self) -> Result<(), GpuError> {
         let n = (self.settings.sky_directions as usize).min(MAX_SKY_DIRS);
         let dirs = sphere_directions(n);
-        let (c, r) = self.bounds;
+        let (c, r) = self.shadow_bounds;
         let size = self.sky_textures[0].width();
         let mut vis = SkyVis {
             view_proj: [[[0.0; 4]; 4]; MAX_SKY_DIRS],
@@ -1206,8 +1250,9 @@ impl Renderer {
             .settings
             .shadow_map_size
             .clamp(16, self.ctx.max_texture_dim);
+        let (sc, sr) = self.shadow_bounds;
         let (sun_dir, sun_irr, light_view_proj) = match sun {
-            Some((d, e)) => (d.extend(1.0), e.extend(0.0), light_matrix(d, c, r)),
+            Some((d, e)) => (d.extend(1.0), e.extend(0.0), light_matrix(d, sc, sr)),
             None => (Vec3::Y.extend(0.0), Vec3::ZERO.extend(0.0), Mat4::IDENTITY),
         };
         let mut sky = [[0.0; 4]; 9];
@@ -1220,7 +1265,7 @@ impl Renderer {
             camera_pos: view.camera.position.extend(1.0).to_array(),
             sun_dir: sun_dir.to_array(),
             sun_irr: sun_irr.to_array(),
-            shadow: [size as f32, 2.0 * r / size as f32, 2.0 * r, 0.0],
+            shadow: [size as f32, 2.0 * sr / size as f32, 2.0 * sr, 0.0],
             sky,
             lights,
             counts: [n as u32, 0, 0, 0],

@@ -292,6 +292,10 @@ fn sun_transmittance(p: vec3<f32>, n_l: vec3<f32>) -> vec3<f32> {
     let size = i32(g.shadow.x);
     let tc = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * g.shadow.x;
     let base = vec2<i32>(floor(tc));
+    // Outside the map (and in front of it) nothing casts a shadow.
+    if any(tc < vec2<f32>(0.0)) || any(tc >= vec2<f32>(g.shadow.x)) || ndc.z < 0.0 {
+        return vec3<f32>(1.0);
+    }
     // Depth tolerance: two shadow texels along the light, in depth units.
     let bias = 2.0 * g.shadow.y / g.shadow.z;
     var acc = vec3<f32>(0.0);
@@ -347,11 +351,12 @@ fn sky_visibility(p: vec3<f32>, n: vec3<f32>) -> SkyVisibility {
         let q = p + n * (side * 1.5 * skyvis.params.z);
         let h = skyvis.view_proj[k] * vec4<f32>(q, 1.0);
         let ndc = h.xyz / h.w;
-        let t = clamp(vec2<i32>(floor(vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * skyvis.params.y)),
-                      vec2<i32>(0), vec2<i32>(size - 1));
+        let tf = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * skyvis.params.y;
+        let t = clamp(vec2<i32>(floor(tf)), vec2<i32>(0), vec2<i32>(size - 1));
+        let inside = all(tf >= vec2<f32>(0.0)) && all(tf < vec2<f32>(skyvis.params.y)) && ndc.z >= 0.0;
         var v = vec3<f32>(1.0);
         let d1 = textureLoad(sky_d1, t, k, 0);
-        if ndc.z > d1 + bias {
+        if inside && ndc.z > d1 + bias {
             let c1 = textureLoad(sky_c1, t, k, 0);
             let d2 = textureLoad(sky_d2, t, k, 0);
             if ndc.z > d2 + bias {

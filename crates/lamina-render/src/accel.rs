@@ -34,6 +34,12 @@
 //!   tangent along `dP/du`, material / light id) sit in a parallel array indexed by the same
 //!   primitive id, read once per final hit. All of it is precomputed at build time, per
 //!   BLAS.
+//! * **Shading normals**: triangles whose mesh carries vertex normals that differ from the
+//!   geometric normal keep them (BLAS space) in a side table: per primitive a `u32`
+//!   index into an array of `[Vec3; 3]`, and the index array exists only in a BLAS with at
+//!   least one such triangle. Cards, quad lights, meshes without normals and meshes whose
+//!   normals equal the geometric normal store nothing and are never merged with smooth
+//!   triangles. [`Accel::shading_normal`] interpolates them at the hit.
 
 use crate::error::RenderError;
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
@@ -407,6 +413,16 @@ pub fn spawn_origin(p: Vec3, n: Vec3, dir: Vec3) -> Vec3 {
     }
 }
 
+/// The obvhs ray for origin `o`, direction `d`, `t ∈ (0, tmax)`. Negative zeros in `d`
+/// become positive zeros (`-0 + 0 = +0`): obvhs picks the ray octant with `d < 0` (false
+/// for `-0`) but inverts `-0` to a large *negative* value, and with the two disagreeing
+/// the traversal misses boxes it is inside (an axis-aligned `-Vec3::Z` ray missed half of a
+/// sphere).
+#[inline(always)]
+fn bvh_ray(o: Vec3A, d: Vec3A, tmax: f32) -> BvhRay {
+    BvhRay::new(o, d + Vec3A::ZERO, 0.0, tmax)
+}
+
 /// One bottom-level structure: a BVH over primitives stored in its leaf order (see the
 /// module docs), for the world-space meshes or for one prototype in its object space.
 #[derive(Clone, Debug, Default)]
@@ -414,8 +430,37 @@ struct Blas {
     bvh: Option<CwBvh>,
     tris: Vec<Tri>,
     prims: Vec<PrimInfo>,
+    /// Per primitive (BVH order) an index into `normals`, or [`NO_NORMALS`] for a flat
+    /// one. Empty when no primitive of this BLAS has vertex normals: such a BLAS (cards,
+    /// normal-less meshes) stores nothing extra.
+    nidx: Vec<u32>,
+    /// Vertex normals at `v0`, `v1`, `v2` of the smooth primitives (BLAS space, as the mesh
+    /// gives them).
+    normals: Vec<[Vec3; 3]>,
     /// Bounds of all primitives (in the BLAS's own space).
     bounds: Option<Aabb>,
+}
+
+/// "Flat primitive" in `Blas::nidx`.
+const NO_NORMALS: u32 = u32::MAX;
+
+/// Vertex normals that differ from the geometric normal by less than this (cosine) count as
+/// the geometric normal (< 0.08°): the triangle is stored flat, exactly as without normals.
+const FLAT_NORMAL_COS: f32 = 1.0 - 1e-6;
+
+/// The vertex normals `vn` of the triangle `v` if they make it smooth: `None` when every
+/// one points (within [`FLAT_NORMAL_COS`]) along the geometric normal, or all along its
+/// opposite (flipped to the geometric side when shading, the same thing). They are kept as
+/// given, not renormalised (like pbrt: interpolating, then transforming an instance's
+/// normal is the same as interpolating the transformed normals of the flattened mesh);
+/// where zero or non-finite ones make the interpolated normal degenerate, the hit falls
+/// back to the geometric normal.
+fn smooth_normals(v: [Vec3; 3], vn: [Vec3; 3]) -> Option<[Vec3; 3]> {
+    let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+    let unit = vn.map(Vec3::normalize_or_zero);
+    let flat = unit.iter().all(|m| m.dot(n) >= FLAT_NORMAL_COS)
+        || unit.iter().all(|m| m.dot(n) <= -FLAT_NORMAL_COS);
+    (!flat).then_some(vn)
 }
 
 /// Collects primitives for a [`Blas`].
@@ -424,12 +469,17 @@ struct BlasBuilder {
     tris: Vec<Triangle>,
     bounds: Vec<Aabb>,
     prims: Vec<PrimInfo>,
+    /// Per pushed primitive: its index into `normals` or [`NO_NORMALS`]; left empty while
+    /// every primitive is flat.
+    nidx: Vec<u32>,
+    normals: Vec<[Vec3; 3]>,
 }
 
 impl BlasBuilder {
     /// Adds a triangle, or with [`FLAG_QUAD`] the parallelogram `v[0] + b1·e1 + b2·e2`;
-    /// `uv` at `v`. Non-finite or degenerate ones are left out.
-    fn push(&mut self, v: [Vec3; 3], uv: [Vec2; 3], flags: u32) {
+    /// `uv` at `v`, `vn` the vertex normals of a smooth triangle (from [`smooth_normals`];
+    /// never for a parallelogram). Non-finite or degenerate ones are left out.
+    fn push(&mut self, v: [Vec3; 3], uv: [Vec2; 3], vn: Option<[Vec3; 3]>, flags: u32) {
         if !v.iter().all(|p| p.is_finite()) {
             return;
         }
@@ -467,6 +517,17 @@ impl BlasBuilder {
             s: frame.s,
             flags,
         });
+        debug_assert!(vn.is_none() || flags & FLAG_QUAD == 0);
+        match vn {
+            Some(vn) => {
+                // The first smooth primitive: every earlier one was flat.
+                self.nidx.resize(self.prims.len() - 1, NO_NORMALS);
+                self.nidx.push(self.normals.len() as u32);
+                self.normals.push(vn);
+            }
+            None if !self.nidx.is_empty() => self.nidx.push(NO_NORMALS),
+            None => {}
+        }
     }
 
     /// Adds every triangle of `meshes` (cards merged into parallelograms when
@@ -492,10 +553,12 @@ impl BlasBuilder {
                 flags |= FLAG_ALPHA;
             }
             let has_uv = !mesh.uvs.is_empty();
+            let has_normals = !mesh.normals.is_empty();
             for (ti, idx) in mesh.indices.iter().enumerate() {
                 let ok = idx.iter().all(|&i| {
                     (i as usize) < mesh.positions.len()
                         && (!has_uv || (i as usize) < mesh.uvs.len())
+                        && (!has_normals || (i as usize) < mesh.normals.len())
                 });
                 if !ok {
                     return Err(RenderError::InvalidScene(format!(
@@ -512,26 +575,37 @@ impl BlasBuilder {
                     Vec2::ZERO
                 }
             };
+            // Vertex normals that make a triangle smooth (none for a mesh without normals).
+            let smooth = |idx: [u32; 3]| {
+                if has_normals {
+                    smooth_normals(idx.map(pos), idx.map(|i| mesh.normals[i as usize]))
+                } else {
+                    None
+                }
+            };
             let mut ti = 0;
             while ti < mesh.indices.len() {
                 let idx = mesh.indices[ti];
-                // A card: this triangle and the next one form a planar parallelogram with
-                // affine UVs; one parallelogram primitive replaces the two triangles.
+                let vn = smooth(idx);
+                // A card: this triangle and the next one, both flat, form a planar
+                // parallelogram with affine UVs; one parallelogram primitive (which has no
+                // vertex normals) replaces the two triangles.
                 let card = mesh
                     .indices
                     .get(ti + 1)
-                    .filter(|_| merge_cards)
+                    .filter(|next| merge_cards && vn.is_none() && smooth(**next).is_none())
                     .and_then(|next| parallelogram(idx, *next, &pos, &tex));
                 if let Some([o, a, b]) = card {
                     self.push(
                         [pos(o), pos(a), pos(b)],
                         [tex(o), tex(a), tex(b)],
+                        None,
                         flags | FLAG_QUAD,
                     );
                     ti += 2;
                     continue;
                 }
-                self.push(idx.map(pos), idx.map(tex), flags);
+                self.push(idx.map(pos), idx.map(tex), vn, flags);
                 ti += 1;
             }
         }
@@ -570,11 +644,18 @@ impl BlasBuilder {
             })
             .collect();
         let prims: Vec<PrimInfo> = order.iter().map(|&i| self.prims[i as usize]).collect();
+        let nidx: Vec<u32> = if self.nidx.is_empty() {
+            Vec::new()
+        } else {
+            order.iter().map(|&i| self.nidx[i as usize]).collect()
+        };
         let bounds = self.bounds.iter().fold(Aabb::empty(), |a, b| a.union(b));
         Blas {
             bvh: Some(bvh),
             tris,
             prims,
+            nidx,
+            normals: self.normals,
             bounds: Some(bounds),
         }
     }
@@ -585,6 +666,8 @@ impl Blas {
         self.bvh.as_ref().map_or(0, bvh_bytes)
             + self.tris.len() * std::mem::size_of::<Tri>()
             + self.prims.len() * std::mem::size_of::<PrimInfo>()
+            + self.nidx.len() * 4
+            + self.normals.len() * std::mem::size_of::<[Vec3; 3]>()
     }
 }
 
@@ -710,6 +793,7 @@ impl Accel {
                     world.push(
                         [*corner, *corner + *edge_u, *corner + *edge_v],
                         [Vec2::ZERO, Vec2::X, Vec2::Y],
+                        None,
                         FLAG_EMITTER | FLAG_QUAD | li as u32,
                     );
                 }
@@ -862,6 +946,29 @@ impl Accel {
         )
     }
 
+    /// The shading normal at barycentric `bary` on primitive `prim`, in world space: the
+    /// mesh's vertex normals interpolated with `bary`, through the inverse transpose for an
+    /// instance, unit length, *not* flipped to the geometric side (see
+    /// [`crate::shading::ShadingFrame`]). `None` for a flat primitive (cards, quad lights,
+    /// meshes without normals, normals equal to the geometric normal) and where the
+    /// interpolated normal is degenerate or not finite: then the geometric normal shades.
+    #[inline]
+    pub fn shading_normal(&self, prim: PrimRef, bary: Vec2) -> Option<Vec3> {
+        let blas = self.blas_of(prim);
+        let k = *blas.nidx.get(prim.prim as usize)?;
+        let vn = blas.normals.get(k as usize)?; // NO_NORMALS is out of range
+        let n = vn[0] * (1.0 - bary.x - bary.y) + vn[1] * bary.x + vn[2] * bary.y;
+        let n = if prim.inst == NO_INSTANCE {
+            n
+        } else {
+            let w2o = self.instances[prim.inst as usize].world_to_object();
+            (w2o.matrix3.transpose() * Vec3A::from(n)).into()
+        };
+        let len2 = n.length_squared();
+        // Opposite vertex normals can cancel: below 1e-4 of unit length the direction is noise.
+        (len2.is_finite() && len2 > 1e-8).then(|| n / len2.sqrt())
+    }
+
     /// The flags (material or light id and `FLAG_*`) of primitive `prim`.
     #[inline]
     pub fn flags(&self, prim: PrimRef) -> u32 {
@@ -899,7 +1006,7 @@ impl Accel {
     #[inline(always)]
     fn blas_closest(&self, blas: &Blas, r: LocalRay, tmax: f32) -> Option<(f32, u32, Vec2)> {
         let bvh = blas.bvh.as_ref()?;
-        let bray = BvhRay::new(r.o, r.d, 0.0, tmax);
+        let bray = bvh_ray(r.o, r.d, tmax);
         let mut hit = RayHit::none();
         let mut bary = Vec2::ZERO;
         let found = bvh.ray_traverse(bray, &mut hit, |ray, id| {
@@ -924,7 +1031,7 @@ impl Accel {
         let Some(bvh) = &blas.bvh else {
             return false;
         };
-        let bray = BvhRay::new(r.o, r.d, 0.0, tmax);
+        let bray = bvh_ray(r.o, r.d, tmax);
         !bvh.ray_traverse_miss(bray, |ray, id| {
             if id as u32 == r.skip {
                 return f32::INFINITY;
@@ -989,7 +1096,7 @@ impl Accel {
             });
         }
         if let Some(tlas) = &self.tlas {
-            let bray = BvhRay::new(o, d, 0.0, tmax);
+            let bray = bvh_ray(o, d, tmax);
             let mut hit = RayHit::none();
             let (mut prim, mut bary) = (0, Vec2::ZERO);
             if tlas.ray_traverse(bray, &mut hit, |r, inst| {
@@ -1054,7 +1161,7 @@ impl Accel {
         let Some(tlas) = &self.tlas else {
             return false;
         };
-        let bray = BvhRay::new(o, d, 0.0, ray.tmax);
+        let bray = bvh_ray(o, d, ray.tmax);
         !tlas.ray_traverse_miss(bray, |r, inst| {
             let (blas, lr) = self.local_ray(inst, o, d, skip);
             if self.blas_occluded(blas, lr, r.tmax) {

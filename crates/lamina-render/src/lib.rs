@@ -11,6 +11,8 @@
 //! * [`lights`]: sun, point, quad, sphere and sky (constant or importance-sampled image).
 //! * [`distribution`]: 1D and 2D piecewise-constant distributions.
 //! * [`materials`]: scene materials to a [`materials::SurfaceBsdf`] at a hit.
+//! * [`shading`]: the shading frame of a hit (interpolated vertex normals, sides decided by
+//!   the geometric normal).
 //! * [`integrators`]: `path` (unidirectional, NEE + MIS + Russian roulette) and `paper`.
 //! * [`film`]: pixel filters (importance-sampled) and the sample accumulator.
 //! * [`output`]: EXR / PNG writing with tone maps, atomically.
@@ -31,6 +33,7 @@ pub mod materials;
 pub mod output;
 pub mod render;
 pub mod sampler;
+pub mod shading;
 
 mod error;
 

@@ -1,9 +1,12 @@
 //! From a scene [`Material`] to the BSDF at one surface point.
 //!
 //! All materials are two-sided and evaluated in the local frame of
-//! [`crate::accel::PrimInfo::frame`]: `z` the triangle's geometric normal as wound (for
-//! leaves the adaxial side), `x` along `dP/du`. Shading normals of meshes are not used: the
-//! leaf model handles its bump map internally, and the reference materials are flat.
+//! [`crate::shading::ShadingFrame`]: `z` the mesh's interpolated vertex normal flipped to
+//! the side of the triangle's geometric normal as wound (for leaves the adaxial side), or
+//! that geometric normal where there are no vertex normals; `x` along `dP/du`. Which side a
+//! direction is on (reflection or transmission, adaxial or abaxial) is decided by the
+//! geometric normal: the integrators drop directions the two normals disagree on. The leaf
+//! model handles its bump map internally, relative to this frame.
 
 use glam::{Vec2, Vec3};
 use lamina_core::Material;

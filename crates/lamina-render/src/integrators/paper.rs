@@ -14,6 +14,7 @@ use crate::accel::{HitKind, ID_MASK, Ray};
 use crate::lights::AnyLight;
 use crate::materials::SurfaceBsdf;
 use crate::sampler::PixelSampler;
+use crate::shading::ShadingFrame;
 use glam::Vec3;
 use lamina_leaf::Bsdf;
 
@@ -42,7 +43,7 @@ pub fn radiance(
         return Vec3::ZERO;
     };
     let (p, info) = ctx.accel.surface(prim, bary);
-    let frame = info.frame();
+    let frame = ShadingFrame::new(&info, ctx.accel.shading_normal(prim, bary), -ray.dir);
     let bsdf = SurfaceBsdf::at(
         &ctx.scene.materials[(info.flags & ID_MASK) as usize],
         info.uv_at(bary),
@@ -54,7 +55,7 @@ pub fn radiance(
         let Some(ls) = light.sample(p, u) else {
             continue;
         };
-        if !(ls.pdf > 0.0) {
+        if !(ls.pdf > 0.0) || !frame.consistent(ls.wi) {
             continue;
         }
         let f = bsdf.eval(wo, frame.to_local(ls.wi));

@@ -12,12 +12,16 @@
 //! * **max_depth** counts scattering events: 1 is direct light only (with the emission found
 //!   by that vertex's BSDF sample), 0 only what camera rays see directly.
 //! * Emitters end paths (they are black).
+//! * **Shading normals** ([`ShadingFrame`]): BSDFs see the shading frame; light samples
+//!   and BSDF samples on a different side of the geometric than of the shading normal are
+//!   dropped (the sample ends the path).
 
 use super::SceneContext;
 use crate::accel::{FLAG_EMITTER, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
 use crate::lights::power_heuristic;
 use crate::materials::SurfaceBsdf;
 use crate::sampler::PixelSampler;
+use crate::shading::ShadingFrame;
 use glam::Vec3;
 use lamina_leaf::Bsdf;
 
@@ -71,7 +75,7 @@ pub fn radiance(
         }
         let (p, info) = ctx.accel.surface(prim, bary);
         debug_assert!(info.flags & FLAG_EMITTER == 0);
-        let frame = info.frame();
+        let frame = ShadingFrame::new(&info, ctx.accel.shading_normal(prim, bary), -ray.dir);
         let bsdf = SurfaceBsdf::at(
             &ctx.scene.materials[(info.flags & ID_MASK) as usize],
             info.uv_at(bary),
@@ -83,7 +87,7 @@ pub fn radiance(
             let Some(ls) = light.sample(p, u) else {
                 continue;
             };
-            if !(ls.pdf > 0.0) || ls.li == Vec3::ZERO {
+            if !(ls.pdf > 0.0) || ls.li == Vec3::ZERO || !frame.consistent(ls.wi) {
                 continue;
             }
             let wi = frame.to_local(ls.wi);
@@ -110,11 +114,14 @@ pub fn radiance(
         if !(bs.pdf > 0.0) {
             break;
         }
+        let dir = frame.to_world(bs.wi).normalize();
+        if !frame.consistent(dir) {
+            break; // its geometric side disagrees with the BSDF's: no light goes there
+        }
         beta *= bs.f / bs.pdf;
         if !(beta.max_element() > 0.0) || !beta.is_finite() {
             break;
         }
-        let dir = frame.to_world(bs.wi).normalize();
         ray = Ray {
             origin: spawn_origin(p, info.n, dir),
             dir,

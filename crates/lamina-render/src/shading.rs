@@ -1,0 +1,83 @@
+//! The local frame BSDFs are evaluated in at a hit, with shading normals (pbrt-v4 style).
+//!
+//! * **Frame**: `z` = the interpolated vertex normal ([`crate::Accel::shading_normal`])
+//!   flipped to the side of the geometric normal, `x` = `dP/du` projected onto the plane
+//!   orthogonal to it (Gram–Schmidt; any orthogonal tangent if `dP/du` is parallel to it).
+//!   Without a shading normal it is exactly [`PrimInfo::frame`], the geometric frame.
+//! * **Sides are geometric**: reflection against transmission, and for leaves adaxial
+//!   against abaxial, are what the *geometric* normal says. A direction whose side of the
+//!   geometric normal differs from its side of the shading normal is inconsistent
+//!   ([`ShadingFrame::consistent`]): light samples there contribute nothing and a BSDF
+//!   sample there ends the path, so light never leaks through a surface (a sun below a
+//!   ground plane stays dark however its normals are tilted) and the BSDF never sees a
+//!   reflection that is geometrically a transmission. If the outgoing direction itself is
+//!   inconsistent (grazing views of a silhouette), the hit shades with the geometric frame
+//!   instead, so silhouettes get facet shading rather than black seams.
+//! * **Cosines**: the BSDF's `f · |cos θi|` uses the *shading* cosine `|wi · n_s|`, and
+//!   nothing else multiplies a geometric cosine (pbrt-v4 does the same for camera paths;
+//!   the adjoint correction `|wo·n_s||wi·n_g| / (|wo·n_g||wi·n_s|)` matters only for
+//!   paths traced from lights, which lamina does not trace). Spawn offsets and the primitive
+//!   a ray skips stay geometric.
+
+use crate::accel::PrimInfo;
+use glam::Vec3;
+use lamina_leaf::frame::Frame;
+
+/// The local frame of one hit and what decides which directions it may scatter to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadingFrame {
+    /// The frame BSDFs are evaluated in: `n` the shading normal on the geometric side (or
+    /// the geometric normal), `s` along `dP/du`.
+    pub frame: Frame,
+    /// Unit geometric normal (the front, adaxial side).
+    pub ng: Vec3,
+    /// Whether `frame.n` differs from `ng` (then [`ShadingFrame::consistent`] checks sides).
+    smooth: bool,
+}
+
+impl ShadingFrame {
+    /// The frame of a hit with shading data `info`, shading normal `ns` (unit, world space,
+    /// either side; `None` for flat shading) and unit direction `wo` towards the viewer.
+    #[inline]
+    pub fn new(info: &PrimInfo, ns: Option<Vec3>, wo: Vec3) -> Self {
+        let geometric = ShadingFrame {
+            frame: info.frame(),
+            ng: info.n,
+            smooth: false,
+        };
+        let Some(ns) = ns else {
+            return geometric;
+        };
+        let ns = if ns.dot(info.n) < 0.0 { -ns } else { ns };
+        // A view that the geometric and the shading normal put on different sides (a
+        // silhouette): shade it flat rather than from the wrong side.
+        if (wo.dot(info.n) > 0.0) != (wo.dot(ns) > 0.0) {
+            return geometric;
+        }
+        ShadingFrame {
+            frame: Frame::from_normal_tangent(ns, info.s),
+            ng: info.n,
+            smooth: true,
+        }
+    }
+
+    /// Whether the unit world direction `w` lies on the same side of the geometric and the
+    /// shading normal (always true for flat shading). Light from, or scattering to, an
+    /// inconsistent direction is zero.
+    #[inline]
+    pub fn consistent(&self, w: Vec3) -> bool {
+        !self.smooth || (w.dot(self.ng) > 0.0) == (w.dot(self.frame.n) > 0.0)
+    }
+
+    /// World direction to the local (shading) frame.
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        self.frame.to_local(v)
+    }
+
+    /// Local (shading) direction to world space.
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.frame.to_world(v)
+    }
+}

@@ -81,3 +81,50 @@ impl ShadingFrame {
         self.frame.to_world(v)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec2;
+
+    fn info() -> PrimInfo {
+        PrimInfo {
+            uv: [Vec2::ZERO; 3],
+            n: Vec3::Z,
+            s: Vec3::X,
+            flags: 0,
+        }
+    }
+
+    /// The shading normal is flipped to the geometric side, `x` stays along `dP/du` as far
+    /// as it can, sides are checked against both normals, and a view that the two normals
+    /// disagree on shades with the geometric frame.
+    #[test]
+    fn frame_sides_and_fallbacks() {
+        let info = info();
+        let tilt = 60f32.to_radians();
+        let ns = Vec3::new(tilt.sin(), 0.0, tilt.cos());
+        // No shading normal: exactly the geometric frame, every direction consistent.
+        let flat = ShadingFrame::new(&info, None, Vec3::Z);
+        assert_eq!(flat.frame, info.frame());
+        assert!(flat.consistent(-Vec3::Z) && flat.consistent(Vec3::new(1.0, 0.0, -0.1)));
+        // Either orientation of the vertex normal gives the same frame, on the +z side.
+        for given in [ns, -ns] {
+            let f = ShadingFrame::new(&info, Some(given), Vec3::Z);
+            assert!((f.frame.n - ns).length() < 1e-6, "{}", f.frame.n);
+            assert!(f.frame.s.dot(f.frame.n).abs() < 1e-6 && f.frame.s.x > 0.4);
+            assert!((f.frame.t - Vec3::Y).length() < 1e-6);
+            assert_eq!(f.ng, Vec3::Z);
+            // Above both, below both: consistent. Below the surface but above the tilted
+            // normal's plane (a sun under the ground): not.
+            assert!(f.consistent(Vec3::Z) && f.consistent(-Vec3::Z));
+            assert!(!f.consistent(Vec3::new(0.98, 0.0, -0.17)));
+            assert!(!f.consistent(Vec3::new(-0.94, 0.0, 0.34)));
+        }
+        // A grazing view from the side the normal leans away from: geometric frame.
+        let wo = Vec3::new(-0.9, 0.0, 0.3).normalize();
+        let f = ShadingFrame::new(&info, Some(ns), wo);
+        assert_eq!(f.frame, info.frame());
+        assert!(f.consistent(Vec3::new(0.98, 0.0, -0.17)));
+    }
+}

@@ -1231,3 +1231,24 @@ fn negative_zero_directions_hit() {
         }
     }
 }
+
+/// Shading normals keep renders deterministic: a smooth sphere (opaque and
+/// transmitting) on a card, under a sun and a sky, renders the same pixels and ray count on
+/// 1, 2 and 3 threads.
+#[test]
+fn smooth_shading_deterministic_across_thread_counts() {
+    let mut scene = sphere_scene(
+        uv_sphere(Vec3::new(0.0, 0.2, 0.0), 0.7, 12, 24, true, 1),
+        vec![sun(Vec3::new(0.4, 0.5, 0.7).normalize(), 3.0)],
+        Some(Sky::Constant(Vec3::splat(0.3))),
+    );
+    scene.meshes.push(card(2.0, -0.8, 0));
+    let a = render(&scene, &opts(8, 1)).unwrap();
+    assert!(a.image.pixels.iter().all(|p| p.is_finite()));
+    assert!(mean(&a.image).max_element() > 0.01);
+    for threads in [2, 3] {
+        let b = render(&scene, &opts(8, threads)).unwrap();
+        assert_eq!(a.image, b.image, "{threads} threads");
+        assert_eq!(a.stats.rays, b.stats.rays);
+    }
+}

@@ -1252,3 +1252,51 @@ fn smooth_shading_deterministic_across_thread_counts() {
         assert_eq!(a.stats.rays, b.stats.rays);
     }
 }
+
+/// Leaves with vertex normals keep their sides geometric: a leaf whose normals point to its
+/// abaxial side (against its winding) renders exactly like one whose normals point to the
+/// adaxial side, tilted or not, and untilted abaxial normals like no normals at all; lit
+/// from the front and from behind (through-light), the adaxial and abaxial views differ.
+#[test]
+fn leaf_sides_follow_the_geometric_normal() {
+    use lamina_leaf::{LeafMaps, LeafMaterial, LeafParams};
+    let maps = LeafMaps {
+        front: Some(Texture::constant(Vec4::new(0.05, 0.3, 0.04, 1.0))),
+        back: Some(Texture::constant(Vec4::new(0.2, 0.35, 0.15, 1.0))),
+        translucency: Some(Texture::constant(Vec4::new(0.1, 0.4, 0.05, 1.0))),
+        ..Default::default()
+    };
+    let leaf = Arc::new(LeafMaterial::new(maps, LeafParams::default()).unwrap());
+    let tilt = 25f32.to_radians();
+    let ns = Vec3::new(tilt.sin(), 0.0, tilt.cos());
+    let render_with = |normals: Vec<Vec3>, sun_z: f32, cam_z: f32| {
+        let mut m = card(2.0, 0.0, 0);
+        m.normals = normals;
+        let mut scene = sphere_scene(
+            m,
+            vec![sun(Vec3::new(0.3, 0.2, sun_z).normalize(), 3.0)],
+            Some(Sky::Constant(Vec3::splat(0.2))),
+        );
+        scene.materials = vec![Material::Leaf {
+            name: "leaf".into(),
+            leaf: leaf.clone(),
+        }];
+        scene.camera.position = Vec3::new(0.3, 0.0, cam_z);
+        scene.film = film(12, 12, 4);
+        render(&scene, &opts(4, 2)).unwrap().image
+    };
+    for (sun_z, cam_z) in [(1.0, 1.5), (-1.0, 1.5), (1.0, -1.5)] {
+        let up = render_with(vec![ns; 4], sun_z, cam_z);
+        assert!(mean(&up).max_element() > 1e-3, "black leaf");
+        assert_eq!(up, render_with(vec![-ns; 4], sun_z, cam_z));
+        assert_eq!(
+            render_with(vec![], sun_z, cam_z),
+            render_with(vec![-Vec3::Z; 4], sun_z, cam_z)
+        );
+    }
+    let (front, through) = (
+        render_with(vec![ns; 4], 1.0, 1.5),
+        render_with(vec![ns; 4], -1.0, 1.5),
+    );
+    assert_ne!(mean(&front), mean(&through));
+}

@@ -17,6 +17,8 @@ if [[ $what == all ]]; then
   mkdir -p docs/images/leaf-model
   cp "$out/rt_vs_angle.png" "$out/rt_modes.png" docs/images/leaf-model/
   rm -rf "$out"
+  # The GPU path next to a converged offline render (GPU left), for the README's GPU section.
+  cargo run --release -q -p lamina-gpu --example compare -- docs/images/gpu 192 1024
 fi
 
 # The gallery: the paper's Fig. 4 (one plant from four sides under one sun) and Fig. 5 (a

@@ -333,10 +333,13 @@ fn good_with(extra: &str) -> String {
     format!("{GOOD}\n{extra}\n")
 }
 
+/// A bad-glTF case: name, the .gltf text, the .bin bytes (if any), what the message names.
+type GltfCase<'a> = (&'a str, String, Option<Vec<u8>>, Vec<&'a str>);
+
 #[test]
 fn bad_gltf_files() {
     let gltf_object = "[[object]]\ntype = \"gltf\"\nfile = \"t.gltf\"\n";
-    let cases: Vec<(&str, String, Option<Vec<u8>>, Vec<&str>)> = vec![
+    let cases: Vec<GltfCase> = vec![
         (
             "missing buffer",
             gltf_with_bin(""),

@@ -187,6 +187,9 @@ pub struct ObjectTable {
     pub name: Option<S<String>>,
     /// `[object.plant]`: [`lamina_plant::PlantParams`] keys, each spanned for errors.
     pub plant: Option<S<PlantTable>>,
+    /// Plant objects: `"cards"` (flat leaf cards, the default) or `"curved"` (one curved
+    /// leaf mesh per leaf variant, placed by one instance per leaf).
+    pub leaves: Option<S<String>>,
     /// The transform keys may also sit on the object itself (not with `transform`).
     pub scale: Option<S<ColorValue>>,
     pub rotate_x: Option<S<f32>>,

@@ -1013,6 +1013,7 @@ impl Ctx {
             ("edge_v", o.edge_v.is_some()),
             ("cards", o.cards.is_some()),
             ("plant", o.plant.is_some()),
+            ("leaves", o.leaves.is_some()),
         ];
         let xf = self.object_transform(o, &p)?;
         let placements = self.placements(&p, o, t.span())?;
@@ -1080,7 +1081,14 @@ impl Ctx {
                         }
                     }
                     _ => {
-                        self.only(t.span(), &p, kind, &keys, &["plant", "file", "materials"])?;
+                        self.only(
+                            t.span(),
+                            &p,
+                            kind,
+                            &keys,
+                            &["plant", "file", "materials", "leaves"],
+                        )?;
+                        let curved = self.curved_leaves(&p, o.leaves.as_ref(), &placements)?;
                         let params = crate::plant_object::plant_params(
                             self,
                             &p,
@@ -1090,15 +1098,44 @@ impl Ctx {
                         )?;
                         let plant = lamina_plant::generate_plant(&params)
                             .map_err(|e| self.err(t.span(), format!("{p}.plant"), e.to_string()))?;
-                        let (mut meshes, mats) = plant.into_scene_parts(0);
-                        for m in &mut meshes {
-                            apply_transform(m, &xf);
-                        }
-                        Imported {
-                            geometry: Geometry {
+                        let (geometry, mats) = if curved {
+                            let parts = plant.into_instanced_parts(
+                                0,
+                                0,
+                                lamina_plant::instanced::LeafBend::default(),
+                            );
+                            let place = glam::Affine3A::from_mat4(xf.m);
+                            let mut meshes = parts.meshes;
+                            for m in &mut meshes {
+                                apply_transform(m, &xf);
+                            }
+                            let instances = parts
+                                .instances
+                                .into_iter()
+                                .map(|i| Instance {
+                                    transform: place * i.transform,
+                                    ..i
+                                })
+                                .collect();
+                            let geometry = Geometry {
+                                meshes,
+                                prototypes: parts.prototypes,
+                                instances,
+                            };
+                            (geometry, parts.materials)
+                        } else {
+                            let (mut meshes, mats) = plant.into_scene_parts(0);
+                            for m in &mut meshes {
+                                apply_transform(m, &xf);
+                            }
+                            let geometry = Geometry {
                                 meshes,
                                 ..Default::default()
-                            },
+                            };
+                            (geometry, mats)
+                        };
+                        Imported {
+                            geometry,
                             material_names: mats
                                 .iter()
                                 .map(|m| material_name(m).to_owned())
@@ -1155,6 +1192,33 @@ impl Ctx {
         };
         self.check_extent(&p, &geometry, t.span(), user_placed)?;
         Ok(geometry)
+    }
+
+    /// A plant object's `leaves`: `"cards"` (default) or `"curved"`. Curved leaves are
+    /// instances themselves, and instances do not nest, so an instanced plant takes cards.
+    fn curved_leaves(
+        &self,
+        p: &str,
+        leaves: Option<&S<String>>,
+        placements: &Option<Vec<glam::Affine3A>>,
+    ) -> Result<bool, SceneError> {
+        let Some(l) = leaves else { return Ok(false) };
+        let key = format!("{p}.leaves");
+        match l.get_ref().as_str() {
+            "cards" => Ok(false),
+            "curved" if placements.is_some() => Err(self.err(
+                l.span(),
+                key,
+                "curved leaves are placed as instances, and instances do not nest: an \
+                 instanced plant needs leaves = \"cards\"",
+            )),
+            "curved" => Ok(true),
+            other => Err(self.err(
+                l.span(),
+                key,
+                format!("must be \"cards\" or \"curved\", got \"{other}\""),
+            )),
+        }
     }
 
     /// Rejects geometry that, once placed, lies beyond ±[`crate::instances::MAX_COORD`] m

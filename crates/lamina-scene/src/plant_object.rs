@@ -20,6 +20,7 @@ const OBJECT_KEYS: &[&str] = &[
     "translate",
     "instances",
     "instances_file",
+    "leaves",
 ];
 
 /// A plant parameter file given by the object's `file`: its path, text and keys.

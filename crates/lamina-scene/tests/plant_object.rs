@@ -207,3 +207,81 @@ fn plant_parameter_file_with_scene_overrides() {
         "{e}"
     );
 }
+
+#[test]
+fn curved_leaves_are_instances_placed_like_the_cards() {
+    let plant = |leaves: &str| {
+        format!(
+            "{CAMERA}[[object]]\ntype = \"plant\"\ntranslate = [2, 0, 0]\nrotate_y = 30\n\
+             {leaves}[object.plant]\nkind = \"bush\"\nseed = 7\n{SMALL}"
+        )
+    };
+    let cards = parse(&plant("")).unwrap();
+    let curved = parse(&plant("leaves = \"curved\"\n")).unwrap();
+    // Same materials; one curved leaf prototype per variant; one instance per leaf.
+    assert_eq!(
+        curved.materials.iter().map(name).collect::<Vec<_>>(),
+        cards.materials.iter().map(name).collect::<Vec<_>>()
+    );
+    assert_eq!(curved.prototypes.len(), 2);
+    let card_leaves: usize = cards.meshes[1..].iter().map(|m| m.indices.len() / 2).sum();
+    assert_eq!(curved.instances.len(), card_leaves);
+    assert_eq!(
+        curved.meshes.len(),
+        1,
+        "only the branches stay world meshes"
+    );
+    assert_eq!(curved.meshes[0].positions, cards.meshes[0].positions);
+    for (pr, leaf_material) in curved.prototypes.iter().zip([1u32, 2]) {
+        assert!(pr.meshes.iter().all(|m| m.material == leaf_material));
+    }
+    // Each instance puts its leaf's centre where the object's transform puts the card's:
+    // the card centres (mean of each card's 4 corners) match the instances' origins
+    // (curved leaves are centred on the card), as sets.
+    let mut centres: Vec<[i64; 3]> = cards.meshes[1..]
+        .iter()
+        .flat_map(|m| {
+            m.positions
+                .chunks(4)
+                .map(|q| q.iter().sum::<glam::Vec3>() / 4.0)
+        })
+        .map(|c| (c * 1e4).round().as_i64vec3().to_array())
+        .collect();
+    let mut origins: Vec<[i64; 3]> = curved
+        .instances
+        .iter()
+        .map(|i| (glam::Vec3::from(i.transform.translation) * 1e4).round())
+        .map(|c| c.as_i64vec3().to_array())
+        .collect();
+    centres.sort();
+    origins.sort();
+    let close = centres
+        .iter()
+        .zip(&origins)
+        .filter(|(a, b)| (0..3).all(|k| (a[k] - b[k]).abs() <= 2))
+        .count();
+    assert!(
+        close * 10 >= centres.len() * 9,
+        "{close} of {}",
+        centres.len()
+    );
+
+    let e = err(&format!(
+        "{CAMERA}[[object]]\ntype = \"plant\"\nleaves = \"curly\"\n[object.plant]\n{SMALL}"
+    ));
+    assert!(
+        e.contains("s.toml:6: object[0].leaves: must be \"cards\" or \"curved\""),
+        "{e}"
+    );
+    let e = err(&format!(
+        "{CAMERA}[[object]]\ntype = \"plant\"\nleaves = \"curved\"\ninstances = [{{}}, {{ translate = [3, 0, 0] }}]\n[object.plant]\n{SMALL}"
+    ));
+    assert!(
+        e.contains("object[0].leaves: curved leaves are placed as instances"),
+        "{e}"
+    );
+    let e = err(&format!(
+        "{CAMERA}[[material]]\nname = \"g\"\ntype = \"diffuse\"\n[[object]]\ntype = \"quad\"\nmaterial = \"g\"\nleaves = \"curved\"\ncorner = [0, 0, 0]\nedge_u = [1, 0, 0]\nedge_v = [0, 0, 1]\n"
+    ));
+    assert!(e.contains("leaves"), "{e}");
+}

@@ -472,8 +472,8 @@ fn bad_plant_parameters_and_absurd_sizes() {
             vec![at.clone() + ".species", "palm".into()],
         ),
         (
-            "leaves = 10",
-            vec![at.clone() + ".leaves", "unknown field".into()],
+            "petals = 10",
+            vec![at.clone() + ".petals", "unknown field".into()],
         ),
     ] {
         let s = write(&d, "s.toml", &plant(keys));

@@ -5,9 +5,7 @@
 #![warn(missing_docs)]
 
 use glam::Vec3;
-use lamina_core::{
-    Camera, ColorInput, Film, Integrator, Light, Material, Mesh, PixelFilter, Scene, Sky, ToneMap,
-};
+use lamina_core::{Camera, ColorInput, Film, Integrator, Light, Material, Mesh, Scene, Sky};
 use lamina_plant::Plant;
 use lamina_plant::instanced::LeafBend;
 use serde::{Deserialize, Serialize};
@@ -200,17 +198,7 @@ pub fn tree_scene(
             aperture_radius: 0.0,
             focus_distance: dist,
         },
-        film: Film {
-            width,
-            height,
-            spp,
-            filter: PixelFilter::Gaussian {
-                radius: 1.5,
-                sigma: 0.5,
-            },
-            exposure: 0.0,
-            tonemap: ToneMap::Aces,
-        },
+        film: Film::new(width, height, spp),
         integrator: Integrator::Path {
             max_depth: 6,
             rr_depth: 3,

@@ -97,6 +97,24 @@ pub struct Film {
     pub tonemap: ToneMap,
 }
 
+impl Film {
+    /// A `width` x `height` film at `spp` samples per pixel with the scene-file defaults:
+    /// Gaussian filter (radius 1.5 px, sigma 0.5 px), exposure 0 stops, ACES tone map.
+    pub fn new(width: u32, height: u32, spp: u32) -> Film {
+        Film {
+            width,
+            height,
+            spp,
+            filter: PixelFilter::Gaussian {
+                radius: 1.5,
+                sigma: 0.5,
+            },
+            exposure: 0.0,
+            tonemap: ToneMap::Aces,
+        }
+    }
+}
+
 /// The light-transport algorithm.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Integrator {

@@ -40,17 +40,7 @@ fn scene_for(
             aperture_radius: 0.0,
             focus_distance: eye.distance(target),
         },
-        film: Film {
-            width: 320,
-            height: 320,
-            spp,
-            filter: PixelFilter::Gaussian {
-                radius: 1.5,
-                sigma: 0.5,
-            },
-            exposure: 0.0,
-            tonemap: ToneMap::Aces,
-        },
+        film: Film::new(320, 320, spp),
         integrator: Integrator::Path {
             max_depth: 6,
             rr_depth: 3,

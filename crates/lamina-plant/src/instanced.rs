@@ -253,8 +253,7 @@ mod tests {
         };
         let a = lamina_render::render(&flat, &opts).unwrap().image;
         let b = lamina_render::render(&inst, &opts).unwrap().image;
-        let mean = |i: &lamina_render::Image| i.pixels.iter().sum::<Vec3>() / i.pixels.len() as f32;
-        let (ma, mb) = (mean(&a), mean(&b));
+        let (ma, mb) = (a.mean(), b.mean());
         assert!(ma.min_element() > 0.0);
         assert!(
             (ma - mb).abs().max_element() < 0.01 * ma.max_element(),

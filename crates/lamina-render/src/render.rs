@@ -78,6 +78,14 @@ pub struct Image {
 }
 
 impl Image {
+    /// Mean linear RGB radiance over all pixels (zero for an empty image).
+    pub fn mean(&self) -> Vec3 {
+        if self.pixels.is_empty() {
+            return Vec3::ZERO;
+        }
+        self.pixels.iter().copied().sum::<Vec3>() / self.pixels.len() as f32
+    }
+
     /// The pixel at column `x`, row `y` (0 = top).
     pub fn at(&self, x: u32, y: u32) -> Vec3 {
         self.pixels[(y * self.width + x) as usize]

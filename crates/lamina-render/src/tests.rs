@@ -82,10 +82,6 @@ fn opts(spp: u32, threads: usize) -> RenderOptions {
     }
 }
 
-fn mean(img: &Image) -> Vec3 {
-    img.pixels.iter().copied().sum::<Vec3>() / img.pixels.len() as f32
-}
-
 /// (a) A Lambertian card filling the view under a sun at θ from the normal: every pixel is
 /// `R cos θ E / π` lit from the front and `T cos θ E / π` lit from behind.
 ///
@@ -137,7 +133,7 @@ fn lambertian_card_matches_analytic_sun_value() {
                         let out = render(&scene, &opts(4, 2)).unwrap();
                         let expect = if front { refl } else { trans } * th.cos() * e / PI;
                         let tol = if diameter == 0.0 { 1e-4 } else { 5e-3 };
-                        let m = mean(&out.image);
+                        let m = out.image.mean();
                         assert!(
                             (m - expect).abs().max_element()
                                 <= 1e-3 * expect.max_element().max(1e-3),
@@ -188,7 +184,7 @@ fn furnace_is_energy_conserving() {
         instances: Vec::new(),
     };
     let out = render(&scene, &opts(256, 2)).unwrap();
-    let m = mean(&out.image);
+    let m = out.image.mean();
     assert!(
         (m - Vec3::ONE).abs().max_element() < 0.005,
         "image mean {m}"
@@ -330,7 +326,7 @@ fn deterministic_across_thread_counts() {
     )
     .unwrap();
     assert_ne!(a.image, c.image);
-    assert!(mean(&a.image).max_element() > 0.0);
+    assert!(a.image.mean().max_element() > 0.0);
 }
 
 /// (e) A time limit or the cancel flag returns a valid image of the completed passes.
@@ -349,7 +345,7 @@ fn time_limit_and_cancel_return_valid_images() {
     assert!(out.stats.spp_done >= 1 && out.stats.spp_done < 1_000_000);
     assert!(out.stats.elapsed < Duration::from_secs(5));
     assert!(out.image.pixels.iter().all(|p| p.is_finite()));
-    assert!(mean(&out.image).max_element() > 0.0);
+    assert!(out.image.mean().max_element() > 0.0);
 
     let cancel = Arc::new(AtomicBool::new(false));
     let flag = cancel.clone();
@@ -414,7 +410,7 @@ fn image_sky_furnace() {
     for p in &out.image.pixels {
         assert!((*p - Vec3::ONE).abs().max_element() < 0.1, "{p}");
     }
-    assert!((mean(&out.image) - Vec3::ONE).abs().max_element() < 0.01);
+    assert!((out.image.mean() - Vec3::ONE).abs().max_element() < 0.01);
 }
 
 fn temp_dir(name: &str) -> std::path::PathBuf {
@@ -557,7 +553,7 @@ fn area_lights_match_analytic_irradiance() {
             instances: Vec::new(),
         };
         let out = render(&scene, &opts(64, 2)).unwrap();
-        let m = mean(&out.image).x;
+        let m = out.image.mean().x;
         let expect = r * e / PI;
         assert!(
             (m - expect).abs() < 0.01 * expect,
@@ -708,7 +704,7 @@ fn instanced_render_matches_flattened_render() {
         let (inst, flat) = instanced_and_flat(&transforms);
         let a = render(&inst, &opts(8, 2)).unwrap().image;
         let b = render(&flat, &opts(8, 2)).unwrap().image;
-        let (ma, mb) = (mean(&a), mean(&b));
+        let (ma, mb) = (a.mean(), b.mean());
         assert!(mb.max_element() > 0.01, "not black: {mb}");
         assert!(
             (ma - mb).abs().max_element() < 0.01 * mb.max_element(),
@@ -805,7 +801,7 @@ fn instanced_render_is_deterministic() {
     let b = render(&inst, &opts(4, 2)).unwrap();
     assert_eq!(a.image, b.image);
     assert_eq!(a.stats.rays, b.stats.rays);
-    assert!(mean(&a.image).max_element() > 0.0);
+    assert!(a.image.mean().max_element() > 0.0);
 }
 
 /// Bad instances are errors, not panics; memory is counted per level.
@@ -977,7 +973,7 @@ fn normals_equal_to_geometric_render_identically() {
                 render(&with, &opts(8, 2)).unwrap(),
                 render(&without, &opts(8, 2)).unwrap(),
             );
-            assert!(mean(&ia.image).max_element() > 0.01);
+            assert!(ia.image.mean().max_element() > 0.01);
             assert_eq!(ia.image, ib.image, "material {material}, {integrator:?}");
         }
     }
@@ -1129,7 +1125,7 @@ fn furnace_with_shading_normals() {
         instances: Vec::new(),
     };
     let out = render(&scene, &opts(256, 2)).unwrap();
-    let m = mean(&out.image);
+    let m = out.image.mean();
     eprintln!("furnace with a smooth sphere: mean {m}");
     assert!(
         (m - Vec3::ONE).abs().max_element() < 0.005,
@@ -1245,7 +1241,7 @@ fn smooth_shading_deterministic_across_thread_counts() {
     scene.meshes.push(card(2.0, -0.8, 0));
     let a = render(&scene, &opts(8, 1)).unwrap();
     assert!(a.image.pixels.iter().all(|p| p.is_finite()));
-    assert!(mean(&a.image).max_element() > 0.01);
+    assert!(a.image.mean().max_element() > 0.01);
     for threads in [2, 3] {
         let b = render(&scene, &opts(8, threads)).unwrap();
         assert_eq!(a.image, b.image, "{threads} threads");
@@ -1287,7 +1283,7 @@ fn leaf_sides_follow_the_geometric_normal() {
     };
     for (sun_z, cam_z) in [(1.0, 1.5), (-1.0, 1.5), (1.0, -1.5)] {
         let up = render_with(vec![ns; 4], sun_z, cam_z);
-        assert!(mean(&up).max_element() > 1e-3, "black leaf");
+        assert!(up.mean().max_element() > 1e-3, "black leaf");
         assert_eq!(up, render_with(vec![-ns; 4], sun_z, cam_z));
         assert_eq!(
             render_with(vec![], sun_z, cam_z),
@@ -1298,5 +1294,5 @@ fn leaf_sides_follow_the_geometric_normal() {
         render_with(vec![ns; 4], 1.0, 1.5),
         render_with(vec![ns; 4], -1.0, 1.5),
     );
-    assert_ne!(mean(&front), mean(&through));
+    assert_ne!(front.mean(), through.mean());
 }

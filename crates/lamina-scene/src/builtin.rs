@@ -21,20 +21,6 @@ pub struct BuiltinLeaf {
     pub size_m: Vec2,
 }
 
-fn film(width: u32, height: u32, spp: u32) -> Film {
-    Film {
-        width,
-        height,
-        spp,
-        filter: PixelFilter::Gaussian {
-            radius: 1.5,
-            sigma: 0.5,
-        },
-        exposure: 0.0,
-        tonemap: ToneMap::Aces,
-    }
-}
-
 /// A dark-green-grey backdrop and a soil ground, shared by the leaf panels.
 fn studio_materials(leaf: &BuiltinLeaf) -> Vec<Material> {
     vec![
@@ -86,7 +72,7 @@ fn leaf_panel(leaf: &BuiltinLeaf, sun_dir: Vec3, sun: Vec3, size: (u32, u32), sp
             aperture_radius: 0.0,
             focus_distance: dist,
         },
-        film: film(size.0, size.1, spp),
+        film: Film::new(size.0, size.1, spp),
         integrator: Integrator::Path {
             max_depth: 8,
             rr_depth: 3,
@@ -198,7 +184,7 @@ pub fn bush_scene_with(
             aperture_radius: 0.0,
             focus_distance: dist,
         },
-        film: film(size.0, size.1, spp),
+        film: Film::new(size.0, size.1, spp),
         integrator: Integrator::Path {
             max_depth: 8,
             rr_depth: 3,

@@ -429,17 +429,7 @@ impl Ctx {
     }
 
     fn film(&self, t: Option<&S<FilmTable>>) -> Result<Film, SceneError> {
-        let mut film = Film {
-            width: 640,
-            height: 480,
-            spp: 64,
-            filter: PixelFilter::Gaussian {
-                radius: 1.5,
-                sigma: 0.5,
-            },
-            exposure: 0.0,
-            tonemap: ToneMap::Aces,
-        };
+        let mut film = Film::new(640, 480, 64);
         let Some(t) = t else { return Ok(film) };
         let f = t.get_ref();
         if let Some(v) = &f.width {

@@ -6,7 +6,7 @@
 //! radiance in W m⁻² sr⁻¹, irradiance in W m⁻², intensity in W sr⁻¹.
 //! World space is right-handed with `+y` up.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use lamina_leaf::Texture;
 use std::sync::Arc;
 
@@ -242,6 +242,107 @@ impl AlphaMask {
     }
 }
 
+/// A tangent-space normal map (glTF `normalTexture` convention): RGB stored linearly,
+/// `n = 2·rgb − 1` with `+x` along increasing texture `u`, `+y` towards the top of the
+/// image (increasing lamina `v`), `+z` along the interpolated vertex normal.
+#[derive(Clone, Debug)]
+pub struct NormalMap {
+    /// The map, linear encoding (not sRGB).
+    pub map: Texture,
+    /// glTF `normalTexture.scale`: multiplies the decoded `x` and `y` before
+    /// renormalising (1 = as painted, 0 = no perturbation).
+    pub scale: f32,
+}
+
+impl NormalMap {
+    /// The unit tangent-space normal at `uv` (`+z` up); `+z` where the texel decodes to a
+    /// degenerate or non-finite vector.
+    #[inline]
+    pub fn at(&self, uv: Vec2) -> Vec3 {
+        let c = self.map.rgb(uv) * 2.0 - Vec3::ONE;
+        let v = Vec3::new(c.x * self.scale, c.y * self.scale, c.z);
+        let len2 = v.length_squared();
+        if len2 > 1e-8 && len2.is_finite() && v.z > -1.0 {
+            v / len2.sqrt()
+        } else {
+            Vec3::Z
+        }
+    }
+}
+
+/// A glTF-style metallic-roughness material: every factor is multiplied by its map where
+/// there is one (glTF semantics).
+#[derive(Clone, Debug)]
+pub struct PbrMaterial {
+    /// Name in the scene file or the imported file (for messages and overrides).
+    pub name: String,
+    /// Base colour, linear RGB in `[0, 1]` (diffuse albedo of dielectrics, F0 of metals).
+    pub base_color: ColorInput,
+    /// `metallic` factor in `[0, 1]`.
+    pub metallic: f32,
+    /// Perceptual `roughness` factor in `[0, 1]` (GGX `alpha = roughness²`).
+    pub roughness: f32,
+    /// glTF `metallicRoughnessTexture` (linear): roughness in green, metallic in blue,
+    /// multiplying the factors.
+    pub metallic_roughness: Option<Texture>,
+    /// Index of refraction of the dielectric part (1.5: F0 = 0.04).
+    pub ior: f32,
+    /// Diffuse transmission factor in `[0, 1]` (`KHR_materials_diffuse_transmission`).
+    pub transmission: f32,
+    /// Map whose alpha channel multiplies `transmission` (`diffuseTransmissionTexture`).
+    pub transmission_map: Option<Texture>,
+    /// Colour of diffusely transmitted light, linear RGB in `[0, 1]`.
+    pub transmission_color: ColorInput,
+    /// Tangent-space normal map, if any.
+    pub normal_map: Option<NormalMap>,
+    /// Optional cut-out.
+    pub alpha: Option<AlphaMask>,
+}
+
+impl PbrMaterial {
+    /// A uniform material: base colour, metallic and roughness, no maps.
+    pub fn uniform(name: &str, base_color: Vec3, metallic: f32, roughness: f32) -> Self {
+        PbrMaterial {
+            name: name.into(),
+            base_color: ColorInput::Constant(base_color),
+            metallic,
+            roughness,
+            metallic_roughness: None,
+            ior: 1.5,
+            transmission: 0.0,
+            transmission_map: None,
+            transmission_color: ColorInput::Constant(Vec3::ONE),
+            normal_map: None,
+            alpha: None,
+        }
+    }
+
+    /// The BSDF at texture coordinates `uv` (factors times maps, clamped to their ranges).
+    #[inline]
+    pub fn bsdf(&self, uv: Vec2) -> lamina_leaf::PbrBsdf {
+        let (mut metallic, mut roughness) = (self.metallic, self.roughness);
+        if let Some(mr) = &self.metallic_roughness {
+            let s = mr.sample(uv);
+            roughness *= s.y;
+            metallic *= s.z;
+        }
+        let mut transmission = self.transmission;
+        if transmission > 0.0 {
+            if let Some(t) = &self.transmission_map {
+                transmission *= t.sample(uv).w;
+            }
+        }
+        lamina_leaf::PbrBsdf {
+            base_color: self.base_color.at(uv).clamp(Vec3::ZERO, Vec3::ONE),
+            metallic: metallic.clamp(0.0, 1.0),
+            roughness: roughness.clamp(0.0, 1.0),
+            ior: self.ior,
+            transmission: transmission.clamp(0.0, 1.0),
+            transmission_color: self.transmission_color.at(uv).clamp(Vec3::ZERO, Vec3::ONE),
+        }
+    }
+}
+
 /// A surface material. All are two-sided.
 #[derive(Clone, Debug)]
 pub enum Material {
@@ -265,6 +366,10 @@ pub enum Material {
         /// Optional cut-out.
         alpha: Option<AlphaMask>,
     },
+    /// The glTF 2.0 metallic-roughness surface (pots, stems, bark, ground from glTF, OBJ +
+    /// MTL or `type = "pbr"`), with optional diffuse transmission and a tangent-space
+    /// normal map. Evaluated as [`lamina_leaf::PbrBsdf`].
+    Pbr(Box<PbrMaterial>),
     /// The three-layer leaf model with its seven maps.
     Leaf {
         /// Name in the scene file (for messages).
@@ -274,6 +379,38 @@ pub enum Material {
     },
 }
 
+impl Material {
+    /// The material's name (scene file or imported file), for messages and overrides.
+    pub fn name(&self) -> &str {
+        match self {
+            Material::Diffuse { name, .. }
+            | Material::DiffuseTransmission { name, .. }
+            | Material::Leaf { name, .. } => name,
+            Material::Pbr(p) => &p.name,
+        }
+    }
+
+    /// The cut-out of a non-leaf material (leaves carry theirs in their alpha map).
+    pub fn alpha_mask(&self) -> Option<&AlphaMask> {
+        match self {
+            Material::Diffuse { alpha, .. } | Material::DiffuseTransmission { alpha, .. } => {
+                alpha.as_ref()
+            }
+            Material::Pbr(p) => p.alpha.as_ref(),
+            Material::Leaf { .. } => None,
+        }
+    }
+
+    /// The tangent-space normal map, if the material has one (leaves perturb their normal
+    /// inside their BSDF with the bump map instead).
+    pub fn normal_map(&self) -> Option<&NormalMap> {
+        match self {
+            Material::Pbr(p) => p.normal_map.as_ref(),
+            _ => None,
+        }
+    }
+}
+
 /// A triangle mesh in world space.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
@@ -281,6 +418,10 @@ pub struct Mesh {
     pub positions: Vec<Vec3>,
     /// Per-vertex shading normals, or empty for flat shading.
     pub normals: Vec<Vec3>,
+    /// Per-vertex tangents for normal maps (glTF `TANGENT`): `xyz` along increasing `u`,
+    /// `w = ±1` with the bitangent `w · (normal × tangent)` pointing towards increasing
+    /// lamina `v` (the top of the image). Empty: derived per triangle from the UVs.
+    pub tangents: Vec<Vec4>,
     /// Per-vertex texture coordinates, or empty (then `uv = (0, 0)` everywhere).
     pub uvs: Vec<Vec2>,
     /// Triangles as indices into the vertex arrays; the front face (for leaves, the
@@ -302,6 +443,7 @@ impl Mesh {
                 corner + edge_v,
             ],
             normals: Vec::new(),
+            tangents: Vec::new(),
             uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y],
             indices: vec![[0, 1, 2], [0, 2, 3]],
             material,

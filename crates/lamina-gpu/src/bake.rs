@@ -385,6 +385,15 @@ pub fn bake_material(material: &Material, max_dim: u32) -> BakedMaterial {
             reflectance,
             alpha,
         } => bake_diffuse(name, reflectance, None, alpha.as_ref(), max_dim, warnings),
+        // Stand-in until the glossy bake lands: the base colour as a Lambertian.
+        Material::Pbr(p) => bake_diffuse(
+            &p.name,
+            &p.base_color,
+            None,
+            p.alpha.as_ref(),
+            max_dim,
+            warnings,
+        ),
         Material::DiffuseTransmission {
             name,
             reflectance,

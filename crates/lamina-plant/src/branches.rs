@@ -136,6 +136,7 @@ pub fn branch_mesh(sk: &Skeleton) -> Mesh {
     let mut mesh = Mesh {
         positions: Vec::with_capacity(nv),
         normals: Vec::with_capacity(nv),
+        tangents: Vec::new(),
         uvs: Vec::with_capacity(nv),
         indices: Vec::with_capacity(nt),
         material: 0,

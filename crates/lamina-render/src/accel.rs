@@ -768,13 +768,11 @@ impl Accel {
             .materials
             .iter()
             .map(|m| match m {
-                Material::Diffuse { alpha, .. } | Material::DiffuseTransmission { alpha, .. } => {
-                    alpha.clone().map_or(AlphaTest::None, |m| {
-                        let cells = MaskCells::new(&m);
-                        AlphaTest::Mask(m, cells)
-                    })
-                }
                 Material::Leaf { leaf, .. } => AlphaTest::Leaf(leaf.clone()),
+                m => m.alpha_mask().cloned().map_or(AlphaTest::None, |m| {
+                    let cells = MaskCells::new(&m);
+                    AlphaTest::Mask(m, cells)
+                }),
             })
             .collect();
         let mut world = BlasBuilder::default();

@@ -10,7 +10,7 @@
 
 use glam::{Vec2, Vec3};
 use lamina_core::Material;
-use lamina_leaf::{Bsdf, BsdfSample, DiffuseTransmission, Lambertian, LeafBsdf};
+use lamina_leaf::{Bsdf, BsdfSample, DiffuseTransmission, Lambertian, LeafBsdf, PbrBsdf};
 
 /// The BSDF at a surface point: a closed enum (no allocation, no dynamic dispatch).
 // The leaf variant is larger, but the enum lives on the stack for one vertex: boxing it
@@ -24,6 +24,8 @@ pub enum SurfaceBsdf {
     DiffuseTransmission(DiffuseTransmission),
     /// [`Material::Leaf`].
     Leaf(LeafBsdf),
+    /// [`Material::Pbr`].
+    Pbr(PbrBsdf),
 }
 
 impl SurfaceBsdf {
@@ -43,6 +45,7 @@ impl SurfaceBsdf {
                 transmittance: transmittance.at(uv),
             }),
             Material::Leaf { leaf, .. } => SurfaceBsdf::Leaf(leaf.bsdf(uv)),
+            Material::Pbr(p) => SurfaceBsdf::Pbr(p.bsdf(uv)),
         }
     }
 
@@ -54,6 +57,7 @@ impl SurfaceBsdf {
             SurfaceBsdf::Diffuse(b) => (b.reflectance, Vec3::ZERO),
             SurfaceBsdf::DiffuseTransmission(b) => (b.reflectance, b.transmittance),
             SurfaceBsdf::Leaf(b) => b.diffuse_albedo(),
+            SurfaceBsdf::Pbr(b) => b.diffuse_albedo(),
         }
     }
 }
@@ -65,6 +69,7 @@ impl Bsdf for SurfaceBsdf {
             SurfaceBsdf::Diffuse(b) => b.eval(wo, wi),
             SurfaceBsdf::DiffuseTransmission(b) => b.eval(wo, wi),
             SurfaceBsdf::Leaf(b) => b.eval(wo, wi),
+            SurfaceBsdf::Pbr(b) => b.eval(wo, wi),
         }
     }
 
@@ -74,6 +79,7 @@ impl Bsdf for SurfaceBsdf {
             SurfaceBsdf::Diffuse(b) => b.sample(wo, u),
             SurfaceBsdf::DiffuseTransmission(b) => b.sample(wo, u),
             SurfaceBsdf::Leaf(b) => b.sample(wo, u),
+            SurfaceBsdf::Pbr(b) => b.sample(wo, u),
         }
     }
 
@@ -83,6 +89,7 @@ impl Bsdf for SurfaceBsdf {
             SurfaceBsdf::Diffuse(b) => b.pdf(wo, wi),
             SurfaceBsdf::DiffuseTransmission(b) => b.pdf(wo, wi),
             SurfaceBsdf::Leaf(b) => b.pdf(wo, wi),
+            SurfaceBsdf::Pbr(b) => b.pdf(wo, wi),
         }
     }
 }

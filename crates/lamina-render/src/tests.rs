@@ -23,6 +23,7 @@ fn card(half: f32, z0: f32, material: u32) -> Mesh {
             Vec3::new(-half, half, z0),
         ],
         normals: vec![],
+        tangents: Vec::new(),
         uvs: vec![
             Vec2::new(0.0, 0.0),
             Vec2::new(1.0, 0.0),
@@ -862,6 +863,7 @@ fn uv_sphere(
         }
     }
     Mesh {
+        tangents: Vec::new(),
         uvs: positions
             .iter()
             .enumerate()
@@ -883,6 +885,7 @@ fn faceted(mesh: &Mesh, with_normals: bool) -> Mesh {
     let mut out = Mesh {
         positions: Vec::new(),
         normals: Vec::new(),
+        tangents: Vec::new(),
         uvs: Vec::new(),
         indices: Vec::new(),
         material: mesh.material,

@@ -368,6 +368,7 @@ fn read_primitive(
     Ok(Some(Mesh {
         positions: positions.iter().map(|&p| xf.point(p)).collect(),
         normals: normals.iter().map(|&v| xf.normal(v)).collect(),
+        tangents: Vec::new(),
         uvs,
         indices,
         material,

@@ -1434,11 +1434,7 @@ struct Imported {
 
 /// A material's name.
 fn material_name(m: &Material) -> &str {
-    match m {
-        Material::Diffuse { name, .. }
-        | Material::DiffuseTransmission { name, .. }
-        | Material::Leaf { name, .. } => name,
-    }
+    m.name()
 }
 
 /// Transforms a mesh in place, keeping its front faces in front.

@@ -390,6 +390,7 @@ fn meshes(
         meshes.push(Mesh {
             positions,
             normals,
+            tangents: Vec::new(),
             uvs,
             indices,
             material: material(m.material_id),

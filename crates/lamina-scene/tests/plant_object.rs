@@ -22,11 +22,7 @@ fn err(text: &str) -> String {
 }
 
 fn name(m: &Material) -> &str {
-    match m {
-        Material::Diffuse { name, .. }
-        | Material::DiffuseTransmission { name, .. }
-        | Material::Leaf { name, .. } => name,
-    }
+    m.name()
 }
 
 #[test]

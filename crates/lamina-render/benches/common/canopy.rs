@@ -79,6 +79,7 @@ pub fn canopy_meshes(n: u32, seed: u32) -> Vec<Mesh> {
             Vec3::new(-8.0, 0.0, -8.0),
         ],
         normals: vec![],
+        tangents: Vec::new(),
         uvs: vec![],
         indices: vec![[0, 1, 2], [0, 2, 3]],
         material: 1,

@@ -133,3 +133,57 @@ fn texel_query(bencher: Bencher) {
         acc
     });
 }
+
+/// The glTF metallic-roughness surface: a rough dielectric with diffuse transmission, and a
+/// half-metallic mix (the most lobes at once).
+fn pbr(metallic: f32) -> PbrBsdf {
+    PbrBsdf {
+        base_color: Vec3::new(0.6, 0.4, 0.2),
+        metallic,
+        roughness: 0.4,
+        ior: 1.5,
+        transmission: 0.3,
+        transmission_color: Vec3::new(0.5, 0.8, 0.3),
+    }
+}
+
+#[divan::bench(args = [0.0, 0.5])]
+fn pbr_eval(bencher: Bencher, metallic: f32) {
+    let b = pbr(metallic);
+    let d = directions();
+    bencher.counter(ItemsCount::new(N)).bench_local(|| {
+        let mut acc = Vec3::ZERO;
+        for &(wo, wi, _) in &d {
+            acc += b.eval(divan::black_box(wo), divan::black_box(wi));
+        }
+        acc
+    });
+}
+
+#[divan::bench(args = [0.0, 0.5])]
+fn pbr_sample(bencher: Bencher, metallic: f32) {
+    let b = pbr(metallic);
+    let d = directions();
+    bencher.counter(ItemsCount::new(N)).bench_local(|| {
+        let mut acc = 0.0f32;
+        for &(wo, _, u) in &d {
+            if let Some(s) = b.sample(divan::black_box(wo), divan::black_box(u)) {
+                acc += s.pdf;
+            }
+        }
+        acc
+    });
+}
+
+#[divan::bench(args = [0.0, 0.5])]
+fn pbr_pdf(bencher: Bencher, metallic: f32) {
+    let b = pbr(metallic);
+    let d = directions();
+    bencher.counter(ItemsCount::new(N)).bench_local(|| {
+        let mut acc = 0.0f32;
+        for &(wo, wi, _) in &d {
+            acc += b.pdf(divan::black_box(wo), divan::black_box(wi));
+        }
+        acc
+    });
+}

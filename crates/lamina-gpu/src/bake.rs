@@ -24,6 +24,27 @@
 //! * **Uniforms**: GGX roughness per side, specular weight, the sine of the blend width,
 //!   all read from [`LeafParams`].
 //!
+//! # glTF metallic-roughness materials ([`Material::Pbr`], [`lamina_leaf::PbrBsdf`])
+//! * **Albedo maps**: `diffuse_albedo()` of `PbrMaterial::bsdf(uv)` at every texel centre
+//!   over the largest of the base colour, metallic-roughness, transmission and alpha maps:
+//!   `front` = `back` = the diffuse reflectance (the surface is two-sided; it already holds
+//!   `1 − metallic`, `1 − transmission` and the `1 − E_avg` the specular coat takes),
+//!   `trans` = the diffuse transmittance, alpha from the mask.
+//! * **Specular**: one GGX lobe, the same on both sides, `alpha = r²` with `r` the mean
+//!   perceptual roughness over the (opaque) texels, i.e. the factor times the mean of the
+//!   roughness map: **per-texel roughness is averaged on the GPU** (per-texel metallic is
+//!   not for the diffuse maps, only for the specular weights). The dielectric part has
+//!   weight `1 − mean metallic` (`spec.z`) and the exact Fresnel of `max(ior, 1/ior)` in
+//!   layer 3; the metallic part is carried by [`MaterialUniform::metal`] (mean
+//!   `metallic · base_colour` and mean `metallic`), so metals get their coloured Schlick
+//!   Fresnel as on the CPU. The blend width is [`PBR_BLEND_SIN`] (no fade: the CPU model has
+//!   none).
+//! * **Angular tables** ([`pbr_lut`]): the diffuse lobes' shape from the CPU model's
+//!   public `eval` (the energy-conserving coupling `(1 − E(mu_o))(1 − E(mu_i))` makes them
+//!   darker than Lambertian towards grazing), layer 3 the Fresnel, the dielectric
+//!   specular albedo and (row 1) the metal albedo moments for the sky's reflection.
+//! * **Not used**: the normal map (the GPU path has no normal or bump mapping).
+//!
 //! Mip levels are box-filtered here in linear space. Maps larger than the device's texture
 //! limit are **downscaled with a warning** (returned in [`BakedMaterial::warnings`]).
 
@@ -50,6 +71,11 @@ pub struct MaterialUniform {
     /// diffusely, so a receiver `d` behind it gets the fraction `a² / (a² + d²)` of it (the
     /// on-axis form factor of a disc of radius `a`). `yzw` unused.
     pub shape: [f32; 4],
+    /// The metallic (coloured, Schlick-Fresnel) specular lobe of [`Material::Pbr`]: `rgb` =
+    /// the mean of `metallic · base_colour` (the metal's F0 times its weight), `a` = the
+    /// mean `metallic`; its Fresnel at `v·h` is `rgb + (a − rgb)(1 − v·h)⁵`. Zero for every
+    /// other material.
+    pub metal: [f32; 4],
 }
 
 /// One 2D RGBA8 map with its mip chain (level 0 first), sRGB-encoded colour, linear alpha.
@@ -323,6 +349,7 @@ pub fn leaf_uniform(params: &LeafParams) -> MaterialUniform {
             params.blend_width_deg.to_radians().sin(),
         ],
         shape: [0.0; 4],
+        metal: [0.0; 4],
     }
 }
 
@@ -385,15 +412,7 @@ pub fn bake_material(material: &Material, max_dim: u32) -> BakedMaterial {
             reflectance,
             alpha,
         } => bake_diffuse(name, reflectance, None, alpha.as_ref(), max_dim, warnings),
-        // Stand-in until the glossy bake lands: the base colour as a Lambertian.
-        Material::Pbr(p) => bake_diffuse(
-            &p.name,
-            &p.base_color,
-            None,
-            p.alpha.as_ref(),
-            max_dim,
-            warnings,
-        ),
+        Material::Pbr(p) => bake_pbr(p, max_dim, warnings),
         Material::DiffuseTransmission {
             name,
             reflectance,
@@ -453,6 +472,185 @@ fn bake_diffuse(
         trans: mip_chain(w, h, t),
         lut: lambert_lut(),
         uniform: MaterialUniform::default(),
+        warnings,
+    }
+}
+
+/// Sine of the front/back blend width baked for [`Material::Pbr`]. The shader fades the
+/// specular lobe by `smooth(mu_o / w) smooth(mu_i / w)`, which leaves need (their
+/// specular is faded over `LeafParams::blend_width_deg` on the CPU too); the glTF surface
+/// has no such band, its lobe already vanishes at the plane through the Smith `G2`. A
+/// width of 0.06 degrees keeps the shader's division finite while changing nothing outside
+/// the last 1e-3 of cosine, where `G2` has already removed the lobe.
+pub const PBR_BLEND_SIN: f32 = 1e-3;
+
+/// Side of the grid on which a glTF material's maps are averaged for its scalar shading
+/// constants (roughness, metallic, metal colour).
+const PBR_STATS_N: u32 = 128;
+
+/// Mean perceptual roughness, mean metallic and mean `metallic · base_colour` of a glTF
+/// material over its opaque texels (all texels when none is opaque), sampled at the
+/// centres of an up to `PBR_STATS_N²` grid.
+fn pbr_means(p: &lamina_scene::PbrMaterial, w: u32, h: u32) -> (f32, f32, Vec3) {
+    let (nw, nh) = (w.clamp(1, PBR_STATS_N), h.clamp(1, PBR_STATS_N));
+    let mut acc = [(0.0f64, 0.0f64, glam::DVec3::ZERO, 0u32); 2];
+    for y in 0..nh {
+        for x in 0..nw {
+            let uv = Vec2::new(
+                (x as f32 + 0.5) / nw as f32,
+                1.0 - (y as f32 + 0.5) / nh as f32,
+            );
+            let b = p.bsdf(uv);
+            let opaque = p.alpha.as_ref().is_none_or(|m| m.opaque(uv));
+            for a in &mut acc[..if opaque { 2 } else { 1 }] {
+                a.0 += b.roughness as f64;
+                a.1 += b.metallic as f64;
+                a.2 += (b.base_color * b.metallic).as_dvec3();
+                a.3 += 1;
+            }
+        }
+    }
+    let a = if acc[1].3 > 0 { acc[1] } else { acc[0] };
+    let n = a.3.max(1) as f64;
+    ((a.0 / n) as f32, (a.1 / n) as f32, (a.2 / n).as_vec3())
+}
+
+/// The angular tables of a glTF material ([`lamina_leaf::PbrBsdf`]) of perceptual
+/// roughness `roughness` and index `ior`, from its public API only:
+///
+/// * layers 0 and 1 (reflection, the surface is two-sided): the diffuse reflection lobe
+///   alone, `eval` of a white base minus `eval` of a black one (the dielectric specular
+///   lobe does not depend on the base colour), divided by `mu_i` and by the white-sky
+///   albedo `diffuse_albedo().0`. With the energy-conserving coupling this is
+///   `(1 − E(mu_o))(1 − E(mu_i)) / (pi (1 − E_avg)²)`: darker than Lambertian at grazing
+///   angles, where the specular coat takes the light;
+/// * layer 2: the diffuse transmission lobe of a fully transmitting white material the same
+///   way (it sees no specular lobe at all);
+/// * layer 3, row 0: the dielectric Fresnel `fresnel_dielectric(c, max(ior, 1/ior))` (`r`,
+///   `g`: both sides) and the dielectric specular lobe's directional albedo `E(c)` (`b`,
+///   `a`: `directional_albedo` of a black dielectric); row 1: the metal lobe's albedo
+///   moments, `r` = `E1(c)` for `F ≡ 1` (a white metal's albedo) and `g` = `E5(c)` for
+///   `F = (1 − v·h)⁵` (a black metal's), so that a metal of colour `F0` reflects
+///   `F0 E1 + (1 − F0) E5` of the sky (Schlick's albedo, exact per channel).
+pub fn pbr_lut(roughness: f32, ior: f32) -> Vec<[f32; 4]> {
+    use lamina_leaf::PbrBsdf;
+    let mut lut = vec![[0.0f32; 4]; LUT_N * LUT_N * LUT_LAYERS];
+    let white = PbrBsdf {
+        base_color: Vec3::ONE,
+        metallic: 0.0,
+        roughness,
+        ior,
+        transmission: 0.0,
+        transmission_color: Vec3::ONE,
+    };
+    let black = PbrBsdf {
+        base_color: Vec3::ZERO,
+        ..white
+    };
+    let through = PbrBsdf {
+        transmission: 1.0,
+        ..white
+    };
+    let a_r = white.diffuse_albedo().0.x;
+    let a_t = through.diffuse_albedo().1.x;
+    let mu = |k: usize| (k as f32 + 0.5) / LUT_N as f32;
+    let dir = |m: f32| Vec3::new((1.0 - m * m).max(0.0).sqrt(), 0.0, m);
+    for j in 0..LUT_N {
+        let mi = mu(j);
+        let wi = dir(mi);
+        let wi_dn = Vec3::new(wi.x, wi.y, -wi.z);
+        for i in 0..LUT_N {
+            let wo = dir(mu(i));
+            // Opposite azimuths: the diffuse lobes do not depend on it, and the specular
+            // lobe (cancelled anyway) is then far from its peak.
+            let wo = Vec3::new(-wo.x, wo.y, wo.z);
+            let r = (white.eval(wo, wi).x - black.eval(wo, wi).x) / mi;
+            let t = through.eval(wo, wi_dn).x / mi;
+            let gr = if a_r > 1e-6 {
+                r / a_r
+            } else {
+                std::f32::consts::FRAC_1_PI
+            };
+            let gt = if a_t > 1e-6 {
+                t / a_t
+            } else {
+                std::f32::consts::FRAC_1_PI
+            };
+            for (l, g) in [gr, gr, gt].into_iter().enumerate() {
+                lut[(l * LUT_N + j) * LUT_N + i] = [g, g, g, 1.0];
+            }
+        }
+    }
+    let eta = if ior >= 1.0 { ior } else { 1.0 / ior.max(1e-3) };
+    let metal_white = PbrBsdf {
+        metallic: 1.0,
+        ..white
+    };
+    let metal_black = PbrBsdf {
+        metallic: 1.0,
+        ..black
+    };
+    for i in 0..LUT_N {
+        let c = mu(i);
+        let wo = dir(c);
+        let f = lamina_leaf::layers::fresnel_dielectric(c, eta);
+        let e = black.directional_albedo(wo).0.x;
+        lut[3 * LUT_N * LUT_N + i] = [f, f, e, e];
+        lut[(3 * LUT_N + 1) * LUT_N + i] = [
+            metal_white.directional_albedo(wo).0.x,
+            metal_black.directional_albedo(wo).0.x,
+            0.0,
+            0.0,
+        ];
+    }
+    lut
+}
+
+/// Bakes a glTF metallic-roughness material (see the module docs).
+fn bake_pbr(
+    p: &lamina_scene::PbrMaterial,
+    max_dim: u32,
+    mut warnings: Vec<String>,
+) -> BakedMaterial {
+    let (mut w, mut h) = colour_size(&p.base_color);
+    for (tw, th) in [
+        p.metallic_roughness
+            .as_ref()
+            .map(|t| (t.width(), t.height())),
+        p.transmission_map.as_ref().map(|t| (t.width(), t.height())),
+        Some(colour_size(&p.transmission_color)),
+        p.alpha.as_ref().map(|a| (a.map.width(), a.map.height())),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        (w, h) = (w.max(tw), h.max(th));
+    }
+    let (w, h) = fit(&p.name, "the material's maps", w, h, max_dim, &mut warnings);
+    let mut maps = bake_texels(w, h, &|uv| {
+        let (r, t) = p.bsdf(uv).diffuse_albedo();
+        let a = p.alpha.as_ref().is_none_or(|m| m.opaque(uv));
+        [
+            [r.x, r.y, r.z, if a { 1.0 } else { 0.0 }],
+            [r.x, r.y, r.z, 1.0],
+            [t.x, t.y, t.z, 1.0],
+        ]
+    });
+    fill_transparent(&mut maps);
+    let [f, b, t] = maps;
+    let (roughness, metallic, metal) = pbr_means(p, w, h);
+    let alpha = (roughness * roughness).max(lamina_leaf::pbr::ALPHA_MIN);
+    BakedMaterial {
+        name: p.name.clone(),
+        front: mip_chain(w, h, f),
+        back: mip_chain(w, h, b),
+        trans: mip_chain(w, h, t),
+        lut: pbr_lut(roughness, p.ior),
+        uniform: MaterialUniform {
+            spec: [alpha, alpha, 1.0 - metallic, PBR_BLEND_SIN],
+            shape: [0.0; 4],
+            metal: [metal.x, metal.y, metal.z, metallic],
+        },
         warnings,
     }
 }
@@ -523,5 +721,104 @@ mod tests {
         assert_eq!(b.warnings.len(), 1);
         assert!(b.warnings[0].contains("'bark'") && b.warnings[0].contains("limit of 16"));
         assert_eq!(b.front.levels.len(), 5); // 16x8, 8x4, 4x2, 2x1, 1x1
+    }
+
+    /// A glossy glTF material with a roughness/metallic map: the uniform carries
+    /// roughness², 1 − metallic and the metal colour from the maps' means, the Fresnel
+    /// table F0 = ((ior − 1)/(ior + 1))², and the front map the CPU model's diffuse albedo
+    /// at every texel centre.
+    #[test]
+    fn pbr_material_carries_the_cpu_model() {
+        use lamina_scene::PbrMaterial;
+        // 4x2 map: G (roughness) 0.5 and 1.0 in alternate columns, B (metallic) 0 and 0.5.
+        let texels = (0..8)
+            .map(|i| {
+                if i % 2 == 0 {
+                    glam::Vec4::new(0.0, 0.5, 0.0, 1.0)
+                } else {
+                    glam::Vec4::new(0.0, 1.0, 0.5, 1.0)
+                }
+            })
+            .collect();
+        let mr = lamina_leaf::Texture::from_texels(4, 2, texels, lamina_leaf::Wrap::Repeat);
+        let base = Vec3::new(0.6, 0.3, 0.1);
+        let mut p = PbrMaterial::uniform("pot", base, 0.8, 0.6);
+        p.metallic_roughness = Some(mr);
+        p.ior = 1.4;
+        let m = Material::Pbr(Box::new(p.clone()));
+        let b = bake_material(&m, 64);
+        assert_eq!((b.front.width, b.front.height), (4, 2));
+        // Mean roughness 0.6 * 0.75 = 0.45, mean metallic 0.8 * 0.25 = 0.2.
+        let alpha = 0.45f32 * 0.45;
+        assert!((b.uniform.spec[0] - alpha).abs() < 1e-4, "{:?}", b.uniform);
+        assert!((b.uniform.spec[1] - alpha).abs() < 1e-4);
+        assert!((b.uniform.spec[2] - 0.8).abs() < 1e-4);
+        assert_eq!(b.uniform.spec[3], PBR_BLEND_SIN);
+        let metal = base * 0.2;
+        for c in 0..3 {
+            assert!(
+                (b.uniform.metal[c] - metal[c]).abs() < 1e-4,
+                "{:?}",
+                b.uniform
+            );
+        }
+        assert!((b.uniform.metal[3] - 0.2).abs() < 1e-4);
+        let f0 = ((1.4f32 - 1.0) / (1.4 + 1.0)).powi(2);
+        let f = b.lut[3 * LUT_N * LUT_N + LUT_N - 1];
+        // The last column is at cosine 1 - 1/64, where Fresnel is within 2e-5 of F0.
+        assert!(
+            (f[0] - f0).abs() < 5e-5 && (f[1] - f0).abs() < 5e-5,
+            "{f:?} vs {f0}"
+        );
+        let exact = lamina_leaf::layers::fresnel_dielectric(1.0 - 0.5 / LUT_N as f32, 1.4);
+        assert_eq!((f[0], f[1]), (exact, exact));
+        // Front albedo at texel centres: the CPU model's, to 8-bit sRGB quantisation.
+        for y in 0..2 {
+            for x in 0..4 {
+                let uv = Vec2::new((x as f32 + 0.5) / 4.0, 1.0 - (y as f32 + 0.5) / 2.0);
+                let (r, _) = p.bsdf(uv).diffuse_albedo();
+                let want = encode([r.x, r.y, r.z, 1.0]);
+                let got = b.front.levels[0][y * 4 + x];
+                assert_eq!(got, want, "texel {x},{y}");
+                assert_eq!(b.back.levels[0][y * 4 + x], want);
+            }
+        }
+        // The metallic texels reflect less diffusely than the dielectric ones.
+        assert!(b.front.levels[0][1][0] < b.front.levels[0][0][0]);
+    }
+
+    /// The glTF tables: white-sky normalised diffuse shapes, darker than Lambertian at
+    /// grazing angles (the coupling with the specular coat), and the albedo rows.
+    #[test]
+    fn pbr_tables_are_normalised() {
+        let lut = pbr_lut(0.4, 1.5);
+        for layer in 0..3 {
+            let mut acc = 0.0;
+            for j in 0..LUT_N {
+                for i in 0..LUT_N {
+                    let mo = (i as f32 + 0.5) / LUT_N as f32;
+                    let mi = (j as f32 + 0.5) / LUT_N as f32;
+                    let g = lut[(layer * LUT_N + j) * LUT_N + i][0];
+                    acc += g * 4.0 * std::f32::consts::PI * mo * mi / (LUT_N * LUT_N) as f32;
+                }
+            }
+            assert!((acc - 1.0).abs() < 0.03, "layer {layer}: {acc}");
+            let grazing = lut[(layer * LUT_N) * LUT_N][0];
+            let normal = lut[(layer * LUT_N + LUT_N - 1) * LUT_N + LUT_N - 1][0];
+            assert!(grazing < normal, "layer {layer}: {grazing} vs {normal}");
+        }
+        let row0 = &lut[3 * LUT_N * LUT_N..3 * LUT_N * LUT_N + LUT_N];
+        let row1 = &lut[(3 * LUT_N + 1) * LUT_N..(3 * LUT_N + 2) * LUT_N];
+        for i in 0..LUT_N {
+            // E(mu) of the dielectric lies between F0 and 1; E1 near 1 for moderate
+            // roughness at normal incidence; E5 small.
+            assert!(row0[i][2] > 0.03 && row0[i][2] < 1.0, "{:?}", row0[i]);
+            assert!(row1[i][0] > row1[i][1] && row1[i][1] >= 0.0);
+        }
+        assert!(row1[LUT_N - 1][0] > 0.9, "{:?}", row1[LUT_N - 1]);
+        // An index-matched surface is Lambertian with no specular.
+        let flat = pbr_lut(0.4, 1.0);
+        assert!((flat[7][0] - std::f32::consts::FRAC_1_PI).abs() < 1e-4);
+        assert_eq!(flat[3 * LUT_N * LUT_N + 5][2], 0.0);
     }
 }

@@ -9,7 +9,9 @@
 //! * [`bake`]: per material, the white-sky albedo maps (adaxial R, abaxial R, T, with the
 //!   thickness and extinction maps applied by the CPU model) and angular lookup tables
 //!   baked by evaluating the real CPU BSDF; GGX roughness per side, specular weight and the
-//!   front/back blend width from [`lamina_leaf::LeafParams`].
+//!   front/back blend width from [`lamina_leaf::LeafParams`]; glTF materials
+//!   ([`lamina_leaf::PbrBsdf`]) likewise, with one GGX lobe of their mean roughness and a
+//!   coloured metallic Fresnel.
 //! * [`sky`]: the sky as spherical-harmonic irradiance.
 //! * [`renderer`]: the passes (two-layer translucent shadow map from the sun, camera pass,
 //!   tone map), headless image readback and window frames.
@@ -21,7 +23,8 @@
 //! Known approximations (see the crate README section in the notes): sky light and point
 //! lights are unshadowed; light between leaves is limited to the sun's transmittance
 //! through up to two leaves (no leaf-to-leaf bounces); the leaf lobes' azimuthal shape is
-//! averaged out; bump maps are not used.
+//! averaged out; bump and normal maps are not used; a glTF material's roughness and
+//! metallic maps are averaged for its specular lobe.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]

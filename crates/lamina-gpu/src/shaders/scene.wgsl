@@ -45,9 +45,12 @@ struct Globals {
 // z specular weight, w sin(blend width).
 // shape.x: card radius a (m): light transmitted by this material reaches a receiver d
 // behind it scaled by a^2 / (a^2 + d^2) (it leaves the leaf diffusely).
+// metal: the glTF material's metallic lobe, rgb = mean metallic * base colour (F0 times
+// weight), a = mean metallic; its Fresnel is rgb + (a - rgb) (1 - v.h)^5. Zero otherwise.
 struct MaterialParams {
     spec: vec4<f32>,
     shape: vec4<f32>,
+    metal: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> g: Globals;
@@ -79,7 +82,8 @@ struct SkyVis {
 @group(1) @binding(2) var t_trans: texture_2d<f32>;
 // Angular tables g_X(mu_o, mu_i) (1/sr) for layers 0 adaxial R, 1 abaxial R, 2 T;
 // layer 3 row 0: Fresnel of the adaxial (r) and abaxial (g) epidermis vs cosine, and the
-// specular lobe's directional albedo (b adaxial, a abaxial).
+// specular lobe's directional albedo (b adaxial, a abaxial); row 1 (glTF materials): the
+// GGX lobe's albedo with F = 1 (r) and with F = (1 - v.h)^5 (g).
 @group(1) @binding(3) var t_lut: texture_2d_array<f32>;
 @group(1) @binding(4) var s_map: sampler;
 @group(1) @binding(5) var s_lut: sampler;
@@ -189,6 +193,13 @@ fn specular_albedo(c: f32, adaxial: bool) -> f32 {
     return select(f.a, f.b, adaxial);
 }
 
+// Directional albedo of the metallic lobe (`mat.metal`, weight included) at viewing
+// cosine `c`: F0 E1 + (1 - F0) E5 per channel (Schlick's Fresnel integrated exactly).
+fn metal_albedo(c: f32) -> vec3<f32> {
+    let e = textureSampleLevel(t_lut, s_lut, vec2<f32>(c, 1.5 / 32.0), 3, 0.0);
+    return mat.metal.rgb * e.r + (vec3<f32>(mat.metal.a) - mat.metal.rgb) * e.g;
+}
+
 fn ggx_lambda(c: f32, a: f32) -> f32 {
     let c2 = max(c * c, 1e-8);
     let tan2 = max(1.0 - c2, 0.0) / c2;
@@ -198,16 +209,18 @@ fn ggx_lambda(c: f32, a: f32) -> f32 {
 // The leaf's specular lobe f_spec cos (lamina_leaf::specular::eval, GGX with
 // height-correlated Smith and the epidermis Fresnel), faded over the blend band next to
 // the plane exactly as LeafBsdf does. `n` is the normal on the viewer's (= light's) side.
-fn specular(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, adaxial: bool) -> f32 {
+// For glTF materials (lamina_leaf::PbrBsdf) the dielectric lobe has weight 1 - metallic and
+// the metallic lobe (`mat.metal`) adds the same GGX lobe with a coloured Schlick Fresnel.
+fn specular(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, adaxial: bool) -> vec3<f32> {
     let w = mat.spec.z;
-    if w <= 0.0 {
-        return 0.0;
+    if w <= 0.0 && mat.metal.a <= 0.0 {
+        return vec3<f32>(0.0);
     }
     let a = select(mat.spec.y, mat.spec.x, adaxial);
     let mu_o = dot(n, v);
     let mu_i = dot(n, l);
     if mu_o <= 0.0 || mu_i <= 0.0 {
-        return 0.0;
+        return vec3<f32>(0.0);
     }
     let h = normalize(v + l);
     let c = max(dot(n, h), 0.0);
@@ -215,9 +228,13 @@ fn specular(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, adaxial: bool) -> f32 {
     let t = c * c * (a2 - 1.0) + 1.0;
     let d = a2 / (PI * t * t);
     let g2 = 1.0 / (1.0 + ggx_lambda(mu_o, a) + ggx_lambda(mu_i, a));
-    let f = fresnel(max(dot(v, h), 0.0), adaxial);
+    let vh = max(dot(v, h), 0.0);
+    let f = w * fresnel(vh, adaxial);
+    let m = 1.0 - vh;
+    let m5 = m * m * m * m * m;
+    let fm = mat.metal.rgb + (vec3<f32>(mat.metal.a) - mat.metal.rgb) * m5;
     let fade = smooth01(mu_o / mat.spec.w) * smooth01(mu_i / mat.spec.w);
-    return w * fade * f * d * g2 / (4.0 * mu_o);
+    return (vec3<f32>(f) + fm) * (fade * d * g2 / (4.0 * mu_o));
 }
 
 // Everything a light needs about the shaded texel.
@@ -243,7 +260,7 @@ fn bsdf_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let mu_i = abs(c);
     if c >= 0.0 {
         let layer = select(1, 0, s.adaxial);
-        return s.refl * lut(layer, s.mu_o, mu_i) * mu_i + vec3<f32>(specular(s.n, s.v, l, s.adaxial));
+        return s.refl * lut(layer, s.mu_o, mu_i) * mu_i + specular(s.n, s.v, l, s.adaxial);
     }
     return s.trans * lut(2, s.mu_o, mu_i) * mu_i;
 }
@@ -424,7 +441,8 @@ fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) 
     // direction (GGX shadowing keeps it small at grazing views, as on the CPU).
     // Both scale with the sky visibility of their face.
     let vis = sky_visibility(in.world, n);
-    let spec_sky = mat.spec.z * specular_albedo(s.mu_o, s.adaxial) * sky_irradiance(reflect(-s.v, n));
+    let spec_alb = mat.spec.z * specular_albedo(s.mu_o, s.adaxial) + metal_albedo(s.mu_o);
+    let spec_sky = spec_alb * sky_irradiance(reflect(-s.v, n));
     col += (vis.front * (s.refl * sky_irradiance(n) + spec_sky) + vis.back * s.trans * sky_irradiance(-n)) / PI;
     return vec4<f32>(col, 1.0);
 }

@@ -105,3 +105,46 @@ pub fn side_by_side(a: &Image, b: &Image) -> Image {
         pixels,
     }
 }
+
+/// A `size x size` view of one glTF-material square (0.8 m, filling the frame) facing the
+/// camera 1 m away, under a sun from (0.15, 0.1, 1) whose mirror highlight lies right of
+/// and above the centre, and a constant blue-grey sky. Nothing else: both renderers see
+/// only direct sun and sky on the square. Exposure -1.5 stops keeps the gold highlight
+/// below white.
+pub fn pbr_square(material: lamina_scene::PbrMaterial, size: u32, spp: u32) -> Scene {
+    use glam::Vec3;
+    use lamina_scene::{Camera, Film, Integrator, Light, Material, Mesh, Sky};
+    Scene {
+        camera: Camera {
+            position: Vec3::new(0.0, 0.0, 1.0),
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_deg: 40.0,
+            aperture_radius: 0.0,
+            focus_distance: 1.0,
+        },
+        film: Film {
+            exposure: -1.5,
+            ..Film::new(size, size, spp)
+        },
+        integrator: Integrator::Path {
+            max_depth: 8,
+            rr_depth: 3,
+        },
+        lights: vec![Light::Sun {
+            direction: Vec3::new(0.15, 0.1, 1.0).normalize(),
+            irradiance: Vec3::splat(2.0),
+            angular_diameter_deg: 0.53,
+        }],
+        sky: Some(Sky::Constant(Vec3::new(0.10, 0.13, 0.18))),
+        materials: vec![Material::Pbr(Box::new(material))],
+        meshes: vec![Mesh::quad(
+            Vec3::new(-0.4, -0.4, 0.0),
+            Vec3::new(0.8, 0.0, 0.0),
+            Vec3::new(0.0, 0.8, 0.0),
+            0,
+        )],
+        prototypes: Vec::new(),
+        instances: Vec::new(),
+    }
+}

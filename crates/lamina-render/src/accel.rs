@@ -42,7 +42,7 @@
 //!   triangles. [`Accel::shading_normal`] interpolates them at the hit.
 
 use crate::error::RenderError;
-use glam::{Affine3A, Vec2, Vec3, Vec3A};
+use glam::{Affine3A, Vec2, Vec3, Vec3A, Vec4};
 use lamina_core::{AlphaMask, Light, Material, Mesh, Scene};
 use lamina_leaf::frame::Frame;
 use obvhs::{
@@ -100,8 +100,11 @@ pub const FLAG_EMITTER: u32 = 0x8000_0000;
 /// Flag in [`PrimInfo::flags`]: the primitive is a parallelogram `v0 + b1·e1 + b2·e2`,
 /// `b1, b2 ∈ [0, 1]` (a leaf card or quad light), not a triangle.
 pub const FLAG_QUAD: u32 = 0x2000_0000;
+/// Flag in [`PrimInfo::flags`]: the primitive's texture mapping is mirrored, i.e.
+/// `(n × dP/du) · dP/dv < 0` for its geometric normal `n` (normal maps' bitangents flip).
+pub const FLAG_UV_MIRRORED: u32 = 0x1000_0000;
 /// Mask of the material or light index in [`PrimInfo::flags`].
-pub const ID_MASK: u32 = 0x1fff_ffff;
+pub const ID_MASK: u32 = 0x0fff_ffff;
 /// "No primitive" in [`PrimRef::prim`].
 pub const NO_PRIM: u32 = u32::MAX;
 /// [`PrimRef::inst`] of the world-space meshes and quad lights (not an instance).
@@ -135,7 +138,7 @@ pub struct PrimInfo {
     /// Unit tangent along `dP/du`, orthogonal to `n` (along `v1 - v0` without UVs).
     pub s: Vec3,
     /// Material index (or light index for emitters) in the low 29 bits, plus
-    /// [`FLAG_ALPHA`] / [`FLAG_EMITTER`] / [`FLAG_QUAD`].
+    /// [`FLAG_ALPHA`] / [`FLAG_EMITTER`] / [`FLAG_QUAD`] / [`FLAG_UV_MIRRORED`].
     pub flags: u32,
 }
 
@@ -437,6 +440,10 @@ struct Blas {
     /// Vertex normals at `v0`, `v1`, `v2` of the smooth primitives (BLAS space, as the mesh
     /// gives them).
     normals: Vec<[Vec3; 3]>,
+    /// Vertex tangents (`w` = handedness, see [`Mesh::tangents`]) parallel to `normals`, or
+    /// empty when no smooth primitive of this BLAS came with tangents; an all-zero entry
+    /// means "none" (the tangent then comes from the UVs).
+    tangents: Vec<[Vec4; 3]>,
     /// Bounds of all primitives (in the BLAS's own space).
     bounds: Option<Aabb>,
 }
@@ -473,13 +480,22 @@ struct BlasBuilder {
     /// every primitive is flat.
     nidx: Vec<u32>,
     normals: Vec<[Vec3; 3]>,
+    tangents: Vec<[Vec4; 3]>,
 }
 
 impl BlasBuilder {
     /// Adds a triangle, or with [`FLAG_QUAD`] the parallelogram `v[0] + b1·e1 + b2·e2`;
     /// `uv` at `v`, `vn` the vertex normals of a smooth triangle (from [`smooth_normals`];
-    /// never for a parallelogram). Non-finite or degenerate ones are left out.
-    fn push(&mut self, v: [Vec3; 3], uv: [Vec2; 3], vn: Option<[Vec3; 3]>, flags: u32) {
+    /// never for a parallelogram) and `vt` its vertex tangents, if the mesh has them.
+    /// Non-finite or degenerate ones are left out.
+    fn push(
+        &mut self,
+        v: [Vec3; 3],
+        uv: [Vec2; 3],
+        vn: Option<[Vec3; 3]>,
+        vt: Option<[Vec4; 3]>,
+        mut flags: u32,
+    ) {
         if !v.iter().all(|p| p.is_finite()) {
             return;
         }
@@ -501,6 +517,12 @@ impl BlasBuilder {
             e1
         };
         let frame = Frame::from_normal_tangent(n, if dpdu.is_finite() { dpdu } else { e1 });
+        if det.abs() > 1e-20 {
+            let dpdv = (e2 * du1 - e1 * du2) / det;
+            if n.cross(frame.s).dot(dpdv) < 0.0 {
+                flags |= FLAG_UV_MIRRORED;
+            }
+        }
         let mut bb = Aabb::from_points(&[v[0].into(), v[1].into(), v[2].into()]);
         if flags & FLAG_QUAD != 0 {
             bb.extend((v[1] + v[2] - v[0]).into());
@@ -524,6 +546,13 @@ impl BlasBuilder {
                 self.nidx.resize(self.prims.len() - 1, NO_NORMALS);
                 self.nidx.push(self.normals.len() as u32);
                 self.normals.push(vn);
+                if let Some(vt) = vt {
+                    self.tangents
+                        .resize(self.normals.len() - 1, [Vec4::ZERO; 3]);
+                    self.tangents.push(vt);
+                } else if !self.tangents.is_empty() {
+                    self.tangents.push([Vec4::ZERO; 3]);
+                }
             }
             None if !self.nidx.is_empty() => self.nidx.push(NO_NORMALS),
             None => {}
@@ -554,6 +583,7 @@ impl BlasBuilder {
             }
             let has_uv = !mesh.uvs.is_empty();
             let has_normals = !mesh.normals.is_empty();
+            let has_tangents = has_normals && mesh.tangents.len() == mesh.positions.len();
             for (ti, idx) in mesh.indices.iter().enumerate() {
                 let ok = idx.iter().all(|&i| {
                     (i as usize) < mesh.positions.len()
@@ -600,12 +630,14 @@ impl BlasBuilder {
                         [pos(o), pos(a), pos(b)],
                         [tex(o), tex(a), tex(b)],
                         None,
+                        None,
                         flags | FLAG_QUAD,
                     );
                     ti += 2;
                     continue;
                 }
-                self.push(idx.map(pos), idx.map(tex), vn, flags);
+                let vt = has_tangents.then(|| idx.map(|i| mesh.tangents[i as usize]));
+                self.push(idx.map(pos), idx.map(tex), vn, vt, flags);
                 ti += 1;
             }
         }
@@ -656,6 +688,7 @@ impl BlasBuilder {
             prims,
             nidx,
             normals: self.normals,
+            tangents: self.tangents,
             bounds: Some(bounds),
         }
     }
@@ -668,6 +701,7 @@ impl Blas {
             + self.prims.len() * std::mem::size_of::<PrimInfo>()
             + self.nidx.len() * 4
             + self.normals.len() * std::mem::size_of::<[Vec3; 3]>()
+            + self.tangents.len() * std::mem::size_of::<[Vec4; 3]>()
     }
 }
 
@@ -791,6 +825,7 @@ impl Accel {
                     world.push(
                         [*corner, *corner + *edge_u, *corner + *edge_v],
                         [Vec2::ZERO, Vec2::X, Vec2::Y],
+                        None,
                         None,
                         FLAG_EMITTER | FLAG_QUAD | li as u32,
                     );
@@ -965,6 +1000,52 @@ impl Accel {
         let len2 = n.length_squared();
         // Opposite vertex normals can cancel: below 1e-4 of unit length the direction is noise.
         (len2.is_finite() && len2 > 1e-8).then(|| n / len2.sqrt())
+    }
+
+    /// The tangent frame of normal maps at barycentric `bary` on primitive `prim`, world
+    /// space: `(t, sign)` with `t` along increasing texture `u` (the mesh's interpolated
+    /// vertex tangent where it has them, else `dP/du` of the primitive; neither unit nor
+    /// orthogonal to any normal) and `sign = ±1` such that `sign · (n × t)` points towards
+    /// increasing `v` for the geometric normal `n` that [`Accel::surface`] returns.
+    #[inline]
+    pub fn uv_tangent(&self, prim: PrimRef, bary: Vec2) -> (Vec3, f32) {
+        let blas = self.blas_of(prim);
+        let i = prim.prim as usize;
+        let info = &blas.prims[i];
+        let mut sign = if info.flags & FLAG_UV_MIRRORED != 0 {
+            -1.0
+        } else {
+            1.0
+        };
+        let mut t = info.s;
+        let vertex = blas
+            .nidx
+            .get(i)
+            .and_then(|&k| Some((blas.tangents.get(k as usize)?, blas.normals[k as usize])));
+        if let Some((vt, vn)) = vertex
+            && vt[0].w != 0.0
+        {
+            let w = [1.0 - bary.x - bary.y, bary.x, bary.y];
+            let tv = vt[0].truncate() * w[0] + vt[1].truncate() * w[1] + vt[2].truncate() * w[2];
+            let nv = vn[0] * w[0] + vn[1] * w[1] + vn[2] * w[2];
+            if tv.length_squared() > 1e-12 && tv.is_finite() {
+                t = tv;
+                // The mesh's handedness is relative to its vertex normal.
+                sign = vt[0].w.signum() * if nv.dot(info.n) < 0.0 { -1.0 } else { 1.0 };
+            }
+        }
+        if prim.inst == NO_INSTANCE {
+            return (t, sign);
+        }
+        // (M⁻ᵀn × Mt)·Mb = det(M) (M⁻ᵀn)·(M⁻ᵀ(t × b)), and t × b is along n.
+        let o2w = self.instances[prim.inst as usize]
+            .world_to_object()
+            .inverse();
+        let det = o2w.matrix3.determinant();
+        (
+            (o2w.matrix3 * Vec3A::from(t)).into(),
+            if det < 0.0 { -sign } else { sign },
+        )
     }
 
     /// The flags (material or light id and `FLAG_*`) of primitive `prim`.

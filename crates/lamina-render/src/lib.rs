@@ -43,4 +43,6 @@ pub use output::write_image;
 pub use render::{Image, Progress, RenderOptions, RenderOutput, RenderStats, render};
 
 #[cfg(test)]
+mod normal_map_tests;
+#[cfg(test)]
 mod tests;

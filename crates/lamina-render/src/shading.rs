@@ -19,9 +19,47 @@
 //!   paths traced from lights, which lamina does not trace). Spawn offsets and the primitive
 //!   a ray skips stay geometric.
 
-use crate::accel::PrimInfo;
-use glam::Vec3;
+use crate::accel::{Accel, PrimInfo, PrimRef};
+use glam::{Vec2, Vec3};
+use lamina_core::NormalMap;
 use lamina_leaf::frame::Frame;
+
+/// The shading normal at a hit (world space, unit, either side; `None` = the geometric
+/// normal): the mesh's interpolated vertex normal ([`Accel::shading_normal`]), perturbed by
+/// the material's tangent-space normal map when there is one. The map's frame is
+/// `x = t`, `y = sign · (n × t)`, `z = n` with `n` the vertex normal (or the geometric
+/// normal), `t` the vertex tangent or `dP/du` made orthogonal to `n`, and `sign` making
+/// `y` point towards increasing `v` (the top of the image, glTF's convention)
+/// ([`Accel::uv_tangent`]).
+#[inline]
+pub fn shading_normal(
+    accel: &Accel,
+    prim: PrimRef,
+    bary: Vec2,
+    info: &PrimInfo,
+    normal_map: Option<&NormalMap>,
+) -> Option<Vec3> {
+    let ns = accel.shading_normal(prim, bary);
+    let Some(map) = normal_map else {
+        return ns;
+    };
+    let n = ns.unwrap_or(info.n);
+    let (t, sign) = accel.uv_tangent(prim, bary);
+    // `sign` is relative to the geometric normal; the vertex normal may point the other way.
+    let sign = if n.dot(info.n) < 0.0 { -sign } else { sign };
+    let t = (t - n * n.dot(t)).normalize_or_zero();
+    if t == Vec3::ZERO {
+        return ns;
+    }
+    let b = n.cross(t) * sign;
+    let m = map.at(info.uv_at(bary));
+    let mapped = (t * m.x + b * m.y + n * m.z).normalize_or_zero();
+    if mapped == Vec3::ZERO || !mapped.is_finite() {
+        ns
+    } else {
+        Some(mapped)
+    }
+}
 
 /// The local frame of one hit and what decides which directions it may scatter to.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -14,7 +14,7 @@ use std::time::Duration;
 
 /// A `2·half` square card in the plane `z = z0`, front (counter-clockwise) facing `+z`,
 /// UVs over `[0, 1]²` with `u` along `+x`.
-fn card(half: f32, z0: f32, material: u32) -> Mesh {
+pub(crate) fn card(half: f32, z0: f32, material: u32) -> Mesh {
     Mesh {
         positions: vec![
             Vec3::new(-half, -half, z0),
@@ -35,7 +35,7 @@ fn card(half: f32, z0: f32, material: u32) -> Mesh {
     }
 }
 
-fn film(w: u32, h: u32, spp: u32) -> Film {
+pub(crate) fn film(w: u32, h: u32, spp: u32) -> Film {
     Film {
         width: w,
         height: h,
@@ -46,7 +46,7 @@ fn film(w: u32, h: u32, spp: u32) -> Film {
     }
 }
 
-fn camera_at(z: f32, fov_deg: f32) -> Camera {
+pub(crate) fn camera_at(z: f32, fov_deg: f32) -> Camera {
     Camera {
         position: Vec3::new(0.0, 0.0, z),
         look_at: Vec3::ZERO,
@@ -74,7 +74,7 @@ fn diffuse_transmission(r: Vec3, t: Vec3) -> Material {
     }
 }
 
-fn opts(spp: u32, threads: usize) -> RenderOptions {
+pub(crate) fn opts(spp: u32, threads: usize) -> RenderOptions {
     RenderOptions {
         spp: Some(spp),
         threads: Some(threads),
@@ -686,8 +686,16 @@ fn instanced_queries_match_flattened_geometry() {
                 assert!((ia.uv_at(ba) - ib.uv_at(bb)).length() < 1e-4);
                 // Material (and alpha flag); a mirrored card may be stored as a
                 // parallelogram on one side and as two triangles on the other.
-                let q = crate::accel::FLAG_QUAD;
+                // The UV-mirror flag is relative to each BLAS's own winding: compare the
+                // normal-map frames it gives instead.
+                let q = crate::accel::FLAG_QUAD | crate::accel::FLAG_UV_MIRRORED;
                 assert_eq!(ia.flags & !q, ib.flags & !q);
+                let (ta, sa) = a.uv_tangent(pa, ba);
+                let (tb, sb) = b.uv_tangent(pb, bb);
+                let (ta, tb) = (ta.normalize(), tb.normalize());
+                assert!(ta.dot(tb) > 0.999, "tangent {ta} vs {tb}");
+                let (ba_, bb_) = (ia.n.cross(ta) * sa, ib.n.cross(tb) * sb);
+                assert!(ba_.dot(bb_) > 0.999, "bitangent {ba_} vs {bb_}");
             }
             _ => disagree += 1,
         }
@@ -906,7 +914,7 @@ fn faceted(mesh: &Mesh, with_normals: bool) -> Mesh {
     out
 }
 
-fn sun(direction: Vec3, irradiance: f32) -> Light {
+pub(crate) fn sun(direction: Vec3, irradiance: f32) -> Light {
     Light::Sun {
         direction,
         irradiance: Vec3::splat(irradiance),

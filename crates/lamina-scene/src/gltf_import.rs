@@ -1,27 +1,32 @@
 //! glTF 2.0 import (`.gltf` with its buffers, or `.glb`), via the `gltf` crate.
 //!
 //! What is read: the default scene's node hierarchy with its transforms; triangle
-//! primitives with positions, normals and the first texture-coordinate set (with the base
-//! colour's `KHR_texture_transform` applied); metallic-roughness materials mapped onto
-//! lamina's materials:
+//! primitives with positions, normals, tangents and the first texture-coordinate set (with
+//! the base colour's `KHR_texture_transform` applied); metallic-roughness materials mapped
+//! onto lamina's materials:
 //!
 //! | glTF | lamina |
 //! |---|---|
-//! | base colour (factor × texture) | `diffuse` reflectance |
+//! | `pbrMetallicRoughness` (base colour factor × texture, metallic and roughness factors × `metallicRoughnessTexture` B and G) | [`PbrMaterial`] ([`Material::Pbr`], evaluated as `lamina_leaf::PbrBsdf`) |
+//! | `normalTexture` + `scale`, vertex `TANGENT` | [`NormalMap`]; without tangents the tangent frame comes from the UVs per triangle |
 //! | `alphaMode` `MASK` + `alphaCutoff` | alpha test on the base colour's alpha channel |
 //! | `alphaMode` `BLEND` | alpha test at 0.5 (a path tracer has no order-dependent blending) |
-//! | `KHR_materials_diffuse_transmission` (factor `t`, colour `c`) | `diffuse_transmission`, `R = base·(1 − t)`, `T = c·t` (the extension's own mix) |
-//! | `KHR_materials_volume` `thicknessFactor` with diffuse transmission | a lamina `leaf`: front map = base colour, alpha = its alpha, blade thickness from the thickness (mesh units, taken as metres) |
+//! | `doubleSided` | every lamina material is two-sided |
+//! | `KHR_materials_diffuse_transmission` (factor × texture alpha, colour × texture) | the Pbr material's diffuse transmission (the extension's own mix) |
+//! | `KHR_materials_ior` | the dielectric's index (F0) |
+//! | `KHR_materials_volume` `thicknessFactor` with diffuse transmission | a lamina `leaf`: front map = base colour, alpha = its alpha, blade thickness from the thickness (mesh units, taken as metres); its normal map is ignored (leaves take bump maps) |
 //!
-//! Metallic, roughness and normal maps have no counterpart in these materials and are
-//! ignored (a scene can override any glTF material by name with a lamina `leaf`, which has
-//! its own bump and roughness). glTF is `+y` up in metres, as lamina is; texture `v` is
-//! flipped to lamina's `v`-up convention. A mesh that one node uses becomes world-space
+//! Every map is read with the first UV set after the base colour's transform; a map asking
+//! for another set or transform gets a warning. glTF is `+y` up in metres, as lamina is;
+//! texture `v` is flipped to lamina's `v`-up convention. A mesh that one node uses becomes
+//! world-space
 //! triangles; a mesh that several nodes use becomes one [`Prototype`] (in the mesh's own
 //! space) with one [`Instance`] per node, unless the caller asks for everything flattened.
 
 use crate::error::SceneError;
-use crate::scene::{AlphaMask, ColorInput, Instance, Material, Mesh, Prototype};
+use crate::scene::{
+    AlphaMask, ColorInput, Instance, Material, Mesh, NormalMap, PbrMaterial, Prototype,
+};
 use crate::transform::Transform;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use lamina_leaf::texture::srgb_to_linear;
@@ -33,6 +38,7 @@ use std::sync::Arc;
 /// Extensions whose absence changes nothing we render, so a file may require them.
 const UNDERSTOOD: &[&str] = &[
     "KHR_texture_transform",
+    "KHR_materials_ior",
     "KHR_materials_diffuse_transmission",
     "KHR_materials_volume",
     "KHR_mesh_quantization",
@@ -304,6 +310,10 @@ fn read_primitive(
         .read_normals()
         .map(|n| n.map(Vec3::from).collect())
         .unwrap_or_default();
+    let tangents: Vec<Vec4> = reader
+        .read_tangents()
+        .map(|t| t.map(Vec4::from).collect())
+        .unwrap_or_default();
     let uvs: Vec<Vec2> = reader
         .read_tex_coords(0)
         .map(|t| {
@@ -316,7 +326,10 @@ fn read_primitive(
         })
         .unwrap_or_default();
     let n = positions.len();
-    if (!normals.is_empty() && normals.len() != n) || (!uvs.is_empty() && uvs.len() != n) {
+    if (!normals.is_empty() && normals.len() != n)
+        || (!uvs.is_empty() && uvs.len() != n)
+        || (!tangents.is_empty() && tangents.len() != n)
+    {
         return Err(fail(
             "attribute counts differ from the POSITION count".into(),
         ));
@@ -325,6 +338,12 @@ fn read_primitive(
         return Err(fail(format!(
             "normal {bad} is not finite: {:?}",
             normals[bad]
+        )));
+    }
+    if let Some(bad) = tangents.iter().position(|v| !v.is_finite()) {
+        return Err(fail(format!(
+            "tangent {bad} is not finite: {:?}",
+            tangents[bad]
         )));
     }
     if let Some(bad) = uvs.iter().position(|v| !v.is_finite()) {
@@ -368,7 +387,16 @@ fn read_primitive(
     Ok(Some(Mesh {
         positions: positions.iter().map(|&p| xf.point(p)).collect(),
         normals: normals.iter().map(|&v| xf.normal(v)).collect(),
-        tangents: Vec::new(),
+        // glTF: bitangent = w · (normal × tangent); a mirroring transform flips it.
+        tangents: tangents
+            .iter()
+            .map(|t| {
+                let w = if t.w < 0.0 { -1.0 } else { 1.0 };
+                xf.vector(t.truncate())
+                    .normalize_or_zero()
+                    .extend(if flips { -w } else { w })
+            })
+            .collect(),
         uvs,
         indices,
         material,
@@ -450,6 +478,38 @@ fn ext_f32(v: Option<&serde_json::Value>, name: &str, default: f32) -> f32 {
         .map_or(default, |x| x as f32)
 }
 
+/// The texture that a `KHR_materials_diffuse_transmission` texture-info object refers to.
+fn ext_texture<'a>(
+    path: &Path,
+    doc: &'a gltf::Document,
+    info: Option<&serde_json::Value>,
+    key: &str,
+) -> Result<Option<gltf::Texture<'a>>, SceneError> {
+    let Some(info) = info else { return Ok(None) };
+    let index = info.get("index").and_then(|i| i.as_u64());
+    let tex = index.and_then(|i| doc.textures().nth(i as usize));
+    match tex {
+        Some(t) => Ok(Some(t)),
+        None => Err(SceneError::new(
+            path,
+            None,
+            key,
+            format!("texture index {index:?} does not exist"),
+        )),
+    }
+}
+
+/// `(texCoord, KHR_texture_transform)` of a texture reference, for checking that all of a
+/// material's maps read the coordinates the mesh carries.
+fn tex_coord_and_transform(t: &gltf::texture::Info) -> (u32, Option<[f32; 5]>) {
+    let xf = t.texture_transform().map(|x| {
+        let [ox, oy] = x.offset();
+        let [sx, sy] = x.scale();
+        [ox, oy, sx, sy, x.rotation()]
+    });
+    (t.tex_coord(), xf)
+}
+
 #[allow(clippy::too_many_arguments)]
 fn convert_material(
     path: &Path,
@@ -466,6 +526,47 @@ fn convert_material(
         .base_color_texture()
         .map(|t| image(path, doc, buffers, t.texture(), true, cache))
         .transpose()?;
+    // Every map is read with the mesh's first UV set after the base colour's transform
+    // (see `read_mesh`): say so where a map asks for something else.
+    let base_coords = pbr
+        .base_color_texture()
+        .map(|t| tex_coord_and_transform(&t));
+    let mut check_coords = |what: &str, coords: (u32, Option<[f32; 5]>)| {
+        let expected = base_coords.unwrap_or((0, coords.1));
+        if coords.0 != 0 || coords != expected {
+            warnings.push(format!(
+                "material '{name}': the {what} map uses other texture coordinates or another \
+                 KHR_texture_transform than the base colour; it is read with the base colour's"
+            ));
+        }
+    };
+    let mr_tex = match pbr.metallic_roughness_texture() {
+        Some(t) => {
+            check_coords("metallic-roughness", tex_coord_and_transform(&t));
+            Some(image(path, doc, buffers, t.texture(), false, cache)?)
+        }
+        None => None,
+    };
+    let normal_map = match m.normal_texture() {
+        Some(t) => {
+            // (the gltf crate does not expose a normal texture's KHR_texture_transform)
+            check_coords("normal", (t.tex_coord(), base_coords.and_then(|b| b.1)));
+            let scale = t.scale();
+            if !scale.is_finite() || scale.abs() > 100.0 {
+                return Err(SceneError::new(
+                    path,
+                    None,
+                    format!("materials[{}].normalTexture.scale", m.index().unwrap_or(0)),
+                    format!("must be finite and within ±100, got {scale}"),
+                ));
+            }
+            Some(NormalMap {
+                map: image(path, doc, buffers, t.texture(), false, cache)?,
+                scale,
+            })
+        }
+        None => None,
+    };
     let alpha = match m.alpha_mode() {
         gltf::material::AlphaMode::Opaque => None,
         mode => {
@@ -510,26 +611,66 @@ fn convert_material(
             "material '{name}': KHR_materials_translucency (not a ratified extension) ignored"
         ));
     }
-    let Some(dt) = dt else {
-        return Ok(Material::Diffuse {
-            name: name.into(),
-            reflectance: base,
-            alpha,
-        });
+    let mut out = PbrMaterial {
+        name: name.into(),
+        base_color: base,
+        metallic: pbr.metallic_factor().clamp(0.0, 1.0),
+        roughness: pbr.roughness_factor().clamp(0.0, 1.0),
+        metallic_roughness: mr_tex,
+        ior: 1.5,
+        transmission: 0.0,
+        transmission_map: None,
+        transmission_color: ColorInput::Constant(Vec3::ONE),
+        normal_map,
+        alpha,
     };
-    let t = ext_f32(Some(dt), "diffuseTransmissionFactor", 0.0).clamp(0.0, 1.0);
+    if let Some(ior) = ext.and_then(|e| e.get("KHR_materials_ior")) {
+        let v = ext_f32(Some(ior), "ior", 1.5);
+        if (1.0..=3.0).contains(&v) {
+            out.ior = v;
+        } else {
+            warnings.push(format!(
+                "material '{name}': KHR_materials_ior {v} outside [1, 3]; 1.5 used"
+            ));
+        }
+    }
+    let Some(dt) = dt else {
+        return Ok(Material::Pbr(Box::new(out)));
+    };
+    let key = |k: &str| {
+        format!(
+            "materials[{}].extensions.KHR_materials_diffuse_transmission.{k}",
+            m.index().unwrap_or(0)
+        )
+    };
+    out.transmission = ext_f32(Some(dt), "diffuseTransmissionFactor", 0.0).clamp(0.0, 1.0);
     let c = dt
         .get("diffuseTransmissionColorFactor")
         .and_then(|v| serde_json::from_value::<[f32; 3]>(v.clone()).ok())
         .map_or(Vec3::ONE, Vec3::from)
         .clamp(Vec3::ZERO, Vec3::ONE);
-    if dt.get("diffuseTransmissionTexture").is_some()
-        || dt.get("diffuseTransmissionColorTexture").is_some()
-    {
-        warnings.push(format!(
-            "material '{name}': diffuse-transmission textures ignored; their factors are used"
-        ));
-    }
+    let t_tex = ext_texture(
+        path,
+        doc,
+        dt.get("diffuseTransmissionTexture"),
+        &key("diffuseTransmissionTexture"),
+    )?;
+    let c_tex = ext_texture(
+        path,
+        doc,
+        dt.get("diffuseTransmissionColorTexture"),
+        &key("diffuseTransmissionColorTexture"),
+    )?;
+    out.transmission_map = t_tex
+        .map(|t| image(path, doc, buffers, t, false, cache))
+        .transpose()?;
+    out.transmission_color = match c_tex {
+        Some(t) => ColorInput::Texture {
+            map: image(path, doc, buffers, t, true, cache)?,
+            factor: c,
+        },
+        None => ColorInput::Constant(c),
+    };
     if let Some(v) = volume {
         let thickness_m = ext_f32(Some(v), "thicknessFactor", 0.0);
         if thickness_m > 0.0 {
@@ -539,9 +680,15 @@ fn convert_material(
             };
             let maps = lamina_leaf::LeafMaps {
                 front: base_tex.clone(),
-                alpha: alpha.as_ref().map(|a| a.map.clone()),
+                alpha: out.alpha.as_ref().map(|a| a.map.clone()),
                 ..Default::default()
             };
+            if out.normal_map.is_some() {
+                warnings.push(format!(
+                    "material '{name}': rendered as a lamina leaf, whose relief comes from a \
+                     bump (height) map; the normal map is ignored"
+                ));
+            }
             let leaf = lamina_leaf::LeafMaterial::new(maps, params).map_err(|e| {
                 SceneError::new(path, None, format!("material '{name}'"), e.to_string())
             })?;
@@ -551,17 +698,5 @@ fn convert_material(
             });
         }
     }
-    let reflectance = match base {
-        ColorInput::Constant(b) => ColorInput::Constant(b * (1.0 - t)),
-        ColorInput::Texture { map, factor } => ColorInput::Texture {
-            map,
-            factor: factor * (1.0 - t),
-        },
-    };
-    Ok(Material::DiffuseTransmission {
-        name: name.into(),
-        reflectance,
-        transmittance: ColorInput::Constant(c * t),
-        alpha,
-    })
+    Ok(Material::Pbr(Box::new(out)))
 }

@@ -1448,6 +1448,12 @@ pub fn apply_transform(mesh: &mut Mesh, t: &Transform) {
     for n in &mut mesh.normals {
         *n = t.normal(*n);
     }
+    // A tangent follows the surface like a position difference; a mirror flips the
+    // bitangent's handedness (see `Mesh::tangents`).
+    let w = if t.flips() { -1.0 } else { 1.0 };
+    for tg in &mut mesh.tangents {
+        *tg = t.vector(tg.truncate()).normalize_or_zero().extend(tg.w * w);
+    }
     if t.flips() {
         for tri in &mut mesh.indices {
             tri.swap(1, 2);

@@ -49,7 +49,7 @@ fn triangle_gltf(positions: [[f32; 3]; 3], extra: &str) -> String {
   "scenes": [{{"nodes": [0, 1]}}],
   "nodes": [{{"mesh": 0}}, {{"mesh": 0, "translation": [2, 0, 0]}}],
   "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "material": 0}}]}}],
-  "materials": [{{"name": "leafy", "pbrMetallicRoughness": {{"baseColorFactor": [0.2, 0.4, 0.1, 1]}},
+  "materials": [{{"name": "leafy", "pbrMetallicRoughness": {{"baseColorFactor": [0.2, 0.4, 0.1, 1], "metallicFactor": 0}},
                  "extensions": {{"KHR_materials_diffuse_transmission": {{"diffuseTransmissionFactor": 0.5,
                    "diffuseTransmissionColorFactor": [0.5, 1.0, 0.2]}}}}}}],
   "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
@@ -89,21 +89,13 @@ fn hierarchy_instances_and_diffuse_transmission() {
     let xs: Vec<f32> = flat.meshes.iter().map(|m| m.positions[1].x).collect();
     assert!(xs.contains(&1.0) && xs.contains(&3.0), "{xs:?}");
     match &g.materials[0] {
-        Material::DiffuseTransmission {
-            reflectance,
-            transmittance,
-            ..
-        } => {
-            let r = reflectance.at(glam::Vec2::ZERO);
-            let t = transmittance.at(glam::Vec2::ZERO);
-            assert!(
-                (r - glam::Vec3::new(0.1, 0.2, 0.05)).length() < 1e-6,
-                "R = base (1 - t): {r}"
-            );
-            assert!(
-                (t - glam::Vec3::new(0.25, 0.5, 0.1)).length() < 1e-6,
-                "T = colour t: {t}"
-            );
+        Material::Pbr(p) => {
+            let b = p.bsdf(glam::Vec2::ZERO);
+            assert!((b.base_color - glam::Vec3::new(0.2, 0.4, 0.1)).length() < 1e-6);
+            assert_eq!((b.metallic, b.roughness, b.ior), (0.0, 1.0, 1.5));
+            assert_eq!(b.transmission, 0.5);
+            assert!((b.transmission_color - glam::Vec3::new(0.5, 1.0, 0.2)).length() < 1e-6);
+            assert!(p.normal_map.is_none() && p.metallic_roughness.is_none());
         }
         other => panic!("{other:?}"),
     }
@@ -213,9 +205,21 @@ fn real_plant_when_shared_data_exists() {
         .iter()
         .position(|n| n == "potted_plant_02_leaves")
         .expect("leaf material");
+    // Every material keeps its maps: base colour, metallic-roughness, normal.
+    for m in &g.materials[..2] {
+        let Material::Pbr(p) = m else {
+            panic!("glTF materials are Pbr: {m:?}");
+        };
+        assert!(
+            p.metallic_roughness.is_some() && p.normal_map.is_some(),
+            "{}",
+            p.name
+        );
+        assert_eq!(p.metallic, 0.0);
+    }
     match &g.materials[leaves] {
-        Material::Diffuse { alpha: Some(a), .. } => assert_eq!(a.cutoff, 0.5),
-        other => panic!("leaves should be a cut-out diffuse material: {other:?}"),
+        Material::Pbr(p) => assert_eq!(p.alpha.as_ref().map(|a| a.cutoff), Some(0.5)),
+        other => panic!("leaves should be a cut-out material: {other:?}"),
     }
     let (lo, hi) = g
         .meshes
@@ -325,4 +329,159 @@ fn nan_normals_are_rejected() {
             && e.contains("normal 1 is not finite"),
         "{e}"
     );
+}
+
+/// A unit quad in `z = 0` (normals `+z`, UVs, tangents `+x` with `w = tangent_w`) under a
+/// node with scale `node_scale`; material 0 has a metallic-roughness and a normal texture
+/// (`mr.png`, `n.png` beside the file), material 1 has no `pbrMetallicRoughness` block.
+fn mapped_quad_gltf(node_scale: [f32; 3], tangent_w: f32) -> String {
+    let mut bytes = Vec::new();
+    let pos = [
+        [0.0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ];
+    for p in pos {
+        p.iter().for_each(|c| bytes.extend(c.to_le_bytes()));
+    }
+    for _ in 0..4 {
+        [0.0f32, 0.0, 1.0]
+            .iter()
+            .for_each(|c| bytes.extend(c.to_le_bytes()));
+    }
+    for _ in 0..4 {
+        [1.0f32, 0.0, 0.0, tangent_w]
+            .iter()
+            .for_each(|c| bytes.extend(c.to_le_bytes()));
+    }
+    for uv in [[0.0f32, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]] {
+        uv.iter().for_each(|c| bytes.extend(c.to_le_bytes()));
+    }
+    for i in [0u16, 1, 2, 0, 2, 3] {
+        bytes.extend(i.to_le_bytes());
+    }
+    let n = bytes.len();
+    let uri = format!("data:application/octet-stream;base64,{}", b64(&bytes));
+    format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  "scene": 0,
+  "scenes": [{{"nodes": [0]}}],
+  "nodes": [{{"mesh": 0, "scale": {node_scale:?}}}],
+  "meshes": [{{"primitives": [
+     {{"attributes": {{"POSITION": 0, "NORMAL": 1, "TANGENT": 2, "TEXCOORD_0": 3}}, "indices": 4, "material": 0}},
+     {{"attributes": {{"POSITION": 0}}, "indices": 4, "material": 1}}]}}],
+  "materials": [
+    {{"name": "glossy", "pbrMetallicRoughness": {{"metallicFactor": 0.5, "roughnessFactor": 0.8,
+        "metallicRoughnessTexture": {{"index": 0}}}},
+      "normalTexture": {{"index": 1, "scale": 0.7}}}},
+    {{"name": "plain"}}],
+  "textures": [{{"source": 0}}, {{"source": 1}}],
+  "images": [{{"uri": "mr.png"}}, {{"uri": "n.png"}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 0, "byteOffset": 48, "componentType": 5126, "count": 4, "type": "VEC3"}},
+    {{"bufferView": 0, "byteOffset": 96, "componentType": 5126, "count": 4, "type": "VEC4"}},
+    {{"bufferView": 0, "byteOffset": 160, "componentType": 5126, "count": 4, "type": "VEC2"}},
+    {{"bufferView": 0, "byteOffset": 192, "componentType": 5123, "count": 6, "type": "SCALAR"}}],
+  "bufferViews": [{{"buffer": 0, "byteLength": {n}}}],
+  "buffers": [{{"byteLength": {n}, "uri": "{uri}"}}]
+}}"#
+    )
+}
+
+/// Writes the textures `mapped_quad_gltf` refers to: metallic-roughness with G = 0.5,
+/// B = 0.25; a normal map tilted towards `+x`.
+fn write_quad_textures(d: &Path) {
+    let mr = image::RgbaImage::from_pixel(2, 2, image::Rgba([0, 128, 64, 255]));
+    mr.save(d.join("mr.png")).unwrap();
+    let n = image::RgbaImage::from_pixel(2, 2, image::Rgba([200, 128, 230, 255]));
+    n.save(d.join("n.png")).unwrap();
+}
+
+#[test]
+fn metallic_roughness_normal_maps_and_tangents() {
+    let d = scratch("pbr");
+    write_quad_textures(&d);
+    let p = d.join("q.gltf");
+    std::fs::write(&p, mapped_quad_gltf([1.0, 1.0, 1.0], 1.0)).unwrap();
+    let g = load_gltf(&p, &Transform::default()).unwrap();
+    let Material::Pbr(m) = &g.materials[0] else {
+        panic!("{:?}", g.materials[0]);
+    };
+    assert_eq!(m.name, "glossy");
+    // Factors times the map (linear: G = 128/255, B = 64/255).
+    let b = m.bsdf(glam::Vec2::splat(0.5));
+    assert!(
+        (b.roughness - 0.8 * 128.0 / 255.0).abs() < 1e-3,
+        "{}",
+        b.roughness
+    );
+    assert!(
+        (b.metallic - 0.5 * 64.0 / 255.0).abs() < 1e-3,
+        "{}",
+        b.metallic
+    );
+    let nm = m.normal_map.as_ref().expect("normal map");
+    assert_eq!(nm.scale, 0.7);
+    // Decoded linearly (not sRGB): x = 2·200/255 − 1 = 0.569, scaled by 0.7.
+    let v = nm.at(glam::Vec2::splat(0.5));
+    let raw = glam::Vec3::new(
+        2.0 * 200.0 / 255.0 - 1.0,
+        2.0 * 128.0 / 255.0 - 1.0,
+        2.0 * 230.0 / 255.0 - 1.0,
+    );
+    let want = glam::Vec3::new(raw.x * 0.7, raw.y * 0.7, raw.z).normalize();
+    assert!((v - want).length() < 1e-3, "{v} vs {want}");
+    // glTF defaults for a material without pbrMetallicRoughness: white, metallic 1,
+    // roughness 1.
+    let Material::Pbr(plain) = &g.materials[1] else {
+        panic!("{:?}", g.materials[1]);
+    };
+    let b = plain.bsdf(glam::Vec2::ZERO);
+    assert_eq!(
+        (b.base_color, b.metallic, b.roughness),
+        (glam::Vec3::ONE, 1.0, 1.0)
+    );
+    // Tangents are read; v is flipped to lamina's convention.
+    let mesh = &g.meshes[0];
+    assert_eq!(mesh.tangents, vec![glam::Vec4::new(1.0, 0.0, 0.0, 1.0); 4]);
+    assert_eq!(mesh.uvs[0], glam::Vec2::new(0.0, 0.0));
+    assert_eq!(mesh.uvs[3], glam::Vec2::new(0.0, 1.0));
+    assert!(g.meshes[1].tangents.is_empty());
+
+    // A mirroring node: tangents follow the mirror and their handedness flips.
+    std::fs::write(&p, mapped_quad_gltf([-1.0, 1.0, 1.0], 1.0)).unwrap();
+    let g = load_gltf(&p, &Transform::default()).unwrap();
+    assert_eq!(
+        g.meshes[0].tangents[0],
+        glam::Vec4::new(-1.0, 0.0, 0.0, -1.0)
+    );
+
+    // Bad tangents and bad normal-map strength are errors naming the file and the key.
+    std::fs::write(&p, mapped_quad_gltf([1.0, 1.0, 1.0], f32::NAN)).unwrap();
+    let e = load_gltf(&p, &Transform::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("q.gltf") && e.contains("tangent"), "{e}");
+    std::fs::write(
+        &p,
+        mapped_quad_gltf([1.0, 1.0, 1.0], 1.0).replace("\"scale\": 0.7", "\"scale\": 1e9"),
+    )
+    .unwrap();
+    let e = load_gltf(&p, &Transform::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("q.gltf") && e.contains("normalTexture.scale"),
+        "{e}"
+    );
+    // A missing normal map names the image.
+    std::fs::write(&p, mapped_quad_gltf([1.0, 1.0, 1.0], 1.0)).unwrap();
+    std::fs::remove_file(d.join("n.png")).unwrap();
+    let e = load_gltf(&p, &Transform::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("q.gltf") && e.contains("n.png"), "{e}");
 }

@@ -14,7 +14,7 @@ use crate::accel::{HitKind, ID_MASK, Ray};
 use crate::lights::AnyLight;
 use crate::materials::SurfaceBsdf;
 use crate::sampler::PixelSampler;
-use crate::shading::ShadingFrame;
+use crate::shading::{ShadingFrame, shading_normal};
 use glam::Vec3;
 use lamina_leaf::Bsdf;
 
@@ -43,11 +43,10 @@ pub fn radiance(
         return Vec3::ZERO;
     };
     let (p, info) = ctx.accel.surface(prim, bary);
-    let frame = ShadingFrame::new(&info, ctx.accel.shading_normal(prim, bary), -ray.dir);
-    let bsdf = SurfaceBsdf::at(
-        &ctx.scene.materials[(info.flags & ID_MASK) as usize],
-        info.uv_at(bary),
-    );
+    let material = &ctx.scene.materials[(info.flags & ID_MASK) as usize];
+    let ns = shading_normal(&ctx.accel, prim, bary, &info, material.normal_map());
+    let frame = ShadingFrame::new(&info, ns, -ray.dir);
+    let bsdf = SurfaceBsdf::at(material, info.uv_at(bary));
     let wo = frame.to_local(-ray.dir);
     let mut l = Vec3::ZERO;
     for light in lights.iter().filter(|l| !matches!(l, AnyLight::Sky(_))) {

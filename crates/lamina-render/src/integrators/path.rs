@@ -21,7 +21,7 @@ use crate::accel::{FLAG_EMITTER, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
 use crate::lights::power_heuristic;
 use crate::materials::SurfaceBsdf;
 use crate::sampler::PixelSampler;
-use crate::shading::ShadingFrame;
+use crate::shading::{ShadingFrame, shading_normal};
 use glam::Vec3;
 use lamina_leaf::Bsdf;
 
@@ -75,11 +75,10 @@ pub fn radiance(
         }
         let (p, info) = ctx.accel.surface(prim, bary);
         debug_assert!(info.flags & FLAG_EMITTER == 0);
-        let frame = ShadingFrame::new(&info, ctx.accel.shading_normal(prim, bary), -ray.dir);
-        let bsdf = SurfaceBsdf::at(
-            &ctx.scene.materials[(info.flags & ID_MASK) as usize],
-            info.uv_at(bary),
-        );
+        let material = &ctx.scene.materials[(info.flags & ID_MASK) as usize];
+        let ns = shading_normal(&ctx.accel, prim, bary, &info, material.normal_map());
+        let frame = ShadingFrame::new(&info, ns, -ray.dir);
+        let bsdf = SurfaceBsdf::at(material, info.uv_at(bary));
         let wo = frame.to_local(-ray.dir);
 
         for light in lights {

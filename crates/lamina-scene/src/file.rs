@@ -154,6 +154,23 @@ pub struct MaterialTable {
     pub resolution: Option<S<i64>>,
     pub maps: Option<S<toml::Table>>,
     pub params: Option<S<toml::Table>>,
+    /// `pbr`: base colour (linear), multiplies `base_color_map` (sRGB) when both are given.
+    pub base_color: Option<S<ColorValue>>,
+    pub base_color_map: Option<S<String>>,
+    /// `pbr`: metallic and perceptual roughness factors, multiplied by the blue and green
+    /// channels of `metallic_roughness_map` (linear) when it is given.
+    pub metallic: Option<S<f32>>,
+    pub roughness: Option<S<f32>>,
+    pub metallic_roughness_map: Option<S<String>>,
+    pub ior: Option<S<f32>>,
+    /// `pbr`: diffuse transmission factor and colour.
+    pub transmission: Option<S<f32>>,
+    pub transmission_color: Option<S<ColorValue>>,
+    /// `pbr`: tangent-space normal map (linear, OpenGL/glTF convention) and its scale.
+    pub normal_map: Option<S<String>>,
+    pub normal_scale: Option<S<f32>>,
+    /// `pbr`: the same as `alpha` (a matte image), under the name of the other maps.
+    pub alpha_map: Option<S<String>>,
 }
 
 /// `transform = { ... }` on an object: scale, then rotations about x, y, z, then translate.

@@ -705,17 +705,29 @@ impl Ctx {
     }
 
     fn alpha_mask(&self, m: &MaterialTable, key: &str) -> Result<Option<AlphaMask>, SceneError> {
-        let Some(p) = &m.alpha else {
-            if let Some(c) = &m.alpha_cutoff {
+        // `alpha_map` (pbr only, checked by the caller) is another name for `alpha`.
+        let (p, map_key) = match (&m.alpha, &m.alpha_map) {
+            (Some(_), Some(b)) => {
                 return Err(self.err(
-                    c.span(),
-                    format!("{key}.alpha_cutoff"),
-                    "needs an alpha map ('alpha = \"matte.png\"')",
+                    b.span(),
+                    format!("{key}.alpha_map"),
+                    "give either 'alpha' or 'alpha_map', not both",
                 ));
             }
-            return Ok(None);
+            (Some(a), None) => (a, "alpha"),
+            (None, Some(b)) => (b, "alpha_map"),
+            (None, None) => {
+                if let Some(c) = &m.alpha_cutoff {
+                    return Err(self.err(
+                        c.span(),
+                        format!("{key}.alpha_cutoff"),
+                        "needs an alpha map ('alpha = \"matte.png\"')",
+                    ));
+                }
+                return Ok(None);
+            }
         };
-        let map = self.texture(p, &format!("{key}.alpha"), Encoding::Linear)?;
+        let map = self.texture(p, &format!("{key}.{map_key}"), Encoding::Linear)?;
         let cutoff = self.opt_float(
             &m.alpha_cutoff,
             &format!("{key}.alpha_cutoff"),
@@ -771,6 +783,17 @@ impl Ctx {
             ("resolution", m.resolution.is_some()),
             ("maps", m.maps.is_some()),
             ("params", m.params.is_some()),
+            ("base_color", m.base_color.is_some()),
+            ("base_color_map", m.base_color_map.is_some()),
+            ("metallic", m.metallic.is_some()),
+            ("roughness", m.roughness.is_some()),
+            ("metallic_roughness_map", m.metallic_roughness_map.is_some()),
+            ("ior", m.ior.is_some()),
+            ("transmission", m.transmission.is_some()),
+            ("transmission_color", m.transmission_color.is_some()),
+            ("normal_map", m.normal_map.is_some()),
+            ("normal_scale", m.normal_scale.is_some()),
+            ("alpha_map", m.alpha_map.is_some()),
         ];
         match kind {
             "diffuse" => {
@@ -867,12 +890,108 @@ impl Ctx {
                     leaf: Arc::new(leaf),
                 })
             }
+            "pbr" => {
+                self.only(
+                    t.span(),
+                    &p,
+                    kind,
+                    &keys,
+                    &[
+                        "name",
+                        "base_color",
+                        "base_color_map",
+                        "metallic",
+                        "roughness",
+                        "metallic_roughness_map",
+                        "ior",
+                        "transmission",
+                        "transmission_color",
+                        "normal_map",
+                        "normal_scale",
+                        "alpha",
+                        "alpha_map",
+                        "alpha_cutoff",
+                    ],
+                )?;
+                self.pbr_material(name, m, &p)
+                    .map(|x| Material::Pbr(Box::new(x)))
+            }
             other => Err(self.err(
                 m.kind.span(),
                 format!("{p}.type"),
-                format!("unknown material type '{other}' (diffuse, diffuse_transmission, leaf)"),
+                format!(
+                    "unknown material type '{other}' (diffuse, diffuse_transmission, leaf, pbr)"
+                ),
             )),
         }
+    }
+
+    /// A `type = "pbr"` material (glTF metallic-roughness); keys already checked.
+    fn pbr_material(
+        &self,
+        name: String,
+        m: &MaterialTable,
+        p: &str,
+    ) -> Result<PbrMaterial, SceneError> {
+        let key = |k: &str| format!("{p}.{k}");
+        let base_color = self.color_input(
+            &m.base_color,
+            &m.base_color_map,
+            &key("base_color"),
+            Vec3::splat(0.8),
+        )?;
+        let metallic = self.opt_float(&m.metallic, &key("metallic"), 0.0, 1.0, false, 0.0)?;
+        let roughness = self.opt_float(&m.roughness, &key("roughness"), 0.0, 1.0, false, 0.5)?;
+        let metallic_roughness = m
+            .metallic_roughness_map
+            .as_ref()
+            .map(|f| self.texture(f, &key("metallic_roughness_map"), Encoding::Linear))
+            .transpose()?;
+        let ior = self.opt_float(&m.ior, &key("ior"), 1.0, 3.0, false, 1.5)?;
+        let transmission =
+            self.opt_float(&m.transmission, &key("transmission"), 0.0, 1.0, false, 0.0)?;
+        let transmission_color = m
+            .transmission_color
+            .as_ref()
+            .map(|c| self.color(c, &key("transmission_color"), Some(1.0)))
+            .transpose()?
+            .unwrap_or(Vec3::ONE);
+        let normal_map = match &m.normal_map {
+            Some(f) => Some(NormalMap {
+                map: self.texture(f, &key("normal_map"), Encoding::Linear)?,
+                scale: self.opt_float(
+                    &m.normal_scale,
+                    &key("normal_scale"),
+                    0.0,
+                    10.0,
+                    false,
+                    1.0,
+                )?,
+            }),
+            None => {
+                if let Some(s) = &m.normal_scale {
+                    return Err(self.err(
+                        s.span(),
+                        key("normal_scale"),
+                        "needs a normal map ('normal_map = \"normals.png\"')",
+                    ));
+                }
+                None
+            }
+        };
+        Ok(PbrMaterial {
+            name,
+            base_color,
+            metallic,
+            roughness,
+            metallic_roughness,
+            ior,
+            transmission,
+            transmission_map: None,
+            transmission_color: ColorInput::Constant(transmission_color),
+            normal_map,
+            alpha: self.alpha_mask(m, p)?,
+        })
     }
 
     /// A transform from parts, validated (see [`crate::instances::checked_transform`]);

@@ -13,11 +13,37 @@
 //! | `d` < 0.5 without maps (`Tr` > 0.5) | fully cut out (invisible), with a warning |
 //! | `Tf` (transmission filter, RGB), when not black and not the exporters' default `1 1 1` | `diffuse_transmission` with transmittance `Tf`; reflectance lowered where `Kd + Tf` > 1 |
 //!
-//! Specular, shininess, bump/normal maps, `Ka`, `Ke`, `Ni` and `illum` are ignored.
+//! A material with **gloss** (`Ks` not black, or any of `Pr`, `map_Pr`, `Pm`, `map_Pm`) or
+//! **relief** (a normal map) becomes [`Material::Pbr`] instead (`Kd`/`map_Kd` the base
+//! colour, alpha as above, `Tf` as diffuse transmission `t = max(Tf)`, colour `Tf / t`,
+//! base `Kd / (1 - t)`):
+//!
+//! | MTL | lamina `pbr` |
+//! |---|---|
+//! | `Pr` ([0, 1]) | roughness |
+//! | `Ns` (Phong exponent, >= 0; used without `Pr`) | roughness `= (2 / (Ns + 2))^(1/4)`, see [`phong_exponent_to_roughness`]; neither: 0.5 |
+//! | `Pm` ([0, 1]) | metallic (default 0) |
+//! | `map_Pr`, `map_Pm` (linear, first channel or `-imfchan`) | packed into the metallic-roughness map (G, B), multiplying `Pr`/`Pm` (1 when only the map is given) |
+//! | `Ni` in (1, 3] | ior (else 1.5) |
+//! | `norm` | tangent-space normal map (linear, OpenGL/glTF: +y = up in the image), strength `-bm` (default 1, [0, 10]) |
+//! | `map_Bump` / `bump`, coloured | the same (exporters such as Blender write normal maps there), with a warning |
+//! | `map_Bump` / `bump`, grey | a classic height map: not supported, ignored with a warning |
+//!
+//! Texture options on any map: `-s u v w` / `-o u v w` become a transform of the
+//! material's texture coordinates, `uv' = uv * s + o` (`w` ignored; as three.js and
+//! Blender read them), applied to the meshes that use the material — when all its maps
+//! agree (a map without them counts as `-s 1 1 -o 0 0`); otherwise they are ignored with a
+//! warning. `-clamp on` clamps the map; `-bm` is the normal-map strength; `-imfchan`
+//! picks a scalar map's channel; `-blendu`, `-blendv`, `-cc`, `-mm`, `-boost`, `-texres`,
+//! `-t`, `-type` are read and ignored (warning). An unknown option or a bad number is an
+//! error naming the MTL file, its line and the statement.
+//!
+//! `Ka`, `Ke`, `map_Ks`, `map_Ns`, `map_Ka` and `illum` are ignored.
 
 use crate::error::SceneError;
-use crate::scene::{AlphaMask, ColorInput, Material, Mesh};
+use crate::scene::{AlphaMask, ColorInput, Material, Mesh, NormalMap, PbrMaterial};
 use glam::{Vec2, Vec3, Vec4};
+use lamina_leaf::texture::Wrap;
 use lamina_leaf::{Encoding, Texture};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
@@ -81,11 +107,14 @@ pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
             .map_or_else(|| path.to_owned(), |(f, _)| f.clone())
     };
     let mut out = ObjScene::default();
+    // Per material: the texture-coordinate transform of its maps (`-s`, `-o`).
+    let mut uv_transforms = Vec::new();
     for m in &materials {
         let mtl = mtl_of(&m.name);
-        let mat = convert_material(&mtl, m, &mut out.warnings)?;
+        let (mat, uv) = convert_material(&mtl, m, &mut out.warnings)?;
         out.materials.push(mat);
         out.material_names.push(m.name.clone());
+        uv_transforms.push(uv);
     }
     for (i, line) in text.lines().enumerate() {
         if let Some(name) = line.trim().strip_prefix("usemtl") {
@@ -108,6 +137,13 @@ pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
     out.meshes = meshes(path, models, |id| {
         id.map_or(default, |i| (i as u32).min(default))
     })?;
+    for mesh in &mut out.meshes {
+        if let Some(Some((scale, offset))) = uv_transforms.get(mesh.material as usize) {
+            for uv in &mut mesh.uvs {
+                *uv = *uv * *scale + *offset;
+            }
+        }
+    }
     Ok(out)
 }
 
@@ -186,47 +222,267 @@ fn prescan(path: &Path, text: &str, dir: &Path) -> Result<(), SceneError> {
     Ok(())
 }
 
-/// MTL material to lamina material; see the module docs for the mapping.
+/// A texture statement split into its options and its file, e.g.
+/// `map_Kd -s 2 2 1 -o 0.5 0 0 leaf.png` or `norm -bm 0.8 normals.png`.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct MapSpec {
+    /// The image path (may contain spaces).
+    file: String,
+    /// `-s u v w`: texture-coordinate scale (`w` ignored).
+    scale: Option<Vec2>,
+    /// `-o u v w`: texture-coordinate offset (`w` ignored).
+    offset: Option<Vec2>,
+    /// `-bm mult`: bump / normal strength.
+    bm: Option<f32>,
+    /// `-clamp on`.
+    clamp: bool,
+    /// `-imfchan r|g|b|m|l|z`: the channel of a scalar map.
+    channel: Option<char>,
+    /// Options that were read and ignored (`-blendu`, `-mm`, `-t`, ...).
+    ignored: Vec<String>,
+}
+
+impl MapSpec {
+    /// The map's texture-coordinate transform `uv' = uv * scale + offset`.
+    fn uv_transform(&self) -> (Vec2, Vec2) {
+        (
+            self.scale.unwrap_or(Vec2::ONE),
+            self.offset.unwrap_or(Vec2::ZERO),
+        )
+    }
+}
+
+/// Parses a texture statement's value (what follows `map_Kd`, `norm`, ...). Errors name
+/// the option and what is wrong with it.
+fn parse_map(spec: &str) -> Result<MapSpec, String> {
+    let mut out = MapSpec::default();
+    let mut rest = spec.trim();
+    // Next whitespace-separated word, and the text after it.
+    fn word(s: &str) -> (&str, &str) {
+        let s = s.trim_start();
+        let end = s.find(char::is_whitespace).unwrap_or(s.len());
+        (&s[..end], s[end..].trim_start())
+    }
+    let number = |w: &str, opt: &str| -> Result<f32, String> {
+        w.parse::<f32>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("texture option {opt}: '{w}' is not a finite number"))
+    };
+    loop {
+        let (w, after) = word(rest);
+        if w.is_empty() {
+            return Err(if out == MapSpec::default() {
+                "no texture file".into()
+            } else {
+                "no texture file after the options".into()
+            });
+        }
+        let is_option = w.starts_with('-')
+            && w.len() > 1
+            && w[1..].starts_with(|c: char| c.is_ascii_alphabetic());
+        if !is_option {
+            out.file = rest.trim_end().to_string();
+            return Ok(out);
+        }
+        rest = after;
+        match w {
+            // One to three numbers (u [v [w]]).
+            "-s" | "-o" | "-t" => {
+                let mut v = Vec::new();
+                while v.len() < 3 {
+                    let (n, after) = word(rest);
+                    match n.parse::<f32>() {
+                        Ok(x) => {
+                            v.push(number(n, w).map(|_| x)?);
+                            rest = after;
+                        }
+                        Err(_) => break,
+                    }
+                }
+                if v.is_empty() {
+                    let (n, _) = word(rest);
+                    return Err(format!("texture option {w}: needs numbers, got '{n}'"));
+                }
+                let def = if w == "-o" { 0.0 } else { 1.0 };
+                let uv = Vec2::new(v[0], v.get(1).copied().unwrap_or(def));
+                match w {
+                    "-s" => out.scale = Some(uv),
+                    "-o" => out.offset = Some(uv),
+                    _ => out.ignored.push(w.into()),
+                }
+            }
+            "-bm" => {
+                let (n, after) = word(rest);
+                out.bm = Some(number(n, w)?);
+                rest = after;
+            }
+            "-clamp" | "-blendu" | "-blendv" | "-cc" => {
+                let (n, after) = word(rest);
+                let on = match n {
+                    "on" => true,
+                    "off" => false,
+                    _ => {
+                        return Err(format!(
+                            "texture option {w}: needs 'on' or 'off', got '{n}'"
+                        ));
+                    }
+                };
+                if w == "-clamp" {
+                    out.clamp = on;
+                } else {
+                    out.ignored.push(w.into());
+                }
+                rest = after;
+            }
+            "-imfchan" => {
+                let (n, after) = word(rest);
+                match n {
+                    "r" | "g" | "b" | "m" | "l" => out.channel = n.chars().next(),
+                    _ => {
+                        return Err(format!(
+                            "texture option -imfchan: needs r, g, b, m or l, got '{n}'"
+                        ));
+                    }
+                }
+                rest = after;
+            }
+            "-mm" => {
+                for _ in 0..2 {
+                    let (n, after) = word(rest);
+                    number(n, w)?;
+                    rest = after;
+                }
+                out.ignored.push(w.into());
+            }
+            "-boost" | "-texres" => {
+                let (n, after) = word(rest);
+                number(n, w)?;
+                rest = after;
+                out.ignored.push(w.into());
+            }
+            "-type" => {
+                let (_, after) = word(rest);
+                rest = after;
+                out.ignored.push(w.into());
+            }
+            _ => return Err(format!("unknown texture option '{w}'")),
+        }
+    }
+}
+
+/// Phong exponent `Ns` to perceptual roughness: the Beckmann-Phong correspondence
+/// `alpha = sqrt(2 / (Ns + 2))` (Walter et al. 2007), and `roughness = sqrt(alpha)` since
+/// lamina's GGX uses `alpha = roughness²`. `Ns` 0 → 1, 10 → 0.64, 100 → 0.375,
+/// 1000 → 0.21.
+pub fn phong_exponent_to_roughness(ns: f32) -> f32 {
+    (2.0 / (ns.max(0.0) + 2.0)).sqrt().sqrt()
+}
+
+/// The MTL file of one material, for errors with lines.
+struct Mtl<'a> {
+    path: &'a Path,
+    text: String,
+    name: &'a str,
+}
+
+impl Mtl<'_> {
+    /// The 1-based line of the last statement `key` (any of `keys`) in this material's
+    /// `newmtl` block, as tobj keeps the last one.
+    fn line(&self, keys: &[&str]) -> Option<usize> {
+        let mut inside = false;
+        let mut found = None;
+        for (i, l) in self.text.lines().enumerate() {
+            let l = l.trim();
+            let tag = l.split_whitespace().next().unwrap_or("");
+            if tag == "newmtl" {
+                inside = l["newmtl".len()..].trim() == self.name;
+            } else if inside && keys.contains(&tag) {
+                found = Some(i + 1);
+            }
+        }
+        found
+    }
+
+    /// An error at statement `key` (the line of any of `keys`).
+    fn err(&self, key: &str, keys: &[&str], msg: impl Into<String>) -> SceneError {
+        SceneError::new(
+            self.path,
+            self.line(keys),
+            format!("newmtl {}: {key}", self.name),
+            msg,
+        )
+    }
+}
+
+/// MTL material to lamina material and the texture-coordinate transform (`uv * scale +
+/// offset`) its maps ask for; see the module docs for the mapping.
 fn convert_material(
     mtl: &Path,
     m: &tobj::Material,
     warnings: &mut Vec<String>,
-) -> Result<Material, SceneError> {
+) -> Result<(Material, Option<(Vec2, Vec2)>), SceneError> {
     let dir = mtl.parent().unwrap_or(Path::new(""));
-    let key = |k: &str| format!("newmtl {}: {k}", m.name);
-    let texture = |k: &str, file: &str, enc: Encoding| -> Result<Texture, SceneError> {
-        let p = dir.join(file.trim());
-        Texture::load(&p, enc).map_err(|e| {
-            SceneError::new(
-                mtl,
-                None,
-                key(k),
-                format!("cannot load texture '{}': {e}", p.display()),
-            )
-        })
+    let f = Mtl {
+        path: mtl,
+        text: std::fs::read_to_string(mtl).unwrap_or_default(),
+        name: &m.name,
+    };
+    const BUMP: &[&str] = &["map_Bump", "map_bump", "bump"];
+    let err = |k: &str, msg: String| {
+        // tobj merges `bump` into `map_Bump`.
+        let keys: &[&str] = if k == "map_Bump" { BUMP } else { &[k] };
+        f.err(k, keys, msg)
+    };
+    // Every map used, with its options, for the shared texture-coordinate transform.
+    let mut used: Vec<(&str, MapSpec)> = Vec::new();
+    let spec = |k: &str, v: &str| parse_map(v).map_err(|e| err(k, e));
+    let texture = |k: &str, s: &MapSpec, enc: Encoding| -> Result<Texture, SceneError> {
+        let p = dir.join(&s.file);
+        let mut t = Texture::load(&p, enc)
+            .map_err(|e| err(k, format!("cannot load texture '{}': {e}", p.display())))?;
+        if s.clamp {
+            t.wrap = Wrap::Clamp;
+        }
+        Ok(t)
     };
     let finite3 = |k: &str, v: [f32; 3]| -> Result<Vec3, SceneError> {
         let v = Vec3::from(v);
         if !v.is_finite() {
-            return Err(SceneError::new(
-                mtl,
-                None,
-                key(k),
-                format!("must be finite, got {:?}", v.to_array()),
-            ));
+            return Err(err(k, format!("must be finite, got {:?}", v.to_array())));
         }
         Ok(v.clamp(Vec3::ZERO, Vec3::ONE))
     };
+    // A scalar statement of the PBR extension (`Pr 0.4`), in [0, 1].
+    let unit = |k: &str| -> Result<Option<f32>, SceneError> {
+        let Some(v) = m.unknown_param.get(k) else {
+            return Ok(None);
+        };
+        let x = v
+            .trim()
+            .parse::<f32>()
+            .map_err(|_| err(k, format!("not a number: '{}'", v.trim())))?;
+        if !(0.0..=1.0).contains(&x) {
+            return Err(err(k, format!("must be in [0, 1], got {x}")));
+        }
+        Ok(Some(x))
+    };
     let kd = m.diffuse.map(|d| finite3("Kd", d)).transpose()?;
-    let map_kd = m
-        .diffuse_texture
-        .as_deref()
-        .map(|f| texture("map_Kd", f, Encoding::Srgb))
-        .transpose()?;
+    let map_kd = match m.diffuse_texture.as_deref() {
+        Some(v) => {
+            let s = spec("map_Kd", v)?;
+            let t = texture("map_Kd", &s, Encoding::Srgb)?;
+            used.push(("map_Kd", s));
+            Some(t)
+        }
+        None => None,
+    };
     let has_alpha = |t: &Texture| t.texels().iter().any(|x| x.w < 1.0);
     let mut alpha = match &m.dissolve_texture {
-        Some(f) => {
-            let t = texture("map_d", f, Encoding::Linear)?;
+        Some(v) => {
+            let s = spec("map_d", v)?;
+            let t = texture("map_d", &s, Encoding::Linear)?;
+            used.push(("map_d", s));
             Some(AlphaMask {
                 use_alpha_channel: has_alpha(&t),
                 map: t,
@@ -265,26 +521,122 @@ fn convert_material(
                 .split_whitespace()
                 .map(|x| x.parse::<f32>())
                 .collect::<Result<_, _>>()
-                .map_err(|_| {
-                    SceneError::new(mtl, None, key("Tf"), format!("not numbers: '{v}'"))
-                })?;
+                .map_err(|_| err("Tf", format!("not numbers: '{v}'")))?;
             let c = match n[..] {
                 [g] => [g; 3],
                 [r, g, b, ..] => [r, g, b],
-                _ => {
-                    return Err(SceneError::new(
-                        mtl,
-                        None,
-                        key("Tf"),
-                        format!("not an RGB colour: '{v}'"),
-                    ));
-                }
+                _ => return Err(err("Tf", format!("not an RGB colour: '{v}'"))),
             };
             let c = finite3("Tf", c)?;
             (c.max_element() > 0.0 && c != Vec3::ONE).then_some(c)
         }
         None => None,
     };
+
+    // Gloss: a specular colour or the PBR extension's roughness / metallic.
+    let ks = m.specular.map(|v| finite3("Ks", v)).transpose()?;
+    let pr = unit("Pr")?;
+    let pm = unit("Pm")?;
+    let mut scalar_map = |k: &'static str| -> Result<Option<(Texture, Option<char>)>, SceneError> {
+        match m.unknown_param.get(k) {
+            Some(v) => {
+                let s = spec(k, v)?;
+                let t = texture(k, &s, Encoding::Linear)?;
+                let c = s.channel;
+                used.push((k, s));
+                Ok(Some((t, c)))
+            }
+            None => Ok(None),
+        }
+    };
+    let map_pr = scalar_map("map_Pr")?;
+    let map_pm = scalar_map("map_Pm")?;
+    // Relief: `norm` is a tangent-space normal map; `map_Bump` / `bump` is read as one
+    // when it is coloured (Blender writes its normal maps there), and ignored when it is
+    // grey (a classic height map).
+    let normal_scale = |k: &str, s: &MapSpec| -> Result<f32, SceneError> {
+        let bm = s.bm.unwrap_or(1.0);
+        if !(0.0..=10.0).contains(&bm) {
+            return Err(err(k, format!("-bm must be in [0, 10], got {bm}")));
+        }
+        Ok(bm)
+    };
+    let mut normal_map = None;
+    if let Some(v) = m.unknown_param.get("norm") {
+        let s = spec("norm", v)?;
+        normal_map = Some(NormalMap {
+            map: texture("norm", &s, Encoding::Linear)?,
+            scale: normal_scale("norm", &s)?,
+        });
+        used.push(("norm", s));
+    }
+    if let Some(v) = &m.normal_texture {
+        let s = spec("map_Bump", v)?;
+        if normal_map.is_some() {
+            warnings.push(format!(
+                "material '{}': both norm and map_Bump/bump: norm is the normal map, map_Bump ignored",
+                m.name
+            ));
+        } else {
+            let t = texture("map_Bump", &s, Encoding::Linear)?;
+            let grey = t
+                .texels()
+                .iter()
+                .all(|x| (x.x - x.y).abs() < 1.5 / 255.0 && (x.y - x.z).abs() < 1.5 / 255.0);
+            if grey {
+                warnings.push(format!(
+                    "material '{}': map_Bump/bump '{}' is a grey height map; height maps are not supported, ignored",
+                    m.name, s.file
+                ));
+            } else {
+                warnings.push(format!(
+                    "material '{}': map_Bump/bump '{}' is read as a tangent-space normal map (OpenGL convention, strength -bm)",
+                    m.name, s.file
+                ));
+                normal_map = Some(NormalMap {
+                    scale: normal_scale("map_Bump", &s)?,
+                    map: t,
+                });
+                used.push(("map_Bump", s));
+            }
+        }
+    }
+
+    for (k, s) in &used {
+        if !s.ignored.is_empty() {
+            warnings.push(format!(
+                "material '{}': {k}: texture options {} ignored",
+                m.name,
+                s.ignored.join(", ")
+            ));
+        }
+    }
+    // One texture-coordinate transform per material (lamina maps have none of their own).
+    let uv = match used.first() {
+        Some((_, first))
+            if used
+                .iter()
+                .all(|(_, s)| s.uv_transform() == first.uv_transform()) =>
+        {
+            Some(first.uv_transform()).filter(|t| *t != (Vec2::ONE, Vec2::ZERO))
+        }
+        Some(_) => {
+            warnings.push(format!(
+                "material '{}': its maps have different -s/-o options ({}); all ignored",
+                m.name,
+                used.iter()
+                    .map(|(k, s)| {
+                        let (sc, o) = s.uv_transform();
+                        format!("{k}: -s {} {} -o {} {}", sc.x, sc.y, o.x, o.y)
+                    })
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ));
+            None
+        }
+        None => None,
+    };
+
     let factor = kd.unwrap_or(if map_kd.is_some() {
         Vec3::ONE
     } else {
@@ -295,24 +647,130 @@ fn convert_material(
         Some(t) => factor.min(Vec3::ONE - t),
         None => factor,
     };
-    let reflectance = match map_kd {
+    let name = m.name.clone();
+    let gloss = ks.is_some_and(|k| k.max_element() > 0.0)
+        || pr.is_some()
+        || pm.is_some()
+        || map_pr.is_some()
+        || map_pm.is_some();
+    if !gloss && normal_map.is_none() {
+        let reflectance = match map_kd {
+            Some(map) => ColorInput::Texture { map, factor },
+            None => ColorInput::Constant(factor),
+        };
+        let mat = match tf {
+            Some(t) => Material::DiffuseTransmission {
+                name,
+                reflectance,
+                transmittance: ColorInput::Constant(t),
+                alpha,
+            },
+            None => Material::Diffuse {
+                name,
+                reflectance,
+                alpha,
+            },
+        };
+        return Ok((mat, uv));
+    }
+
+    // Pbr. Roughness: Pr, else from Ns (only with a specular colour), else 0.5; a map
+    // multiplies its factor, which is 1 when only the map is given (glTF semantics).
+    let roughness = match (pr, m.shininess) {
+        (Some(r), _) => r,
+        (None, _) if map_pr.is_some() => 1.0,
+        (None, Some(ns)) => {
+            if !ns.is_finite() || ns < 0.0 {
+                return Err(err("Ns", format!("must be finite and >= 0, got {ns}")));
+            }
+            phong_exponent_to_roughness(ns)
+        }
+        (None, None) => 0.5,
+    };
+    let metallic = pm.unwrap_or(if map_pm.is_some() { 1.0 } else { 0.0 });
+    let metallic_roughness = (map_pr.is_some() || map_pm.is_some())
+        .then(|| metallic_roughness_texture(map_pr.as_ref(), map_pm.as_ref()));
+    // Ni is the index of refraction; exporters write 1 (or nonsense) when unset.
+    let ior = match m.optical_density {
+        Some(n) if n > 1.0 && n <= 3.0 => n,
+        _ => 1.5,
+    };
+    // Tf as diffuse transmission: (1 - t) base reflected, t colour transmitted, with
+    // t = max(Tf), colour Tf / t and base Kd / (1 - t) (clamped to 1).
+    let (transmission, transmission_color, factor) = match tf {
+        Some(t) => {
+            let tr = t.max_element().min(1.0);
+            let base = if tr < 1.0 {
+                (factor / (1.0 - tr)).min(Vec3::ONE)
+            } else {
+                factor
+            };
+            (tr, t / tr, base)
+        }
+        None => (0.0, Vec3::ONE, factor),
+    };
+    let base_color = match map_kd {
         Some(map) => ColorInput::Texture { map, factor },
         None => ColorInput::Constant(factor),
     };
-    let name = m.name.clone();
-    Ok(match tf {
-        Some(t) => Material::DiffuseTransmission {
-            name,
-            reflectance,
-            transmittance: ColorInput::Constant(t),
-            alpha,
-        },
-        None => Material::Diffuse {
-            name,
-            reflectance,
-            alpha,
-        },
-    })
+    let pbr = PbrMaterial {
+        name,
+        base_color,
+        metallic,
+        roughness,
+        metallic_roughness,
+        ior,
+        transmission,
+        transmission_map: None,
+        transmission_color: ColorInput::Constant(transmission_color),
+        normal_map,
+        alpha,
+    };
+    Ok((Material::Pbr(Box::new(pbr)), uv))
+}
+
+/// One channel of a scalar map texel (`-imfchan`; default the first channel).
+fn channel(t: Vec4, c: Option<char>) -> f32 {
+    match c {
+        Some('g') => t.y,
+        Some('b') => t.z,
+        Some('m') => t.w,
+        Some('l') => (t.x + t.y + t.z) / 3.0,
+        _ => t.x,
+    }
+}
+
+/// glTF's packed metallic-roughness texture (green = roughness, blue = metallic) from
+/// MTL's separate `map_Pr` and `map_Pm`, at the larger of their resolutions (the other
+/// sampled bilinearly); a missing one reads 1.
+fn metallic_roughness_texture(
+    pr: Option<&(Texture, Option<char>)>,
+    pm: Option<&(Texture, Option<char>)>,
+) -> Texture {
+    let (w, h) = [pr, pm]
+        .into_iter()
+        .flatten()
+        .max_by_key(|(t, _)| t.width() * t.height())
+        .map_or((1, 1), |(t, _)| (t.width(), t.height()));
+    let read = |m: Option<&(Texture, Option<char>)>, uv: Vec2| {
+        m.map_or(1.0, |(t, c)| channel(t.sample(uv), *c))
+    };
+    let mut texels = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            // Texel centre, `v` up (top row first).
+            let uv = Vec2::new(
+                (x as f32 + 0.5) / w as f32,
+                1.0 - (y as f32 + 0.5) / h as f32,
+            );
+            texels.push(Vec4::new(0.0, read(pr, uv), read(pm, uv), 1.0));
+        }
+    }
+    let clamp = [pr, pm]
+        .into_iter()
+        .flatten()
+        .all(|(t, _)| t.wrap == Wrap::Clamp);
+    Texture::from_texels(w, h, texels, if clamp { Wrap::Clamp } else { Wrap::Repeat })
 }
 
 /// Geometry only: every shape with `material`, MTL files not read.

@@ -224,3 +224,283 @@ fn bad_obj_and_mtl_files_name_file_line_and_what() {
         }
     }
 }
+
+/// Four quads, one per material of [`PBR_MTL`].
+const PBR_OBJ: &str = "mtllib plant.mtl
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+o a
+usemtl glossy
+f 1/1 2/2 3/3 4/4
+o b
+usemtl rough
+f 1/1 2/2 3/3 4/4
+o c
+usemtl blender
+f 1/1 2/2 3/3 4/4
+o d
+usemtl height
+f 1/1 2/2 3/3 4/4
+";
+
+const PBR_MTL: &str = "newmtl glossy
+Kd 0.6 0.5 0.4
+Ks 0.5 0.5 0.5
+Ns 98
+Ni 1.33
+Pm 0.25
+norm -bm 0.5 -s 2 2 1 -o 0.5 0.25 0 normals.png
+map_Kd -s 2 2 -o 0.5 0.25 leaf.png
+newmtl rough
+Kd 0.3 0.2 0.1
+Pr 0.7
+map_Pr -imfchan g rough.png
+map_Pm metal.png
+newmtl blender
+Kd 0.5 0.5 0.5
+map_Bump -bm 2 normals.png
+newmtl height
+Kd 0.2 0.2 0.2
+bump -bm 0.1 height.png
+";
+
+fn setup_pbr(name: &str, mtl: &str) -> PathBuf {
+    let d = scratch(name);
+    std::fs::write(d.join("plant.obj"), PBR_OBJ).unwrap();
+    std::fs::write(d.join("plant.mtl"), mtl).unwrap();
+    write_png(&d, "leaf.png", 255);
+    image::RgbImage::from_pixel(2, 2, image::Rgb([128, 200, 255]))
+        .save(d.join("normals.png"))
+        .unwrap();
+    // Roughness in green (read with -imfchan g), metallic in red.
+    image::RgbImage::from_fn(4, 1, |x, _| {
+        image::Rgb([0, if x < 2 { 51 } else { 255 }, 0])
+    })
+    .save(d.join("rough.png"))
+    .unwrap();
+    image::GrayImage::from_fn(4, 1, |x, _| image::Luma([if x < 2 { 0 } else { 255 }]))
+        .save(d.join("metal.png"))
+        .unwrap();
+    image::GrayImage::from_pixel(2, 2, image::Luma([90]))
+        .save(d.join("height.png"))
+        .unwrap();
+    d
+}
+
+fn pbr_of(s: &Scene, mesh: usize) -> &lamina_scene::PbrMaterial {
+    match &s.materials[s.meshes[mesh].material as usize] {
+        Material::Pbr(p) => p,
+        other => panic!("mesh {mesh}: {other:?}"),
+    }
+}
+
+#[test]
+fn glossy_and_relief_mtl_materials_become_pbr() {
+    let d = setup_pbr("pbr", PBR_MTL);
+    let s = scene(&d, "").unwrap();
+    assert_eq!(s.meshes.len(), 4);
+
+    // Ks + Ns: roughness (2 / (Ns + 2))^(1/4) = 0.02^0.25; Pm; Ni; norm -bm.
+    let g = pbr_of(&s, 0);
+    assert_eq!(g.name, "glossy");
+    assert!(
+        (g.roughness - 0.02f32.powf(0.25)).abs() < 1e-6,
+        "{}",
+        g.roughness
+    );
+    assert!((lamina_scene::obj::phong_exponent_to_roughness(98.0) - 0.376_06).abs() < 1e-4);
+    assert_eq!((g.metallic, g.ior, g.transmission), (0.25, 1.33, 0.0));
+    assert!(g.metallic_roughness.is_none());
+    match &g.base_color {
+        ColorInput::Texture { factor, .. } => assert_eq!(*factor, Vec3::new(0.6, 0.5, 0.4)),
+        other => panic!("{other:?}"),
+    }
+    let n = g.normal_map.as_ref().expect("norm");
+    assert_eq!(n.scale, 0.5);
+    let texel = n.map.rgb(Vec2::new(0.5, 0.5));
+    assert!(
+        (texel - Vec3::new(128.0, 200.0, 255.0) / 255.0).length() < 1e-5,
+        "linear"
+    );
+    assert!(g.alpha.is_none());
+    // Both maps say -s 2 2 -o 0.5 0.25: the quad's uvs are transformed.
+    let uvs = &s.meshes[0].uvs;
+    let want = [(0.5, 0.25), (2.5, 0.25), (2.5, 2.25), (0.5, 2.25)];
+    for w in want {
+        assert!(
+            uvs.iter()
+                .any(|u| (*u - Vec2::new(w.0, w.1)).length() < 1e-6),
+            "{w:?} not in {uvs:?}"
+        );
+    }
+    // Other materials' meshes keep their uvs.
+    assert!(s.meshes[1].uvs.iter().all(|u| u.x <= 1.0 && u.y <= 1.0));
+
+    // Pr with map_Pr (green channel) and map_Pm alone (factor 1), packed G / B.
+    let r = pbr_of(&s, 1);
+    assert_eq!((r.roughness, r.metallic), (0.7, 1.0));
+    assert!(r.normal_map.is_none());
+    let mr = r.metallic_roughness.as_ref().expect("packed map");
+    assert_eq!((mr.width(), mr.height()), (4, 1));
+    let left = mr.texel(0, 0);
+    let right = mr.texel(3, 0);
+    assert!((left.y - 0.2).abs() < 1e-2 && left.z == 0.0, "{left}");
+    assert!((right.y - 1.0).abs() < 1e-6 && right.z == 1.0, "{right}");
+    let b = r.bsdf(Vec2::new(0.8, 0.5));
+    assert!((b.roughness - 0.7).abs() < 1e-5 && (b.metallic - 1.0).abs() < 1e-6);
+
+    // A coloured map_Bump is read as a normal map with -bm; no Ks/Ns: roughness 0.5.
+    let bl = pbr_of(&s, 2);
+    assert_eq!(bl.normal_map.as_ref().expect("map_Bump").scale, 2.0);
+    assert_eq!((bl.roughness, bl.metallic), (0.5, 0.0));
+
+    // A grey bump (height map) is ignored: the material stays diffuse.
+    match &s.materials[s.meshes[3].material as usize] {
+        Material::Diffuse { name, .. } => assert_eq!(name, "height"),
+        other => panic!("{other:?}"),
+    }
+    // ... with warnings for both bump maps.
+    let obj = lamina_scene::obj::load_obj(&d.join("plant.obj")).unwrap();
+    let w = obj.warnings.join("\n");
+    assert!(
+        w.contains("'blender'") && w.contains("tangent-space normal map"),
+        "{w}"
+    );
+    assert!(w.contains("'height'") && w.contains("height map"), "{w}");
+}
+
+#[test]
+fn pbr_with_tf_keeps_the_transmission() {
+    let d = setup_pbr(
+        "pbr_tf",
+        "newmtl glossy\nKd 0.4 0.4 0.4\nKs 1 1 1\nTf 0.5 0.25 0.5\nnewmtl rough\nnewmtl blender\nnewmtl height\n",
+    );
+    let s = scene(&d, "").unwrap();
+    let g = pbr_of(&s, 0);
+    assert_eq!(g.transmission, 0.5);
+    assert_eq!(
+        g.transmission_color.at(Vec2::ZERO),
+        Vec3::new(1.0, 0.5, 1.0)
+    );
+    // Kd 0.4 reflected of (1 - 0.5): base 0.8.
+    assert!((g.base_color.at(Vec2::ZERO) - Vec3::splat(0.8)).length() < 1e-6);
+    // Neither Ns nor Pr: roughness 0.5; no Ni: ior 1.5.
+    assert_eq!((g.roughness, g.ior), (0.5, 1.5));
+    // Materials without gloss or relief stay as before.
+    assert!(matches!(
+        s.materials[s.meshes[1].material as usize],
+        Material::Diffuse { .. }
+    ));
+}
+
+#[test]
+fn maps_with_different_uv_options_are_warned_about_and_ignored() {
+    let d = setup_pbr(
+        "pbr_mixed",
+        "newmtl glossy\nKs 1 1 1\nmap_Kd -s 2 2 leaf.png\nnorm normals.png\n\
+         newmtl rough\nnewmtl blender\nnewmtl height\n",
+    );
+    let obj = lamina_scene::obj::load_obj(&d.join("plant.obj")).unwrap();
+    let w = obj.warnings.join("\n");
+    assert!(w.contains("different -s/-o"), "{w}");
+    let m0 = obj.meshes.iter().find(|m| m.material == 0).unwrap();
+    assert!(m0.uvs.iter().all(|u| u.x <= 1.0 && u.y <= 1.0), "unchanged");
+}
+
+#[test]
+fn bad_pbr_mtl_values_name_file_line_and_statement() {
+    let tail = "newmtl rough\nnewmtl blender\nnewmtl height\n";
+    let cases: &[(&str, &str, &[&str])] = &[
+        (
+            "pr",
+            "Kd 1 1 1\nPr 2\n",
+            &["plant.mtl:3: newmtl glossy: Pr", "must be in [0, 1], got 2"],
+        ),
+        (
+            "pm",
+            "Pm -1\n",
+            &[
+                "plant.mtl:2: newmtl glossy: Pm",
+                "must be in [0, 1], got -1",
+            ],
+        ),
+        (
+            "pr_nan",
+            "Pr x\n",
+            &["plant.mtl:2: newmtl glossy: Pr", "not a number: 'x'"],
+        ),
+        (
+            "norm_missing",
+            "Kd 1 1 1\n\nnorm -bm 0.5 gone.png\n",
+            &[
+                "plant.mtl:4: newmtl glossy: norm",
+                "cannot load texture",
+                "gone.png",
+            ],
+        ),
+        (
+            "bm",
+            "norm -bm x normals.png\n",
+            &[
+                "plant.mtl:2: newmtl glossy: norm",
+                "-bm: 'x' is not a finite number",
+            ],
+        ),
+        (
+            "bm_range",
+            "bump -bm 50 normals.png\n",
+            &[
+                "plant.mtl:2: newmtl glossy: map_Bump",
+                "-bm must be in [0, 10], got 50",
+            ],
+        ),
+        (
+            "s",
+            "map_Kd -s leaf.png\n",
+            &[
+                "plant.mtl:2: newmtl glossy: map_Kd",
+                "-s: needs numbers, got 'leaf.png'",
+            ],
+        ),
+        (
+            "option",
+            "map_Pr -foo 1 rough.png\n",
+            &[
+                "plant.mtl:2: newmtl glossy: map_Pr",
+                "unknown texture option '-foo'",
+            ],
+        ),
+        (
+            "no_file",
+            "norm -bm 1\n",
+            &[
+                "plant.mtl:2: newmtl glossy: norm",
+                "no texture file after the options",
+            ],
+        ),
+        (
+            "ns",
+            "Ks 1 1 1\nNs -4\n",
+            &[
+                "plant.mtl:3: newmtl glossy: Ns",
+                "must be finite and >= 0, got -4",
+            ],
+        ),
+    ];
+    for (name, body, want) in cases {
+        let d = setup_pbr(
+            &format!("bad_{name}"),
+            &format!("newmtl glossy\n{body}{tail}"),
+        );
+        let e = scene(&d, "").map(|_| ()).unwrap_err();
+        for w in *want {
+            assert!(e.contains(w), "{name}: '{w}' not in: {e}");
+        }
+    }
+}

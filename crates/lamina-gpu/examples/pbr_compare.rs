@@ -1,6 +1,6 @@
 //! The GPU image of glTF (metallic-roughness) squares next to the offline render, with MAE
-//! and SSIM: a glossy terracotta dielectric, a rough gold metal and a smooth black
-//! dielectric. Writes `<dir>/pbr-<name>.png` (left: GPU, right: offline).
+//! and SSIM: a glossy terracotta dielectric, a rough gold metal, a smooth black
+//! dielectric and the terracotta with a rippled normal map. Writes `<dir>/pbr-<name>.png` (left: GPU, right: offline).
 //!
 //! `cargo run --release -p lamina-gpu --example pbr_compare -- out/gpu-pbr [size] [spp]`
 
@@ -19,8 +19,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     std::fs::create_dir_all(&dir)?;
     let ctx = lamina_gpu::GpuContext::headless(&Default::default())?;
     println!("adapter: {}", ctx.adapter_name());
+    let mut rippled = PbrMaterial::uniform("rippled", Vec3::new(0.55, 0.22, 0.1), 0.0, 0.35);
+    rippled.normal_map = Some(common::ripple_normal_map());
     let materials = [
         PbrMaterial::uniform("terracotta", Vec3::new(0.55, 0.22, 0.1), 0.0, 0.35),
+        rippled,
         PbrMaterial::uniform("gold", Vec3::new(1.0, 0.77, 0.33), 1.0, 0.5),
         PbrMaterial::uniform("black", Vec3::ZERO, 0.0, 0.2),
     ];

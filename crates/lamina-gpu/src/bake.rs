@@ -43,7 +43,13 @@
 //!   public `eval` (the energy-conserving coupling `(1 − E(mu_o))(1 − E(mu_i))` makes them
 //!   darker than Lambertian towards grazing), layer 3 the Fresnel, the dielectric
 //!   specular albedo and (row 1) the metal albedo moments for the sky's reflection.
-//! * **Not used**: the normal map (the GPU path has no normal or bump mapping).
+//! * **Normal map**: baked on its own grid (downscaled with a warning like the others) to
+//!   a linear 8-bit map of the unit tangent-space normal with the map's scale applied
+//!   (`rgb = n · 0.5 + 0.5`), `shape.y = 1`. The shader has no vertex tangents: it solves
+//!   `dP/du`, `dP/dv` from the screen-space derivatives of position and uv (as the glTF
+//!   sample viewer does without tangents) and builds lamina-render's frame (`x` = `dP/du`
+//!   orthogonal to the normal, `y` towards increasing lamina `v`). Leaves' bump maps are
+//!   still not used.
 //!
 //! Mip levels are box-filtered here in linear space. Maps larger than the device's texture
 //! limit are **downscaled with a warning** (returned in [`BakedMaterial::warnings`]).
@@ -69,7 +75,8 @@ pub struct MaterialUniform {
     /// `x`: radius (m) of a disc with the area of one card (two triangles) of this
     /// material, set by the renderer from the meshes: light a leaf transmits leaves it
     /// diffusely, so a receiver `d` behind it gets the fraction `a² / (a² + d²)` of it (the
-    /// on-axis form factor of a disc of radius `a`). `yzw` unused.
+    /// on-axis form factor of a disc of radius `a`). `y`: 1 when the material has a
+    /// tangent-space normal map (`BakedMaterial::normal`), else 0. `zw` unused.
     pub shape: [f32; 4],
     /// The metallic (coloured, Schlick-Fresnel) specular lobe of [`Material::Pbr`]: `rgb` =
     /// the mean of `metallic · base_colour` (the metal's F0 times its weight), `a` = the
@@ -100,6 +107,9 @@ pub struct BakedMaterial {
     pub back: MipMap,
     /// Diffuse transmittance.
     pub trans: MipMap,
+    /// Tangent-space normal map, linear (`rgb = n · 0.5 + 0.5`, scale applied), used when
+    /// `uniform.shape.y` is 1; a flat 1x1 map otherwise.
+    pub normal: MipMap,
     /// Angular tables, `LUT_LAYERS` layers of `LUT_N x LUT_N` RGBA (index `x` = `mu_o`,
     /// `y` = `mu_i`), 1/sr.
     pub lut: Vec<[f32; 4]>,
@@ -124,6 +134,26 @@ fn encode(c: Texel) -> [u8; 4] {
 
 /// Builds the mip chain of a linear map by 2x2 box filtering (odd sides clamp).
 fn mip_chain(width: u32, height: u32, base: Vec<Texel>) -> MipMap {
+    mip_chain_with(width, height, base, encode)
+}
+
+/// Linear 8-bit encoding (normal maps).
+fn encode_linear(c: Texel) -> [u8; 4] {
+    c.map(|x| (x.clamp(0.0, 1.0) * 255.0 + 0.5) as u8)
+}
+
+/// The flat normal map of materials without one.
+fn flat_normal() -> MipMap {
+    mip_chain_with(1, 1, vec![[0.5, 0.5, 1.0, 1.0]], encode_linear)
+}
+
+/// [`mip_chain`] with the given 8-bit encoding.
+fn mip_chain_with(
+    width: u32,
+    height: u32,
+    base: Vec<Texel>,
+    encode: fn(Texel) -> [u8; 4],
+) -> MipMap {
     let mut levels = vec![base.iter().map(|&t| encode(t)).collect::<Vec<_>>()];
     let (mut w, mut h, mut cur) = (width, height, base);
     while w > 1 || h > 1 {
@@ -402,6 +432,7 @@ pub fn bake_material(material: &Material, max_dim: u32) -> BakedMaterial {
                 front: mip_chain(w, h, f),
                 back: mip_chain(w, h, b),
                 trans: mip_chain(w, h, t),
+                normal: flat_normal(),
                 lut: leaf_lut(&params),
                 uniform: leaf_uniform(&params),
                 warnings,
@@ -470,6 +501,7 @@ fn bake_diffuse(
         front: mip_chain(w, h, f),
         back: mip_chain(w, h, b),
         trans: mip_chain(w, h, t),
+        normal: flat_normal(),
         lut: lambert_lut(),
         uniform: MaterialUniform::default(),
         warnings,
@@ -639,16 +671,36 @@ fn bake_pbr(
     fill_transparent(&mut maps);
     let [f, b, t] = maps;
     let (roughness, metallic, metal) = pbr_means(p, w, h);
+    let normal = match &p.normal_map {
+        Some(nm) => {
+            let (nw, nh) = fit(
+                &p.name,
+                "the normal map",
+                nm.map.width(),
+                nm.map.height(),
+                max_dim,
+                &mut warnings,
+            );
+            let [n, _, _] = bake_texels(nw, nh, &|uv| {
+                let v = nm.at(uv) * 0.5 + Vec3::splat(0.5);
+                [[v.x, v.y, v.z, 1.0], [0.0; 4], [0.0; 4]]
+            });
+            Some(mip_chain_with(nw, nh, n, encode_linear))
+        }
+        None => None,
+    };
+    let mapped = normal.is_some();
     let alpha = (roughness * roughness).max(lamina_leaf::pbr::ALPHA_MIN);
     BakedMaterial {
         name: p.name.clone(),
         front: mip_chain(w, h, f),
         back: mip_chain(w, h, b),
         trans: mip_chain(w, h, t),
+        normal: normal.unwrap_or_else(flat_normal),
         lut: pbr_lut(roughness, p.ior),
         uniform: MaterialUniform {
             spec: [alpha, alpha, 1.0 - metallic, PBR_BLEND_SIN],
-            shape: [0.0; 4],
+            shape: [0.0, if mapped { 1.0 } else { 0.0 }, 0.0, 0.0],
             metal: [metal.x, metal.y, metal.z, metallic],
         },
         warnings,
@@ -785,6 +837,33 @@ mod tests {
         }
         // The metallic texels reflect less diffusely than the dielectric ones.
         assert!(b.front.levels[0][1][0] < b.front.levels[0][0][0]);
+        // No normal map: the flat one, flagged off.
+        assert_eq!(b.uniform.shape[1], 0.0);
+        assert_eq!(b.normal.levels[0], vec![[128, 128, 255, 255]]);
+    }
+
+    /// A normal map is baked linearly (with its scale) at its own size and flagged on.
+    #[test]
+    fn pbr_normal_map_is_baked_linearly() {
+        use lamina_scene::{NormalMap, PbrMaterial};
+        let c = Vec3::new(0.7, 0.4, 0.9);
+        let map = lamina_leaf::Texture::from_texels(
+            8,
+            4,
+            vec![glam::Vec4::new(c.x, c.y, c.z, 1.0); 32],
+            lamina_leaf::Wrap::Repeat,
+        );
+        let mut p = PbrMaterial::uniform("tile", Vec3::splat(0.5), 0.0, 0.5);
+        p.normal_map = Some(NormalMap { map, scale: 0.5 });
+        let want = p.normal_map.as_ref().unwrap().at(Vec2::splat(0.5));
+        let b = bake_material(&Material::Pbr(Box::new(p)), 64);
+        assert_eq!(b.uniform.shape[1], 1.0);
+        assert_eq!((b.normal.width, b.normal.height), (8, 4));
+        let got = b.normal.levels[0][5];
+        for k in 0..3 {
+            let decoded = got[k] as f32 / 255.0 * 2.0 - 1.0;
+            assert!((decoded - want[k]).abs() < 0.01, "{got:?} vs {want}");
+        }
     }
 
     /// The glTF tables: white-sky normalised diffuse shapes, darker than Lambertian at

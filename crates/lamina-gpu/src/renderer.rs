@@ -472,7 +472,12 @@ const FLOAT: wgpu::TextureSampleType = wgpu::TextureSampleType::Float { filterab
 const UNFILTERED: wgpu::TextureSampleType = wgpu::TextureSampleType::Float { filterable: false };
 const D2: wgpu::TextureViewDimension = wgpu::TextureViewDimension::D2;
 
-fn upload_mips(ctx: &GpuContext, label: &str, m: &MipMap) -> wgpu::TextureView {
+fn upload_mips(
+    ctx: &GpuContext,
+    label: &str,
+    m: &MipMap,
+    format: wgpu::TextureFormat,
+) -> wgpu::TextureView {
     let tex = ctx.device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
         size: wgpu::Extent3d {
@@ -483,7 +488,7 @@ fn upload_mips(ctx: &GpuContext, label: &str, m: &MipMap) -> wgpu::TextureView {
         mip_level_count: m.levels.len() as u32,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: wgpu::TextureFormat::Rgba8UnormSrgb,
+        format,
         usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
         view_formats: &[],
     });
@@ -535,6 +540,7 @@ impl Renderer {
                 sampler_entry(4),
                 sampler_entry(5),
                 uniform_entry(6),
+                tex_entry(7, FLOAT, D2),
             ],
         });
         let s_map = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -582,9 +588,12 @@ impl Renderer {
             };
             warnings.extend(b.warnings.iter().cloned());
             let group = ctx.validated(&format!("uploading material '{}'", b.name), || {
-                let front = upload_mips(ctx, "front", &b.front);
-                let back = upload_mips(ctx, "back", &b.back);
-                let trans = upload_mips(ctx, "trans", &b.trans);
+                let srgb = wgpu::TextureFormat::Rgba8UnormSrgb;
+                let front = upload_mips(ctx, "front", &b.front, srgb);
+                let back = upload_mips(ctx, "back", &b.back, srgb);
+                let trans = upload_mips(ctx, "trans", &b.trans, srgb);
+                // Tangent-space normals are stored linearly.
+                let normal = upload_mips(ctx, "normal", &b.normal, wgpu::TextureFormat::Rgba8Unorm);
                 let lut_half: Vec<u16> = b.lut.iter().flatten().map(|&x| f32_to_half(x)).collect();
                 let lut = device.create_texture_with_data(
                     &ctx.queue,
@@ -645,6 +654,10 @@ impl Renderer {
                         wgpu::BindGroupEntry {
                             binding: 6,
                             resource: ubuf.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 7,
+                            resource: wgpu::BindingResource::TextureView(&normal),
                         },
                     ],
                 })

@@ -44,7 +44,8 @@ struct Globals {
 // Per-material constants (Rust: `bake::MaterialUniform`): x/y GGX alpha adaxial/abaxial,
 // z specular weight, w sin(blend width).
 // shape.x: card radius a (m): light transmitted by this material reaches a receiver d
-// behind it scaled by a^2 / (a^2 + d^2) (it leaves the leaf diffusely).
+// behind it scaled by a^2 / (a^2 + d^2) (it leaves the leaf diffusely); shape.y: 1 when
+// t_normal holds a normal map.
 // metal: the glTF material's metallic lobe, rgb = mean metallic * base colour (F0 times
 // weight), a = mean metallic; its Fresnel is rgb + (a - rgb) (1 - v.h)^5. Zero otherwise.
 struct MaterialParams {
@@ -88,6 +89,9 @@ struct SkyVis {
 @group(1) @binding(4) var s_map: sampler;
 @group(1) @binding(5) var s_lut: sampler;
 @group(1) @binding(6) var<uniform> mat: MaterialParams;
+// Tangent-space normal map (linear, rgb = n * 0.5 + 0.5; +x along u, +y towards increasing
+// lamina v), used when mat.shape.y is 1; a flat 1x1 map otherwise.
+@group(1) @binding(7) var t_normal: texture_2d<f32>;
 
 struct VIn {
     @location(0) pos: vec3<f32>,
@@ -397,6 +401,41 @@ fn sky_visibility(p: vec3<f32>, n: vec3<f32>) -> SkyVisibility {
     return out;
 }
 
+// The interpolated normal `n0` (unit, adaxial side) perturbed by the tangent-space normal
+// `m` (unit): the frame is x = dP/du made orthogonal to n0, y = n0 x t signed towards
+// increasing v, z = n0, as lamina-render's shading_normal, with dP/du and dP/dv solved
+// from the screen-space derivatives of position and uv (no vertex tangents: the glTF
+// sample viewer's construction). n0 itself where the uv mapping is degenerate.
+fn mapped_normal(
+    n0: vec3<f32>,
+    m: vec3<f32>,
+    dpx: vec3<f32>,
+    dpy: vec3<f32>,
+    dux: vec2<f32>,
+    duy: vec2<f32>,
+) -> vec3<f32> {
+    let det = dux.x * duy.y - dux.y * duy.x;
+    if abs(det) < 1e-20 {
+        return n0;
+    }
+    let dpdu = (dpx * duy.y - dpy * dux.y) / det;
+    let dpdv = (dpy * dux.x - dpx * duy.x) / det;
+    let tt = dpdu - n0 * dot(n0, dpdu);
+    if dot(tt, tt) < 1e-20 {
+        return n0;
+    }
+    let t = normalize(tt);
+    var b = cross(n0, t);
+    if dot(b, dpdv) < 0.0 {
+        b = -b;
+    }
+    let mapped = t * m.x + b * m.y + n0 * m.z;
+    if dot(mapped, mapped) < 1e-12 {
+        return n0;
+    }
+    return normalize(mapped);
+}
+
 // Radiance toward the camera (linear RGB, W m^-2 sr^-1).
 @fragment
 fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
@@ -404,14 +443,28 @@ fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) 
     let front = textureSample(t_front, s_map, uv);
     let back = textureSample(t_back, s_map, uv).rgb;
     let trans = textureSample(t_trans, s_map, uv).rgb;
+    // Derivatives and the normal map before the discard (uniform control flow).
+    let nm = textureSample(t_normal, s_map, uv).xyz * 2.0 - 1.0;
+    let dpx = dpdx(in.world);
+    let dpy = dpdy(in.world);
+    let dux = dpdx(in.uv);
+    let duy = dpdy(in.uv);
     if front.a < 0.5 {
         discard;
     }
     var s: Surface;
     s.v = normalize(g.camera_pos.xyz - in.world);
-    var n = normalize(in.normal);
-    if dot(n, s.v) < 0.0 {
-        n = -n;
+    let n0 = normalize(in.normal);
+    // The seen side follows the unperturbed normal (lamina-render: sides are geometric).
+    let flip = dot(n0, s.v) < 0.0;
+    var n = select(n0, -n0, flip);
+    if mat.shape.y > 0.5 {
+        let m = mapped_normal(n0, normalize(nm), dpx, dpy, dux, duy);
+        let nm_seen = select(m, -m, flip);
+        // A view the perturbed normal puts behind the surface shades flat (as on the CPU).
+        if dot(nm_seen, s.v) > 0.0 {
+            n = nm_seen;
+        }
     }
     s.n = n;
     s.mu_o = clamp(dot(n, s.v), 1e-4, 1.0);

@@ -148,3 +148,25 @@ pub fn pbr_square(material: lamina_scene::PbrMaterial, size: u32, spp: u32) -> S
         instances: Vec::new(),
     }
 }
+
+/// A 64x64 tangent-space normal map of crossed ripples, `n ∝ (0.6 sin 6πu, 0.6 sin 4πv, 1)`
+/// (lamina `v` up), so that both the `u` and the `v` axis of the frame show.
+pub fn ripple_normal_map() -> lamina_scene::NormalMap {
+    use glam::{Vec3, Vec4};
+    let n = 64;
+    let texels = (0..n * n)
+        .map(|i| {
+            let (x, y) = ((i % n) as f32, (i / n) as f32);
+            let u = (x + 0.5) / n as f32;
+            let v = 1.0 - (y + 0.5) / n as f32;
+            let t = std::f32::consts::TAU;
+            let m = Vec3::new(0.6 * (3.0 * t * u).sin(), 0.6 * (2.0 * t * v).sin(), 1.0);
+            let c = m.normalize() * 0.5 + Vec3::splat(0.5);
+            Vec4::new(c.x, c.y, c.z, 1.0)
+        })
+        .collect();
+    lamina_scene::NormalMap {
+        map: lamina_leaf::Texture::from_texels(n, n, texels, lamina_leaf::Wrap::Repeat),
+        scale: 1.0,
+    }
+}

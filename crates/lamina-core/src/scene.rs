@@ -327,10 +327,10 @@ impl PbrMaterial {
             metallic *= s.z;
         }
         let mut transmission = self.transmission;
-        if transmission > 0.0 {
-            if let Some(t) = &self.transmission_map {
-                transmission *= t.sample(uv).w;
-            }
+        if transmission > 0.0
+            && let Some(t) = &self.transmission_map
+        {
+            transmission *= t.sample(uv).w;
         }
         lamina_leaf::PbrBsdf {
             base_color: self.base_color.at(uv).clamp(Vec3::ZERO, Vec3::ONE),

@@ -209,7 +209,7 @@ fn constant_normal_map_renders_like_tilted_vertex_normals() {
     ];
     for integrator in integrators {
         let mut mapped = scene(vec![card(1.0, 0.0, 0)], pbr(Some(constant_map(tilt))));
-        mapped.integrator = integrator.clone();
+        mapped.integrator = integrator;
         mapped.film = film(24, 24, 16);
         let mut smooth = mapped.clone();
         smooth.materials = vec![pbr(None)];

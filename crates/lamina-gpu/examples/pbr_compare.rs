@@ -1,6 +1,7 @@
 //! The GPU image of glTF (metallic-roughness) squares next to the offline render, with MAE
-//! and SSIM: a glossy terracotta dielectric, a rough gold metal, a smooth black
-//! dielectric and the terracotta with a rippled normal map. Writes `<dir>/pbr-<name>.png` (left: GPU, right: offline).
+//! and SSIM: a glossy terracotta dielectric, the same with a rippled normal map, a rough
+//! gold metal and a smooth black dielectric. Writes `<dir>/pbr-<name>.png` (left: GPU,
+//! right: offline) and prints the red channel along the highlight's row.
 //!
 //! `cargo run --release -p lamina-gpu --example pbr_compare -- out/gpu-pbr [size] [spp]`
 

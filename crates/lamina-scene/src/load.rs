@@ -1149,10 +1149,9 @@ impl Ctx {
                         self.only(t.span(), &p, kind, &keys, &["file", "materials"])?;
                         let f = self.require(&o.file, t.span(), &format!("{p}.file"), kind)?;
                         let path = self.path(f);
-                        // An instanced object is one prototype: its repeated meshes are
-                        // flattened into it (instances do not nest).
-                        let g =
-                            crate::gltf_import::load_gltf_with(&path, &xf, placements.is_none())?;
+                        // Meshes used by several nodes stay prototypes, also when the object
+                        // itself is placed many times (see the placements below).
+                        let g = crate::gltf_import::load_gltf(&path, &xf)?;
                         for w in &g.warnings {
                             eprintln!("warning: {}: {w}", path.display());
                         }
@@ -1197,7 +1196,7 @@ impl Ctx {
                             &keys,
                             &["plant", "file", "materials", "leaves"],
                         )?;
-                        let curved = self.curved_leaves(&p, o.leaves.as_ref(), &placements)?;
+                        let curved = self.curved_leaves(&p, o.leaves.as_ref())?;
                         let params = crate::plant_object::plant_params(
                             self,
                             &p,
@@ -1283,44 +1282,80 @@ impl Ctx {
                     .name
                     .as_ref()
                     .map_or_else(|| p.clone(), |n| n.get_ref().clone());
-                Geometry {
-                    meshes: Vec::new(),
-                    prototypes: vec![Prototype {
-                        name,
-                        meshes: geometry.meshes,
-                    }],
-                    instances: placements
-                        .into_iter()
-                        .map(|transform| Instance {
-                            prototype: 0,
-                            transform,
-                        })
-                        .collect(),
-                }
+                self.place(&p, t.span(), name, geometry, &placements)?
             }
         };
         self.check_extent(&p, &geometry, t.span(), user_placed)?;
         Ok(geometry)
     }
 
-    /// A plant object's `leaves`: `"cards"` (default) or `"curved"`. Curved leaves are
-    /// instances themselves, and instances do not nest, so an instanced plant takes cards.
+    /// Places an object's geometry at every placement. Its world-space meshes become one
+    /// prototype `name`, placed once per placement. Its own prototypes (glTF meshes used by
+    /// several nodes, curved leaves of a plant) stay prototypes, and every one of their
+    /// instances is composed with every placement: the renderers' instancing stays two
+    /// levels deep (a placement × inner instance pair costs one instance record), while the
+    /// geometry still exists once.
+    fn place(
+        &self,
+        p: &str,
+        span: std::ops::Range<usize>,
+        name: String,
+        geometry: Geometry,
+        placements: &[glam::Affine3A],
+    ) -> Result<Geometry, SceneError> {
+        let per_placement = geometry.instances.len() + usize::from(!geometry.meshes.is_empty());
+        let total = per_placement.saturating_mul(placements.len());
+        if total > crate::instances::MAX_INSTANCES {
+            return Err(self.err(
+                span,
+                format!("{p}.instances"),
+                format!(
+                    "{} placements x {per_placement} instances each = {total} instances, more \
+                     than the {} supported",
+                    placements.len(),
+                    crate::instances::MAX_INSTANCES
+                ),
+            ));
+        }
+        let mut prototypes = geometry.prototypes;
+        let outer = (!geometry.meshes.is_empty()).then(|| {
+            prototypes.push(Prototype {
+                name,
+                meshes: geometry.meshes,
+            });
+            prototypes.len() as u32 - 1
+        });
+        let mut instances = Vec::with_capacity(total);
+        for place in placements {
+            if let Some(prototype) = outer {
+                instances.push(Instance {
+                    prototype,
+                    transform: *place,
+                });
+            }
+            instances.extend(geometry.instances.iter().map(|i| Instance {
+                prototype: i.prototype,
+                transform: *place * i.transform,
+            }));
+        }
+        Ok(Geometry {
+            meshes: Vec::new(),
+            prototypes,
+            instances,
+        })
+    }
+
+    /// A plant object's `leaves`: `"cards"` (default) or `"curved"` (instanced curved
+    /// leaves; with `instances` each leaf instance is composed with every placement).
     fn curved_leaves(
         &self,
         p: &str,
         leaves: Option<&S<String>>,
-        placements: &Option<Vec<glam::Affine3A>>,
     ) -> Result<bool, SceneError> {
         let Some(l) = leaves else { return Ok(false) };
         let key = format!("{p}.leaves");
         match l.get_ref().as_str() {
             "cards" => Ok(false),
-            "curved" if placements.is_some() => Err(self.err(
-                l.span(),
-                key,
-                "curved leaves are placed as instances, and instances do not nest: an \
-                 instanced plant needs leaves = \"cards\"",
-            )),
             "curved" => Ok(true),
             other => Err(self.err(
                 l.span(),

@@ -133,6 +133,22 @@ transform = { translate = [0, 1, 0] }
         .transform_point3(s.prototypes[0].meshes[0].positions[0])
         .y;
     assert!((y - 1.0).abs() < 1e-6, "{y}");
+    // Placed three times, the file's repeated mesh stays one prototype: 3 placements x 2
+    // nodes = 6 instances, each the placement composed with its node.
+    let placed = text.replace(
+        "transform = { translate = [0, 1, 0] }",
+        "transform = { translate = [0, 1, 0] }\ninstances = [{}, { translate = [10, 0, 0] }, \
+         { translate = [20, 0, 0] }]",
+    );
+    let s = parse_scene(&placed, &d.join("s.toml")).unwrap();
+    assert_eq!((s.prototypes.len(), s.instances.len()), (1, 6));
+    let mut xs: Vec<i32> = s
+        .instances
+        .iter()
+        .map(|i| i.transform.transform_point3(glam::Vec3::ZERO).x.round() as i32)
+        .collect();
+    xs.sort();
+    assert_eq!(xs, vec![0, 2, 10, 12, 20, 22]);
     let bad = text.replace("leafy = ", "nosuch = ");
     let e = parse_scene(&bad, &d.join("s.toml")).unwrap_err();
     assert!(

@@ -270,14 +270,66 @@ fn curved_leaves_are_instances_placed_like_the_cards() {
         "{e}"
     );
     let e = err(&format!(
-        "{CAMERA}[[object]]\ntype = \"plant\"\nleaves = \"curved\"\ninstances = [{{}}, {{ translate = [3, 0, 0] }}]\n[object.plant]\n{SMALL}"
-    ));
-    assert!(
-        e.contains("object[0].leaves: curved leaves are placed as instances"),
-        "{e}"
-    );
-    let e = err(&format!(
         "{CAMERA}[[material]]\nname = \"g\"\ntype = \"diffuse\"\n[[object]]\ntype = \"quad\"\nmaterial = \"g\"\nleaves = \"curved\"\ncorner = [0, 0, 0]\nedge_u = [1, 0, 0]\nedge_v = [0, 0, 1]\n"
     ));
     assert!(e.contains("leaves"), "{e}");
+}
+
+/// An instanced plant with curved leaves: the branches become one prototype placed per
+/// placement, every leaf instance is composed with every placement (two-level instancing
+/// kept), and the result is the same set of leaf placements as the plant written out twice
+/// as separate objects.
+#[test]
+fn instanced_plant_with_curved_leaves_composes_placements() {
+    let one = |extra: &str| {
+        format!(
+            "[[object]]\ntype = \"plant\"\nleaves = \"curved\"\n{extra}[object.plant]\n\
+             kind = \"bush\"\nseed = 7\n{SMALL}"
+        )
+    };
+    let placed = parse(&format!(
+        "{CAMERA}{}",
+        one("instances = [{}, { translate = [3, 0, 0], rotate_y = 90 }]\n")
+    ))
+    .unwrap();
+    let written_twice = parse(&format!(
+        "{CAMERA}{}{}",
+        one(""),
+        one("translate = [3, 0, 0]\nrotate_y = 90\n")
+    ))
+    .unwrap();
+    // Two leaf prototypes + the branches; no world meshes.
+    assert!(placed.meshes.is_empty());
+    assert_eq!(placed.prototypes.len(), 3);
+    let leaves = written_twice.instances.len();
+    assert!(leaves > 100);
+    assert_eq!(placed.instances.len(), leaves + 2, "leaves + one branch instance each");
+    let key = |i: &lamina_scene::Instance| {
+        let m = glam::Mat4::from(i.transform).to_cols_array();
+        m.map(|x| (x * 1e4).round() as i64)
+    };
+    let branches = placed.prototypes.len() as u32 - 1;
+    let mut a: Vec<_> = placed
+        .instances
+        .iter()
+        .filter(|i| i.prototype != branches)
+        .map(key)
+        .collect();
+    let mut b: Vec<_> = written_twice.instances.iter().map(key).collect();
+    a.sort();
+    b.sort();
+    assert_eq!(a, b, "the same leaf placements");
+    // The branch prototype's instances are the placements themselves.
+    let branch_at: Vec<_> = placed
+        .instances
+        .iter()
+        .filter(|i| i.prototype == branches)
+        .map(|i| glam::Vec3::from(i.transform.translation))
+        .collect();
+    assert_eq!(branch_at, vec![glam::Vec3::ZERO, glam::Vec3::new(3.0, 0.0, 0.0)]);
+    // Its meshes are the first object's branch mesh.
+    assert_eq!(
+        placed.prototypes[branches as usize].meshes[0].positions,
+        written_twice.meshes[0].positions
+    );
 }

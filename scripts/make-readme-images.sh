@@ -46,6 +46,7 @@ done
 $lamina render examples/gallery/fig5_bush_backlit.toml -o "$gallery/fig5_bush_backlit.png" --quiet
 if [[ -e ../shared/data/plants/potted_plant_02/potted_plant_02.glb ]]; then
   $lamina render examples/gallery/potted_plant.toml -o "$gallery/potted_plant.png" --quiet
+  $lamina render examples/gallery/potted_plant_closeup.toml -o "$gallery/potted_plant_closeup.png" --quiet
 else
-  echo "skipped potted_plant.png: ../shared/data is not here" >&2
+  echo "skipped potted_plant.png, potted_plant_closeup.png: ../shared/data is not here" >&2
 fi

@@ -27,7 +27,7 @@ def main():
         ("render_s", "seconds per frame", 1),
     ]
     fig, axes = plt.subplots(1, 4, figsize=(18, 4.5))
-    style = {"flat": "o-", "instanced": "s-", "forest": "^--"}
+    style = {"flat": "o-", "instanced": "s-", "forest": "^--", "forest-curved": "v--"}
     for ax, (key, label, scale) in zip(axes, panels):
         for rep in reps:
             pts = sorted((r["leaves"], r[key] * scale) for r in rows if r["representation"] == rep)

@@ -24,8 +24,19 @@ pub enum Representation {
     /// two-level BVH's own cost.
     InstancedCards,
     /// A forest: `copies` instances of one whole tree (its branches and flat leaf cards in
-    /// one prototype; instances do not nest), on a grid, each turned about `+y`.
+    /// one prototype), on a grid, each turned about `+y`.
     Forest,
+    /// The same forest with curved leaves: the branches one prototype placed per tree, every
+    /// curved leaf instance composed with every tree's placement (as scene files do for an
+    /// instanced plant with `leaves = "curved"`): one record per leaf per tree.
+    ForestCurved,
+}
+
+impl Representation {
+    /// Whether this is one of the forests (several trees).
+    pub fn is_forest(self) -> bool {
+        matches!(self, Representation::Forest | Representation::ForestCurved)
+    }
 }
 
 impl std::fmt::Display for Representation {
@@ -35,6 +46,7 @@ impl std::fmt::Display for Representation {
             Representation::Instanced => "instanced",
             Representation::InstancedCards => "instanced-cards",
             Representation::Forest => "forest",
+            Representation::ForestCurved => "forest-curved",
         })
     }
 }
@@ -92,6 +104,14 @@ pub struct Measurement {
 }
 
 /// The scene of one benchmark level: `plant` in `representation` on a ground quad under
+/// Tree `k` of a forest on a `side`-wide square grid `spacing` apart, turned about `+y`.
+fn forest_placement(k: u32, side: u32, spacing: f32) -> glam::Affine3A {
+    let (i, j) = ((k % side) as f32, (k / side) as f32);
+    let offset = Vec3::new((i - 0.5 * (side - 1) as f32) * spacing, 0.0, -j * spacing);
+    let turn = glam::Quat::from_rotation_y(k as f32 * 2.399);
+    glam::Affine3A::from_rotation_translation(turn, offset)
+}
+
 /// a sun and a constant sky, the camera framing the whole tree (or the forest), path
 /// tracing with `max_depth` 6.
 pub fn tree_scene(
@@ -143,6 +163,27 @@ pub fn tree_scene(
             }
             instances.extend(parts.instances);
         }
+        Representation::ForestCurved => {
+            let parts = plant.into_instanced_parts(1, 0, LeafBend::default());
+            materials.extend(parts.materials);
+            prototypes.extend(parts.prototypes);
+            let branches = prototypes.len() as u32;
+            prototypes.push(lamina_core::Prototype {
+                name: "branches".into(),
+                meshes: parts.meshes,
+            });
+            for k in 0..copies {
+                let place = forest_placement(k, side, spacing);
+                instances.push(lamina_core::Instance {
+                    prototype: branches,
+                    transform: place,
+                });
+                instances.extend(parts.instances.iter().map(|i| lamina_core::Instance {
+                    prototype: i.prototype,
+                    transform: place * i.transform,
+                }));
+            }
+        }
         Representation::Forest => {
             let (m, mats) = plant.into_scene_parts(1);
             materials.extend(mats);
@@ -151,12 +192,9 @@ pub fn tree_scene(
                 meshes: m,
             });
             for k in 0..copies {
-                let (i, j) = ((k % side) as f32, (k / side) as f32);
-                let offset = Vec3::new((i - 0.5 * (side - 1) as f32) * spacing, 0.0, -j * spacing);
-                let turn = glam::Quat::from_rotation_y(k as f32 * 2.399);
                 instances.push(lamina_core::Instance {
                     prototype: 0,
-                    transform: glam::Affine3A::from_rotation_translation(turn, offset),
+                    transform: forest_placement(k, side, spacing),
                 });
             }
         }
@@ -164,7 +202,7 @@ pub fn tree_scene(
     // Frame the tree (or the first row of the forest plus its depth).
     let size = hi - lo;
     let (mut blo, mut bhi) = (lo, hi);
-    if representation == Representation::Forest {
+    if representation.is_forest() {
         let half = 0.5 * (side - 1) as f32 * spacing;
         blo = Vec3::new(lo.x - half, lo.y, lo.z - (side - 1) as f32 * spacing);
         bhi = Vec3::new(hi.x + half, hi.y, hi.z);

@@ -501,3 +501,66 @@ fn metallic_roughness_normal_maps_and_tangents() {
         .to_string();
     assert!(e.contains("q.gltf") && e.contains("n.png"), "{e}");
 }
+
+/// `KHR_materials_diffuse_transmission` with both textures: the factor times the
+/// transmission texture's alpha, the colour factor times the (sRGB) colour texture.
+#[test]
+fn diffuse_transmission_textures() {
+    let d = scratch("dtt");
+    write_quad_textures(&d);
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([0, 0, 0, 128]))
+        .save(d.join("t.png"))
+        .unwrap();
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([255, 188, 0, 255]))
+        .save(d.join("c.png"))
+        .unwrap();
+    let with_ext = |t_index: u32| {
+        mapped_quad_gltf([1.0, 1.0, 1.0], 1.0)
+            .replace(
+                "\"normalTexture\": {\"index\": 1, \"scale\": 0.7}}",
+                &format!(
+                    "\"normalTexture\": {{\"index\": 1, \"scale\": 0.7}}, \"extensions\": \
+                     {{\"KHR_materials_diffuse_transmission\": {{\"diffuseTransmissionFactor\": \
+                     0.8, \"diffuseTransmissionTexture\": {{\"index\": {t_index}}}, \
+                     \"diffuseTransmissionColorFactor\": [1, 0.5, 0.5], \
+                     \"diffuseTransmissionColorTexture\": {{\"index\": 3}}}}}}}}"
+                ),
+            )
+            .replace(
+                "\"textures\": [{\"source\": 0}, {\"source\": 1}]",
+                "\"textures\": [{\"source\": 0}, {\"source\": 1}, {\"source\": 2}, {\"source\": 3}]",
+            )
+            .replace(
+                "\"images\": [{\"uri\": \"mr.png\"}, {\"uri\": \"n.png\"}]",
+                "\"images\": [{\"uri\": \"mr.png\"}, {\"uri\": \"n.png\"}, {\"uri\": \"t.png\"}, {\"uri\": \"c.png\"}]",
+            )
+    };
+    let p = d.join("q.gltf");
+    std::fs::write(&p, with_ext(2)).unwrap();
+    let g = load_gltf(&p, &Transform::default()).unwrap();
+    let Material::Pbr(m) = &g.materials[0] else {
+        panic!("{:?}", g.materials[0]);
+    };
+    let b = m.bsdf(glam::Vec2::splat(0.5));
+    assert!(
+        (b.transmission - 0.8 * 128.0 / 255.0).abs() < 1e-3,
+        "{}",
+        b.transmission
+    );
+    let lin = lamina_leaf::texture::srgb_to_linear(188.0 / 255.0);
+    let want = glam::Vec3::new(1.0, 0.5 * lin, 0.0);
+    assert!(
+        (b.transmission_color - want).length() < 1e-3,
+        "{}",
+        b.transmission_color
+    );
+    // A texture index that does not exist names the key.
+    std::fs::write(&p, with_ext(9)).unwrap();
+    let e = load_gltf(&p, &Transform::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("q.gltf") && e.contains("diffuseTransmissionTexture"),
+        "{e}"
+    );
+}

@@ -33,6 +33,10 @@ struct Args {
     /// one tree prototype, comma-separated (empty: none).
     #[arg(long, value_delimiter = ',', default_value = "")]
     forest: Vec<String>,
+    /// Also measure each forest with curved leaves (every leaf instance composed with
+    /// every tree placement).
+    #[arg(long)]
+    forest_curved: bool,
     /// Image width (pixels).
     #[arg(long, default_value_t = 1920)]
     width: u32,
@@ -68,6 +72,7 @@ fn parse_rep(s: &str) -> Result<Representation> {
         "instanced" => Representation::Instanced,
         "instanced-cards" => Representation::InstancedCards,
         "forest" => Representation::Forest,
+        "forest-curved" => Representation::ForestCurved,
         _ => bail!("unknown representation '{s}' (flat, instanced, instanced-cards)"),
     })
 }
@@ -84,11 +89,7 @@ fn child(args: &Args, rep: Representation) -> Result<Measurement> {
     let plant = generate_plant(&params)?;
     let generate_s = t.elapsed().as_secs_f64();
     let leaves_placed = plant.leaf_count() as u64;
-    let copies = if rep == Representation::Forest {
-        args.copies
-    } else {
-        1
-    };
+    let copies = if rep.is_forest() { args.copies } else { 1 };
     let scene = tree_scene(plant, rep, copies, args.width, args.height, args.spp);
     let (triangles, unique_triangles) = triangle_counts(&scene);
     eprintln!(
@@ -107,8 +108,8 @@ fn child(args: &Args, rep: Representation) -> Result<Measurement> {
     let s = out.stats;
     let render_s = (s.elapsed - s.accel_build).as_secs_f64();
     std::fs::create_dir_all(&args.out)?;
-    let name = if rep == Representation::Forest {
-        format!("frame_forest_{copies}x{leaves}.png")
+    let name = if rep.is_forest() {
+        format!("frame_{rep}_{copies}x{leaves}.png")
     } else {
         format!("frame_{rep}_{leaves}.png")
     };
@@ -281,6 +282,13 @@ fn main() -> Result<()> {
     for &copies in &forest {
         eprintln!("forest of {copies} trees of {} leaves:", args.levels[0]);
         record(spawn(&args, "forest", args.levels[0], copies)?)?;
+        if args.forest_curved {
+            eprintln!(
+                "forest of {copies} trees of {} curved leaves:",
+                args.levels[0]
+            );
+            record(spawn(&args, "forest-curved", args.levels[0], copies)?)?;
+        }
     }
     print_table(&rows);
     println!("\nwrote {} and {}", csv.display(), json.display());

@@ -231,7 +231,7 @@ pub struct Palette {
     pub mottle: f32,
 }
 
-/// A complete species preset: everything [`crate::generate`] needs besides the seed and
+/// A complete species preset: everything [`crate::generate()`] needs besides the seed and
 /// the resolution. Public and serde so that callers can make their own.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Preset {

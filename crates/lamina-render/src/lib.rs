@@ -1,6 +1,6 @@
 //! The lamina offline renderer.
 //!
-//! [`render`] turns a [`lamina_core::Scene`] into an [`Image`] of linear Rec.709 RGB
+//! [`render()`] turns a [`lamina_core::Scene`] into an [`Image`] of linear Rec.709 RGB
 //! radiance (W m⁻² sr⁻¹); [`write_image`] stores it as EXR (linear float, the ground truth)
 //! or PNG (8-bit sRGB after exposure and the scene's tone map).
 //!

@@ -10,6 +10,10 @@
 //!   in both spaces and one `tmax` serves all levels. A scene without instances has no
 //!   TLAS and costs what a single BVH costs. Instance records are 52 bytes (matrix +
 //!   prototype id), stored in TLAS leaf order.
+//! * **Tiny BLASes**: a BLAS of at most four primitives (a leaf-card prototype is one
+//!   parallelogram) has no BVH; a ray tests its primitives one after the other (closest
+//!   hit, skip and alpha test as in a traversal), which costs less than starting a
+//!   traversal and testing a root node for every instance the TLAS reaches.
 //! * **Instance shading**: [`Accel::surface`] returns world-space data: the position
 //!   through the object-to-world transform, the geometric normal through the inverse
 //!   transpose (so a mirroring transform keeps the adaxial side on the side of the
@@ -430,6 +434,8 @@ fn bvh_ray(o: Vec3A, d: Vec3A, tmax: f32) -> BvhRay {
 /// module docs), for the world-space meshes or for one prototype in its object space.
 #[derive(Clone, Debug, Default)]
 struct Blas {
+    /// The BVH over `tris`; `None` for an empty BLAS and for one of at most
+    /// [`SMALL_BLAS`] primitives, whose primitives are tested directly.
     bvh: Option<CwBvh>,
     tris: Vec<Tri>,
     prims: Vec<PrimInfo>,
@@ -447,6 +453,12 @@ struct Blas {
     /// Bounds of all primitives (in the BLAS's own space).
     bounds: Option<Aabb>,
 }
+
+/// A BLAS of at most this many primitives (a leaf card: one parallelogram) has no BVH:
+/// a ray tests its primitives one after the other, which costs less than setting up a
+/// traversal and testing a root node (measured with `LAMINA_INSTANCES=1` in
+/// benches/rays.rs).
+const SMALL_BLAS: usize = 4;
 
 /// "Flat primitive" in `Blas::nidx`.
 const NO_NORMALS: u32 = u32::MAX;
@@ -648,6 +660,31 @@ impl BlasBuilder {
         if self.tris.is_empty() {
             return Blas::default();
         }
+        let bounds = self.bounds.iter().fold(Aabb::empty(), |a, b| a.union(b));
+        if self.tris.len() <= SMALL_BLAS {
+            // Tested directly, in the order pushed: no BVH (see `Blas::bvh`).
+            let tris = self
+                .tris
+                .iter()
+                .zip(&self.prims)
+                .map(|(tr, info)| Tri {
+                    v0: tr.v0.to_array(),
+                    e1: (tr.v1 - tr.v0).to_array(),
+                    e2: (tr.v2 - tr.v0).to_array(),
+                    flags: info.flags,
+                    uv: info.uv,
+                })
+                .collect();
+            return Blas {
+                bvh: None,
+                tris,
+                prims: self.prims,
+                nidx: self.nidx,
+                normals: self.normals,
+                tangents: self.tangents,
+                bounds: Some(bounds),
+            };
+        }
         // Small leaves (2 primitives): with alpha-tested cards every primitive in a leaf
         // costs an intersection plus a matte lookup, so a deeper tree pays off (measured
         // with benches/rays.rs: random rays +15 % per CPU-second).
@@ -681,7 +718,6 @@ impl BlasBuilder {
         } else {
             order.iter().map(|&i| self.nidx[i as usize]).collect()
         };
-        let bounds = self.bounds.iter().fold(Aabb::empty(), |a, b| a.union(b));
         Blas {
             bvh: Some(bvh),
             tris,
@@ -1084,7 +1120,21 @@ impl Accel {
     /// Closest opaque hit in `blas` with `t < tmax`: `(t, prim, bary)`.
     #[inline(always)]
     fn blas_closest(&self, blas: &Blas, r: LocalRay, tmax: f32) -> Option<(f32, u32, Vec2)> {
-        let bvh = blas.bvh.as_ref()?;
+        let Some(bvh) = &blas.bvh else {
+            let mut best = None;
+            let mut tmax = tmax;
+            for (i, tri) in blas.tris.iter().enumerate() {
+                if i as u32 == r.skip {
+                    continue;
+                }
+                let (t, b1, b2) = intersect_tri(tri, r.o, r.d, tmax);
+                if t < tmax && self.accept(tri, b1, b2) {
+                    tmax = t;
+                    best = Some((t, i as u32, Vec2::new(b1, b2)));
+                }
+            }
+            return best;
+        };
         let bray = bvh_ray(r.o, r.d, tmax);
         let mut hit = RayHit::none();
         let mut bary = Vec2::ZERO;
@@ -1108,7 +1158,13 @@ impl Accel {
     #[inline(always)]
     fn blas_occluded(&self, blas: &Blas, r: LocalRay, tmax: f32) -> bool {
         let Some(bvh) = &blas.bvh else {
-            return false;
+            return blas.tris.iter().enumerate().any(|(i, tri)| {
+                if i as u32 == r.skip {
+                    return false;
+                }
+                let (t, b1, b2) = intersect_tri(tri, r.o, r.d, tmax);
+                t < tmax && self.accept(tri, b1, b2)
+            });
         };
         let bray = bvh_ray(r.o, r.d, tmax);
         !bvh.ray_traverse_miss(bray, |ray, id| {

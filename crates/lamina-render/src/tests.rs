@@ -1307,3 +1307,129 @@ fn leaf_sides_follow_the_geometric_normal() {
     );
     assert_ne!(front.mean(), through.mean());
 }
+
+/// Tiny prototypes (at most `SMALL_BLAS` primitives, tested without a BVH) answer like
+/// the flattened geometry: three crossing cards (two with a half-transparent matte) and
+/// one triangle, placed rotated, non-uniformly scaled and mirrored. Closest hit, any hit,
+/// and the continuation of every hit ray from its exact hit point skipping the primitive it
+/// left (which must find the next surface, never the same one).
+#[test]
+fn tiny_instanced_prototypes_match_flattened_geometry() {
+    let matte = Texture::from_texels(2, 1, vec![Vec4::ZERO, Vec4::ONE], Wrap::Clamp);
+    let base = small_canopy_scene();
+    let mut meshes: Vec<Mesh> = base.meshes[..3].to_vec();
+    meshes[0].material = 2;
+    meshes[2].material = 2;
+    meshes.push(Mesh {
+        positions: vec![
+            Vec3::new(-0.5, -0.4, 0.1),
+            Vec3::new(0.6, -0.2, -0.1),
+            Vec3::new(0.0, 0.7, 0.2),
+        ],
+        indices: vec![[0, 1, 2]],
+        material: 1,
+        ..Default::default()
+    });
+    let mut inst = base.clone();
+    inst.materials.push(Material::Diffuse {
+        name: "matte".into(),
+        reflectance: ColorInput::Constant(Vec3::splat(0.5)),
+        alpha: Some(AlphaMask {
+            map: matte,
+            use_alpha_channel: false,
+            cutoff: 0.5,
+        }),
+    });
+    inst.prototypes = vec![Prototype {
+        name: "tiny".into(),
+        meshes: meshes.clone(),
+    }];
+    inst.meshes = Vec::new();
+    let transforms = test_transforms();
+    inst.instances = transforms
+        .iter()
+        .map(|&transform| Instance {
+            prototype: 0,
+            transform,
+        })
+        .collect();
+    let mut flat = inst.clone();
+    flat.prototypes = Vec::new();
+    flat.instances = Vec::new();
+    flat.meshes = transforms
+        .iter()
+        .flat_map(|&m| meshes.iter().map(move |mesh| flatten(mesh, m)))
+        .collect();
+    let (a, b) = (Accel::build(&inst).unwrap(), Accel::build(&flat).unwrap());
+    assert_eq!(a.instance_count(), 3);
+    assert_eq!(
+        a.primitive_count(),
+        4 + 1,
+        "3 cards + 1 triangle + the quad light"
+    );
+    let prim = |h: &crate::Hit| match h.kind {
+        HitKind::Triangle { prim, .. } => prim,
+        HitKind::Sphere { .. } => crate::accel::PrimRef::NONE,
+    };
+    let (mut n, mut hits, mut second, mut disagree) = (0, 0, 0, 0);
+    for i in 0..4000u32 {
+        let s = crate::sampler::sobol_2d(i, 5);
+        let q = crate::sampler::sobol_2d(i, 6);
+        let origin = Vec3::new(s.x * 4.0 - 2.0, s.y * 4.0 - 2.0, 3.0 - 6.0 * (i % 2) as f32);
+        let target = Vec3::new(q.x * 3.0 - 1.5, q.y * 3.0 - 1.5, (q.x - q.y) * 2.0 - 1.0);
+        let ray = Ray {
+            origin,
+            dir: (target - origin).normalize(),
+            tmax: f32::INFINITY,
+        };
+        n += 1;
+        let (ha, hb) = (a.intersect(&ray), b.intersect(&ray));
+        assert_eq!(a.occluded(&ray), ha.is_some());
+        let (Some(ha), Some(hb)) = (ha, hb) else {
+            disagree += (ha.is_some() != hb.is_some()) as u32;
+            continue;
+        };
+        if (ha.t - hb.t).abs() >= 1e-4 * hb.t {
+            disagree += 1;
+            continue;
+        }
+        hits += 1;
+        let (pa, pb) = (prim(&ha), prim(&hb));
+        if pa == crate::accel::PrimRef::NONE {
+            continue;
+        }
+        let HitKind::Triangle { bary, .. } = ha.kind else {
+            unreachable!()
+        };
+        let (xa, ia) = a.surface(pa, bary);
+        let HitKind::Triangle { bary: bb, .. } = hb.kind else {
+            unreachable!()
+        };
+        let (xb, ib) = b.surface(pb, bb);
+        assert!((xa - xb).length() < 1e-4, "position {xa} vs {xb}");
+        assert!(ia.n.dot(ib.n) > 0.9999, "normal {} vs {}", ia.n, ib.n);
+        // Continue from the exact hit point, skipping the primitive just hit.
+        let next = |p: Vec3| Ray {
+            origin: p,
+            dir: ray.dir,
+            tmax: 100.0,
+        };
+        let (na, nb) = (
+            a.intersect_skip(&next(xa), pa),
+            b.intersect_skip(&next(xb), pb),
+        );
+        assert_eq!(a.occluded_skip(&next(xa), pa), na.is_some());
+        if let Some(h) = na {
+            assert_ne!(prim(&h), pa, "the skipped primitive was hit again");
+        }
+        match (na, nb) {
+            (None, None) => {}
+            (Some(na), Some(nb)) if (na.t - nb.t).abs() < 1e-4 * nb.t.max(1e-2) => second += 1,
+            _ => disagree += 1,
+        }
+    }
+    eprintln!("{hits} hits, {second} second hits, {disagree} disagree of {n}");
+    assert!(hits > n / 8, "{hits} of {n} rays hit");
+    assert!(second > n / 40, "{second} of {n} rays hit twice");
+    assert!(disagree * 100 < n, "{disagree} of {n} rays disagree");
+}

@@ -141,3 +141,94 @@ pub fn canopy_scene(n: u32, width: u32, height: u32, spp: u32) -> Scene {
         instances: Vec::new(),
     }
 }
+
+/// The placements of [`canopy_meshes`]' cards as object-to-world transforms of a card in
+/// the `xy` plane (`x` across, `y` along the leaf, `+z` the front), in the same order.
+#[allow(dead_code)] // used by the ray benchmark, not by the example
+pub fn canopy_transforms(n: u32, seed: u32) -> Vec<glam::Affine3A> {
+    (0..n)
+        .map(|i| {
+            let k = hash_u32(seed ^ i.wrapping_mul(0x9e37_79b9)).wrapping_mul(8);
+            let c = Vec3::new(
+                rnd(k) * 10.0 - 5.0,
+                rnd(k + 1) * 10.0,
+                rnd(k + 2) * 10.0 - 5.0,
+            );
+            let z = 1.0 - 2.0 * rnd(k + 3);
+            let phi = 2.0 * std::f32::consts::PI * rnd(k + 4);
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let n = Vec3::new(r * phi.cos(), z, r * phi.sin());
+            let frame = lamina_leaf::frame::Frame::from_normal(n);
+            let a = 2.0 * std::f32::consts::PI * rnd(k + 5);
+            let up = frame.s * a.cos() + frame.t * a.sin();
+            let side = n.cross(up);
+            glam::Affine3A::from_cols(side.into(), up.into(), n.into(), c.into())
+        })
+        .collect()
+}
+
+/// A card of [`canopy_meshes`] in object space: 0.1 x 0.15 m in the `xy` plane, centred.
+#[allow(dead_code)] // used by the ray benchmark, not by the example
+pub fn card_mesh() -> Mesh {
+    let (hw, hh) = (0.05, 0.075);
+    Mesh {
+        positions: [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+            .iter()
+            .map(|&(du, dv)| Vec3::new(du * hw, dv * hh, 0.0))
+            .collect(),
+        uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        material: 0,
+        ..Default::default()
+    }
+}
+
+/// A curved leaf of the card's size: 4 x 8 quads (64 triangles), the midrib drooping and
+/// the edges cupped (non-planar quads, so no parallelograms).
+#[allow(dead_code)] // used by the ray benchmark, not by the example
+pub fn curved_leaf_mesh() -> Mesh {
+    let (hw, hh) = (0.05, 0.075);
+    let (cols, rows) = (4u32, 8u32);
+    let mut m = Mesh {
+        material: 0,
+        ..Default::default()
+    };
+    for j in 0..=rows {
+        for i in 0..=cols {
+            let (u, v) = (i as f32 / cols as f32, j as f32 / rows as f32);
+            let (x, y) = (u * 2.0 - 1.0, v * 2.0 - 1.0);
+            let z = -0.03 * (v * v) + 0.015 * x * x;
+            m.positions.push(Vec3::new(x * hw, y * hh, z));
+            m.uvs.push(Vec2::new(u, v));
+        }
+    }
+    for j in 0..rows {
+        for i in 0..cols {
+            let a = j * (cols + 1) + i;
+            let (b, c, d) = (a + 1, a + cols + 2, a + cols + 1);
+            m.indices.push([a, b, c]);
+            m.indices.push([a, c, d]);
+        }
+    }
+    m
+}
+
+/// [`canopy_scene`] with its cards as instances of one prototype `proto` (placed like the
+/// cards); the ground stays a world mesh.
+#[allow(dead_code)] // used by the ray benchmark, not by the example
+pub fn instanced_canopy_scene(n: u32, width: u32, height: u32, proto: Mesh) -> Scene {
+    let mut s = canopy_scene(0, width, height, 1);
+    s.meshes.retain(|m| m.material == 1);
+    s.prototypes = vec![lamina_core::Prototype {
+        name: "leaf".into(),
+        meshes: vec![proto],
+    }];
+    s.instances = canopy_transforms(n, 1)
+        .into_iter()
+        .map(|transform| lamina_core::Instance {
+            prototype: 0,
+            transform,
+        })
+        .collect();
+    s
+}

@@ -1347,11 +1347,7 @@ impl Ctx {
 
     /// A plant object's `leaves`: `"cards"` (default) or `"curved"` (instanced curved
     /// leaves; with `instances` each leaf instance is composed with every placement).
-    fn curved_leaves(
-        &self,
-        p: &str,
-        leaves: Option<&S<String>>,
-    ) -> Result<bool, SceneError> {
+    fn curved_leaves(&self, p: &str, leaves: Option<&S<String>>) -> Result<bool, SceneError> {
         let Some(l) = leaves else { return Ok(false) };
         let key = format!("{p}.leaves");
         match l.get_ref().as_str() {

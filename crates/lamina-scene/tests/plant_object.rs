@@ -303,7 +303,11 @@ fn instanced_plant_with_curved_leaves_composes_placements() {
     assert_eq!(placed.prototypes.len(), 3);
     let leaves = written_twice.instances.len();
     assert!(leaves > 100);
-    assert_eq!(placed.instances.len(), leaves + 2, "leaves + one branch instance each");
+    assert_eq!(
+        placed.instances.len(),
+        leaves + 2,
+        "leaves + one branch instance each"
+    );
     let key = |i: &lamina_scene::Instance| {
         let m = glam::Mat4::from(i.transform).to_cols_array();
         m.map(|x| (x * 1e4).round() as i64)
@@ -326,7 +330,10 @@ fn instanced_plant_with_curved_leaves_composes_placements() {
         .filter(|i| i.prototype == branches)
         .map(|i| glam::Vec3::from(i.transform.translation))
         .collect();
-    assert_eq!(branch_at, vec![glam::Vec3::ZERO, glam::Vec3::new(3.0, 0.0, 0.0)]);
+    assert_eq!(
+        branch_at,
+        vec![glam::Vec3::ZERO, glam::Vec3::new(3.0, 0.0, 0.0)]
+    );
     // Its meshes are the first object's branch mesh.
     assert_eq!(
         placed.prototypes[branches as usize].meshes[0].positions,

@@ -48,8 +48,21 @@
 //!   (`rgb = n · 0.5 + 0.5`), `shape.y = 1`. The shader has no vertex tangents: it solves
 //!   `dP/du`, `dP/dv` from the screen-space derivatives of position and uv (as the glTF
 //!   sample viewer does without tangents) and builds lamina-render's frame (`x` = `dP/du`
-//!   orthogonal to the normal, `y` towards increasing lamina `v`). Leaves' bump maps are
-//!   still not used.
+//!   orthogonal to the normal, `y` towards increasing lamina `v`).
+//!
+//! # Leaf bump maps
+//! A leaf with a bump map (and `bump_scale > 0`) gets it baked into the same normal map,
+//! on the grid of its other maps (the bump map counts towards that grid's size and its
+//! downscaling): at every texel centre the shading normal that
+//! [`LeafMaterial::bsdf`] builds from the bump map's gradient (`LeafBsdf::shading_normal`,
+//! so the formula, scale and clamp are lamina-leaf's), in the CPU leaf frame (`x` = `dP/du`,
+//! `y` = `z × x`, which is towards increasing `v` unless the uv mapping is mirrored,
+//! `z` = the adaxial normal). `shape.y = 1` as for glTF maps; `shape.z = 1` marks every
+//! leaf, telling the shader that the normal map lives *inside* the BSDF as on the CPU:
+//! adaxial/abaxial, reflection/transmission, the angular tables' cosines and the blend
+//! band stay geometric, while the diffuse lobes' cosine becomes LeafBsdf's blended
+//! shading cosine (`max(0, wi · ±n_s)`, `-n_s` on the abaxial side) and the specular lobe
+//! and the sky's irradiance use `±n_s`. Leaves without a bump map keep the flat 1x1 map.
 //!
 //! Mip levels are box-filtered here in linear space. Maps larger than the device's texture
 //! limit are **downscaled with a warning** (returned in [`BakedMaterial::warnings`]).
@@ -369,7 +382,10 @@ fn specular_albedo(mu_o: f32, alpha: f32, eta: f32, params: &LeafParams) -> f32 
     acc * std::f32::consts::TAU / (NM * NP) as f32
 }
 
-/// The shading constants of a leaf, from its parameters.
+/// The shading constants of a leaf, from its parameters: `shape.z = 1` marks the normal
+/// map as a leaf bump map (sides and the angular tables stay geometric, the bump enters
+/// the shading cosines and the specular lobe only); `shape.y` is set by [`bake_material`]
+/// when the leaf has a bump map.
 pub fn leaf_uniform(params: &LeafParams) -> MaterialUniform {
     MaterialUniform {
         spec: [
@@ -378,9 +394,26 @@ pub fn leaf_uniform(params: &LeafParams) -> MaterialUniform {
             params.specular,
             params.blend_width_deg.to_radians().sin(),
         ],
-        shape: [0.0; 4],
+        shape: [0.0, 0.0, 1.0, 0.0],
         metal: [0.0; 4],
     }
+}
+
+/// A leaf's bump map as a tangent-space normal map (see the module docs): at every texel
+/// centre of the `w x h` grid of the leaf's baked maps, the shading normal
+/// [`LeafMaterial::bsdf`] builds from the bump map's gradient, in the CPU leaf frame
+/// (`x` = `dP/du`, `y` = `z × x`, `z` = the adaxial normal), stored linearly as
+/// `n · 0.5 + 0.5`. `None` without a bump map or with `bump_scale` 0 (the flat normal).
+fn leaf_bump_normals(leaf: &LeafMaterial, w: u32, h: u32) -> Option<MipMap> {
+    leaf.maps().bump.as_ref()?;
+    if leaf.params().bump_scale <= 0.0 {
+        return None;
+    }
+    let [n, _, _] = bake_texels(w, h, &|uv| {
+        let v = leaf.bsdf(uv).shading_normal() * 0.5 + Vec3::splat(0.5);
+        [[v.x, v.y, v.z, 1.0], [0.0; 4], [0.0; 4]]
+    });
+    Some(mip_chain_with(w, h, n, encode_linear))
 }
 
 fn colour_size(c: &ColorInput) -> (u32, u32) {
@@ -404,6 +437,7 @@ pub fn bake_material(material: &Material, max_dim: u32) -> BakedMaterial {
                 &maps.alpha,
                 &maps.thickness,
                 &maps.extinction,
+                &maps.bump,
             ]
             .into_iter()
             .flatten()
@@ -412,8 +446,8 @@ pub fn bake_material(material: &Material, max_dim: u32) -> BakedMaterial {
                 h = h.max(t.height());
             }
             let (w, h) = fit(name, "the leaf maps", w, h, max_dim, &mut warnings);
-            let leaf = leaf.clone();
-            let mut maps = bake_texels(w, h, &move |uv| {
+            let leaf: &LeafMaterial = leaf;
+            let mut maps = bake_texels(w, h, &|uv| {
                 let bsdf = leaf.bsdf(uv);
                 let (r, t) = bsdf.diffuse_albedo();
                 let rb = bsdf.diffuse_albedo_abaxial();
@@ -427,14 +461,19 @@ pub fn bake_material(material: &Material, max_dim: u32) -> BakedMaterial {
             fill_transparent(&mut maps);
             let [f, b, t] = maps;
             let params = *leaf_params(material);
+            let normal = leaf_bump_normals(leaf, w, h);
+            let mut uniform = leaf_uniform(&params);
+            if normal.is_some() {
+                uniform.shape[1] = 1.0;
+            }
             BakedMaterial {
                 name: name.clone(),
                 front: mip_chain(w, h, f),
                 back: mip_chain(w, h, b),
                 trans: mip_chain(w, h, t),
-                normal: flat_normal(),
+                normal: normal.unwrap_or_else(flat_normal),
                 lut: leaf_lut(&params),
-                uniform: leaf_uniform(&params),
+                uniform,
                 warnings,
             }
         }
@@ -863,6 +902,79 @@ mod tests {
         for k in 0..3 {
             let decoded = got[k] as f32 / 255.0 * 2.0 - 1.0;
             assert!((decoded - want[k]).abs() < 0.01, "{got:?} vs {want}");
+        }
+    }
+
+    /// A leaf's bump map is baked to the shading normal LeafMaterial uses at every texel
+    /// centre (to 8-bit quantisation), in the CPU leaf frame: a height rising along `u`
+    /// and `v` tilts the normal towards `-x` and `-y` (`y` towards increasing `v`). A leaf
+    /// without a bump map keeps the flat 1x1 map, flagged off.
+    #[test]
+    fn leaf_bump_map_bakes_to_the_cpu_shading_normal() {
+        use lamina_leaf::{Texture, Wrap};
+        let (w, h) = (8u32, 4u32);
+        // A linear ramp h = 0.25 u + 0.5 v sampled at texel centres (top row first).
+        let texels = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                let (u, v) = ((x + 0.5) / w as f32, 1.0 - (y + 0.5) / h as f32);
+                glam::Vec4::splat(0.25 * u + 0.5 * v)
+            })
+            .collect();
+        let maps = LeafMaps {
+            bump: Some(Texture::from_texels(w, h, texels, Wrap::Clamp)),
+            ..Default::default()
+        };
+        let params = LeafParams {
+            bump_scale: 1.0,
+            ..LeafParams::default()
+        };
+        let leaf = std::sync::Arc::new(LeafMaterial::new(maps, params).unwrap());
+        let m = Material::Leaf {
+            name: "bumpy".into(),
+            leaf: leaf.clone(),
+        };
+        let b = bake_material(&m, 64);
+        assert_eq!((b.normal.width, b.normal.height), (w, h));
+        assert_eq!((b.uniform.shape[1], b.uniform.shape[2]), (1.0, 1.0));
+        let decode =
+            |t: [u8; 4]| Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32) / 127.5 - Vec3::ONE;
+        let exact = Vec3::new(-0.25, -0.5, 1.0).normalize();
+        for y in 0..h {
+            for x in 0..w {
+                let uv = Vec2::new(
+                    (x as f32 + 0.5) / w as f32,
+                    1.0 - (y as f32 + 0.5) / h as f32,
+                );
+                let cpu = leaf.bsdf(uv).shading_normal();
+                let got = decode(b.normal.levels[0][(y * w + x) as usize]);
+                assert!(
+                    (got - cpu).abs().max_element() <= 1.0 / 255.0 + 1e-6,
+                    "texel {x},{y}: {got} vs {cpu}"
+                );
+                // Away from the clamped border the central differences see the ramp.
+                if (1..w - 1).contains(&x) && (1..h - 1).contains(&y) {
+                    assert!(
+                        (cpu - exact).length() < 1e-4,
+                        "texel {x},{y}: {cpu} vs {exact}"
+                    );
+                }
+            }
+        }
+        // Without a bump map (or with bump_scale 0): flat and flagged off.
+        for (maps, scale) in [(LeafMaps::default(), 1.0), (leaf.maps().clone(), 0.0)] {
+            let params = LeafParams {
+                bump_scale: scale,
+                ..LeafParams::default()
+            };
+            let flat = Material::Leaf {
+                name: "flat".into(),
+                leaf: std::sync::Arc::new(LeafMaterial::new(maps, params).unwrap()),
+            };
+            let b = bake_material(&flat, 64);
+            assert_eq!(b.uniform.shape[1], 0.0);
+            assert_eq!(b.uniform.shape[2], 1.0);
+            assert_eq!(b.normal.levels[0], vec![[128, 128, 255, 255]]);
         }
     }
 

@@ -23,9 +23,10 @@
 //! Known approximations (see the crate README section in the notes): sky light and point
 //! lights are unshadowed; light between leaves is limited to the sun's transmittance
 //! through up to two leaves (no leaf-to-leaf bounces); the leaf lobes' azimuthal shape is
-//! averaged out; leaves' bump maps are not used (glTF normal maps are, with a tangent
-//! frame from screen-space derivatives); a glTF material's roughness and metallic maps are
-//! averaged for its specular lobe.
+//! averaged out; leaves' bump maps and glTF normal maps are applied with a tangent frame
+//! from screen-space derivatives (a leaf's bump baked to the CPU model's shading normal,
+//! entering only the shading cosines and the specular lobe, as in `LeafBsdf`); a glTF
+//! material's roughness and metallic maps are averaged for its specular lobe.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]

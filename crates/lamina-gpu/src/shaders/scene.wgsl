@@ -45,7 +45,9 @@ struct Globals {
 // z specular weight, w sin(blend width).
 // shape.x: card radius a (m): light transmitted by this material reaches a receiver d
 // behind it scaled by a^2 / (a^2 + d^2) (it leaves the leaf diffusely); shape.y: 1 when
-// t_normal holds a normal map.
+// t_normal holds a normal map; shape.z: 1 for leaves, whose normal map is the bump map
+// baked from lamina-leaf: it lives inside the leaf BSDF (the shading cosines and the
+// specular lobe), while sides, the angular tables and the blend band stay geometric.
 // metal: the glTF material's metallic lobe, rgb = mean metallic * base colour (F0 times
 // weight), a = mean metallic; its Fresnel is rgb + (a - rgb) (1 - v.h)^5. Zero otherwise.
 struct MaterialParams {
@@ -90,7 +92,8 @@ struct SkyVis {
 @group(1) @binding(5) var s_lut: sampler;
 @group(1) @binding(6) var<uniform> mat: MaterialParams;
 // Tangent-space normal map (linear, rgb = n * 0.5 + 0.5; +x along u, +y towards increasing
-// lamina v), used when mat.shape.y is 1; a flat 1x1 map otherwise.
+// lamina v; for leaves +y = normal x tangent, the CPU leaf frame), used when mat.shape.y is
+// 1; a flat 1x1 map otherwise.
 @group(1) @binding(7) var t_normal: texture_2d<f32>;
 
 struct VIn {
@@ -212,10 +215,11 @@ fn ggx_lambda(c: f32, a: f32) -> f32 {
 
 // The leaf's specular lobe f_spec cos (lamina_leaf::specular::eval, GGX with
 // height-correlated Smith and the epidermis Fresnel), faded over the blend band next to
-// the plane exactly as LeafBsdf does. `n` is the normal on the viewer's (= light's) side.
+// the plane exactly as LeafBsdf does. `n` is the shading normal on the viewer's (= light's)
+// side; `fade` the blend-band fade from the geometric cosines (LeafBsdf fades with those).
 // For glTF materials (lamina_leaf::PbrBsdf) the dielectric lobe has weight 1 - metallic and
 // the metallic lobe (`mat.metal`) adds the same GGX lobe with a coloured Schlick Fresnel.
-fn specular(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, adaxial: bool) -> vec3<f32> {
+fn specular(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, adaxial: bool, fade: f32) -> vec3<f32> {
     let w = mat.spec.z;
     if w <= 0.0 && mat.metal.a <= 0.0 {
         return vec3<f32>(0.0);
@@ -237,16 +241,20 @@ fn specular(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, adaxial: bool) -> vec3<f32
     let m = 1.0 - vh;
     let m5 = m * m * m * m * m;
     let fm = mat.metal.rgb + (vec3<f32>(mat.metal.a) - mat.metal.rgb) * m5;
-    let fade = smooth01(mu_o / mat.spec.w) * smooth01(mu_i / mat.spec.w);
     return (vec3<f32>(f) + fm) * (fade * d * g2 / (4.0 * mu_o));
 }
 
 // Everything a light needs about the shaded texel.
 struct Surface {
-    // Unit normal on the viewer's side.
+    // Unit shading normal on the viewer's side (normal-mapped or bump-mapped).
     n: vec3<f32>,
+    // Unit normal that decides sides and the angular tables' cosines, on the viewer's
+    // side: the unperturbed one for leaves (their bump lives inside the BSDF), `n` itself
+    // for other materials (a normal map perturbs the whole frame, as on the CPU).
+    ng: vec3<f32>,
     // Unit direction to the viewer.
     v: vec3<f32>,
+    // Viewing cosine against `ng`.
     mu_o: f32,
     // True when the viewer sees the adaxial side.
     adaxial: bool,
@@ -256,17 +264,25 @@ struct Surface {
 }
 
 // f(wo, wi) |cos theta_i| for light from unit direction `l`: the seen side's reflection
-// lobe plus specular when the light is on the viewer's side, the transmission lobe when
-// it is behind. Both diffuse lobes vanish with mu_i at the leaf plane, and the specular
-// fades over the blend band, so a light crossing the plane changes nothing abruptly.
+// lobe plus specular when the light is on the viewer's side (of `ng`), the transmission
+// lobe when it is behind. The diffuse lobes take the table at the `ng` cosines times
+// LeafBsdf's cosine: the shading cosine max(0, l . ±n) (`n` flipped to the light's side)
+// blended to the `ng` cosine over the blend band, which vanishes at the plane; the
+// specular fades over the band too, so a light crossing the plane changes nothing
+// abruptly however the bump tilts `n`. Without a bump (n = ng) the cosine is |l . n|.
 fn bsdf_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
-    let c = dot(s.n, l);
+    let c = dot(s.ng, l);
     let mu_i = abs(c);
+    let n_l = select(-s.n, s.n, c >= 0.0);
+    let cs = max(dot(l, n_l), 0.0);
+    let cos_eff = mu_i + smooth01(mu_i / mat.spec.w) * (cs - mu_i);
     if c >= 0.0 {
         let layer = select(1, 0, s.adaxial);
-        return s.refl * lut(layer, s.mu_o, mu_i) * mu_i + specular(s.n, s.v, l, s.adaxial);
+        let fade = smooth01(s.mu_o / mat.spec.w) * smooth01(mu_i / mat.spec.w);
+        return s.refl * lut(layer, s.mu_o, mu_i) * cos_eff
+            + specular(s.n, s.v, l, s.adaxial, fade);
     }
-    return s.trans * lut(2, s.mu_o, mu_i) * mu_i;
+    return s.trans * lut(2, s.mu_o, mu_i) * cos_eff;
 }
 
 fn sh_basis(d: vec3<f32>) -> array<f32, 9> {
@@ -405,7 +421,9 @@ fn sky_visibility(p: vec3<f32>, n: vec3<f32>) -> SkyVisibility {
 // `m` (unit): the frame is x = dP/du made orthogonal to n0, y = n0 x t signed towards
 // increasing v, z = n0, as lamina-render's shading_normal, with dP/du and dP/dv solved
 // from the screen-space derivatives of position and uv (no vertex tangents: the glTF
-// sample viewer's construction). n0 itself where the uv mapping is degenerate.
+// sample viewer's construction). `leaf`: y = n0 x t unsigned, LeafMaterial's frame (the
+// same unless the uv mapping is mirrored against the adaxial side). n0 itself where the
+// uv mapping is degenerate.
 fn mapped_normal(
     n0: vec3<f32>,
     m: vec3<f32>,
@@ -413,6 +431,7 @@ fn mapped_normal(
     dpy: vec3<f32>,
     dux: vec2<f32>,
     duy: vec2<f32>,
+    leaf: bool,
 ) -> vec3<f32> {
     let det = dux.x * duy.y - dux.y * duy.x;
     if abs(det) < 1e-20 {
@@ -426,7 +445,7 @@ fn mapped_normal(
     }
     let t = normalize(tt);
     var b = cross(n0, t);
-    if dot(b, dpdv) < 0.0 {
+    if !leaf && dot(b, dpdv) < 0.0 {
         b = -b;
     }
     let mapped = t * m.x + b * m.y + n0 * m.z;
@@ -457,17 +476,24 @@ fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) 
     let n0 = normalize(in.normal);
     // The seen side follows the unperturbed normal (lamina-render: sides are geometric).
     let flip = dot(n0, s.v) < 0.0;
-    var n = select(n0, -n0, flip);
+    let ng = select(n0, -n0, flip);
+    var n = ng;
+    let leaf_bump = mat.shape.z > 0.5;
     if mat.shape.y > 0.5 {
-        let m = mapped_normal(n0, normalize(nm), dpx, dpy, dux, duy);
+        let m = mapped_normal(n0, normalize(nm), dpx, dpy, dux, duy, leaf_bump);
+        // The bump or normal map's normal seen from the back is its negation (LeafBsdf
+        // uses -n_s on the abaxial side).
         let nm_seen = select(m, -m, flip);
-        // A view the perturbed normal puts behind the surface shades flat (as on the CPU).
-        if dot(nm_seen, s.v) > 0.0 {
+        // A leaf keeps its bump normal whatever the view (LeafBsdf has no fallback; a view
+        // behind it only loses the specular lobe). A view the perturbed normal puts
+        // behind another surface shades flat (as lamina-render's frame does).
+        if leaf_bump || dot(nm_seen, s.v) > 0.0 {
             n = nm_seen;
         }
     }
     s.n = n;
-    s.mu_o = clamp(dot(n, s.v), 1e-4, 1.0);
+    s.ng = select(n, ng, leaf_bump);
+    s.mu_o = clamp(dot(s.ng, s.v), 1e-4, 1.0);
     s.adaxial = front_facing != (in.mirror < 0.0);
     s.refl = select(back, front.rgb, s.adaxial);
     s.trans = trans;
@@ -475,7 +501,7 @@ fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) 
     var col = vec3<f32>(0.0);
     if g.sun_dir.w > 0.5 {
         let l = g.sun_dir.xyz;
-        let n_l = select(-n, n, dot(n, l) >= 0.0);
+        let n_l = select(-s.ng, s.ng, dot(s.ng, l) >= 0.0);
         col += bsdf_cos(s, l) * g.sun_irr.rgb * sun_transmittance(in.world, n_l);
     }
     for (var i = 0u; i < min(g.counts.x, MAX_LIGHTS); i++) {
@@ -493,8 +519,9 @@ fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) 
     // approximated by the lobe's directional albedo times the irradiance around the mirror
     // direction (GGX shadowing keeps it small at grazing views, as on the CPU).
     // Both scale with the sky visibility of their face.
-    let vis = sky_visibility(in.world, n);
-    let spec_alb = mat.spec.z * specular_albedo(s.mu_o, s.adaxial) + metal_albedo(s.mu_o);
+    let vis = sky_visibility(in.world, s.ng);
+    let mu_s = clamp(dot(n, s.v), 1e-4, 1.0);
+    let spec_alb = mat.spec.z * specular_albedo(mu_s, s.adaxial) + metal_albedo(mu_s);
     let spec_sky = spec_alb * sky_irradiance(reflect(-s.v, n));
     col += (vis.front * (s.refl * sky_irradiance(n) + spec_sky) + vis.back * s.trans * sky_irradiance(-n)) / PI;
     return vec4<f32>(col, 1.0);

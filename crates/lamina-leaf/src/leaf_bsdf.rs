@@ -91,8 +91,10 @@ impl LeafBsdf {
     }
 
     /// Hemispherical diffuse reflectance seen from the adaxial side and diffuse
-    /// transmittance at this texel (linear RGB, white-sky albedos, specular excluded), as
-    /// used by the paper integrator's ambient term.
+    /// transmittance at this texel (linear RGB): the white-sky albedos of the subsurface
+    /// lobes [`Bsdf::eval`] returns here, specular excluded and bump map excluded (flat
+    /// frame), see [`crate::material`]. Used by the paper integrator's ambient term and the
+    /// GPU bake.
     pub fn diffuse_albedo(&self) -> (Vec3, Vec3) {
         (self.albedo[0], self.albedo[2])
     }

@@ -17,6 +17,18 @@
 //! exactly the photo's colour. A missing colour map is replaced by the physical albedo (see
 //! [`crate::maps`]), so a leaf without maps is the pure layer model.
 //!
+//! **Texel albedos**: [`LeafBsdf::diffuse_albedo`] and [`LeafBsdf::diffuse_albedo_abaxial`]
+//! (what the paper integrator's ambient term and the GPU bake use) are the white-sky
+//! albedos of the subsurface lobes `eval` returns at the texel, `C_X lambda A_X(t, e) / A_X`
+//! with `A_X(t, e)` the white-sky albedo of the whole physical lobe (single scattering plus
+//! diffusion) at the texel's thickness and extinction map values, `min(1)` per channel:
+//! specular lobe excluded, bump map excluded (geometric cosines, flat frame). In diffuse mode
+//! `A_X(t, e) / A_X` is the exact Kubelka-Munk ratio per texel; otherwise it is tabulated
+//! here over 9 x 9 map values spanning the ranges the maps contain (denser toward low
+//! values; 0.5 is a node where it is inside, so nominal texels and a leaf without thickness
+//! or extinction maps are exact), by a 16 x 16 x 8 quadrature, and interpolated bilinearly
+//! in its logarithm (within about 2 % of a fine integration of `eval`).
+//!
 //! **Energy**: `lambda` (per texel and channel, `<= 1`) scales the colours down where the
 //! maps ask for more than light can give: for every incidence angle on either side,
 //! `specular albedo + C_R rho_R / A_R + C_T rho_T / A_T <= 0.99` (`rho` = directional
@@ -43,6 +55,146 @@ use std::path::Path;
 const TABLE_N: usize = 48;
 /// Safety margin of the energy bound (numerical integration error).
 const ENERGY_MARGIN: f32 = 0.99;
+/// Nodes per axis of the thickness x extinction table of white-sky albedo ratios (over the
+/// range each map contains; one node for a missing or constant map).
+const RATIO_N: usize = 9;
+/// Incidence (and exitance) cosines of the white-sky integration behind that table.
+const RATIO_MU: usize = 16;
+/// Azimuths (over `[0, pi]`, doubled) of that integration.
+const RATIO_PHI: usize = 8;
+
+/// White-sky albedos (adaxial R, abaxial R, T) of the physical subsurface lobes of `b`:
+/// `(1/pi) ∫∫ f_phys |cos_i| |cos_o| dwi dwo` over the geometric hemispheres. Exact
+/// Kubelka-Munk values in diffuse mode; otherwise a product quadrature (`mu = x^2` midpoints,
+/// dense near grazing; azimuth midpoints). T is integrated for light from above only: the
+/// subsurface lobes are reciprocal, so the white-sky transmittance is the same from below.
+fn white_sky_albedos(b: &LeafBsdf) -> [Vec3; 3] {
+    if b.mode == LeafMode::Diffuse {
+        let d = &b.diffusion;
+        return [d.r_top, d.r_bottom, d.t];
+    }
+    let node = |i: usize| {
+        let x = (i as f32 + 0.5) / RATIO_MU as f32;
+        (x * x, 2.0 * x / RATIO_MU as f32)
+    };
+    let mut acc = [Vec3::ZERO; 3];
+    for io in 0..RATIO_MU {
+        let (mo, wmo) = node(io);
+        let so = (1.0 - mo * mo).max(0.0).sqrt();
+        let o_up = Vec3::new(so, 0.0, mo);
+        let o_dn = Vec3::new(so, 0.0, -mo);
+        for ii in 0..RATIO_MU {
+            let (mi, wmi) = node(ii);
+            let si = (1.0 - mi * mi).max(0.0).sqrt();
+            // (1/pi) * 2 pi (outgoing azimuth) * 2 pi / RATIO_PHI (incoming, doubled).
+            let w = 4.0 * std::f32::consts::PI / RATIO_PHI as f32 * wmo * mo * wmi * mi;
+            for k in 0..RATIO_PHI {
+                let phi = std::f32::consts::PI * (k as f32 + 0.5) / RATIO_PHI as f32;
+                let (sp, cp) = phi.sin_cos();
+                let i_up = Vec3::new(si * cp, si * sp, mi);
+                let i_dn = Vec3::new(si * cp, si * sp, -mi);
+                acc[0] += b.subsurface(o_up, i_up) * w;
+                acc[1] += b.subsurface(o_dn, i_dn) * w;
+                acc[2] += b.subsurface(o_dn, i_up) * w;
+            }
+        }
+    }
+    acc
+}
+
+/// `A_X(t, e) / A_X(0.5, 0.5)` per lobe (adaxial R, abaxial R, T) and channel, tabulated
+/// over the thickness x extinction map values of the material, stored as logarithms and
+/// interpolated bilinearly (the albedos vary roughly exponentially with both).
+#[derive(Clone, Debug)]
+struct AlbedoRatios {
+    /// Thickness-map nodes, increasing (0.5 is one of them where it lies in the range).
+    t: Vec<f32>,
+    /// Extinction-map nodes, likewise.
+    e: Vec<f32>,
+    /// `ln(A_X(t_i, e_j) / A_X(0.5, 0.5))` at index `i * e.len() + j`.
+    ln: Vec<[Vec3; 3]>,
+}
+
+/// `RATIO_N` nodes spanning `range` (one where it is a point), denser toward its low end, with the node nearest to the
+/// nominal 0.5 moved onto it where 0.5 lies inside, so that nominal texels are exact.
+fn ratio_nodes(range: (f32, f32)) -> Vec<f32> {
+    let (lo, hi) = range;
+    if hi <= lo {
+        return vec![lo];
+    }
+    let mut v: Vec<f32> = (0..RATIO_N)
+        // Denser toward low values: thin and weakly absorbing texels curve the most.
+        .map(|k| lo + (hi - lo) * (k as f32 / (RATIO_N - 1) as f32).powf(1.6))
+        .collect();
+    if lo <= 0.5 && 0.5 <= hi {
+        let k = (0..RATIO_N)
+            .min_by(|&a, &b| (v[a] - 0.5).abs().total_cmp(&(v[b] - 0.5).abs()))
+            .unwrap_or(0);
+        v[k] = 0.5;
+    }
+    v
+}
+
+/// Cell index and fraction of `x` on the increasing `nodes` (clamped to their range).
+#[inline]
+fn locate(nodes: &[f32], x: f32) -> (usize, f32) {
+    let n = nodes.len();
+    // Also catches NaN.
+    if n == 1 || x.is_nan() || x <= nodes[0] {
+        return (0, 0.0);
+    }
+    let mut i = 0;
+    while i + 2 < n && x >= nodes[i + 1] {
+        i += 1;
+    }
+    let f = ((x - nodes[i]) / (nodes[i + 1] - nodes[i])).clamp(0.0, 1.0);
+    (i, f)
+}
+
+impl AlbedoRatios {
+    fn new(
+        nominal: [Vec3; 3],
+        t_range: (f32, f32),
+        e_range: (f32, f32),
+        albedos: impl Fn(f32, f32) -> [Vec3; 3],
+    ) -> Self {
+        let t = ratio_nodes(t_range);
+        let e = ratio_nodes(e_range);
+        let ln_of = |a: Vec3, a0: Vec3| {
+            let safe = |v: Vec3| v.max(Vec3::splat(1e-30));
+            Vec3::from_array([0, 1, 2].map(|c| (safe(a)[c] / safe(a0)[c]).ln()))
+        };
+        let mut ln = Vec::with_capacity(t.len() * e.len());
+        for &ti in &t {
+            for &ej in &e {
+                let a = if (ti, ej) == (0.5, 0.5) {
+                    nominal
+                } else {
+                    albedos(ti, ej)
+                };
+                ln.push([0, 1, 2].map(|x| ln_of(a[x], nominal[x])));
+            }
+        }
+        AlbedoRatios { t, e, ln }
+    }
+
+    /// The ratios at map values `(t, e)`.
+    #[inline]
+    fn at(&self, t: f32, e: f32) -> [Vec3; 3] {
+        let (i, ft) = locate(&self.t, t);
+        let (j, fe) = locate(&self.e, e);
+        let ne = self.e.len();
+        let i1 = (i + 1).min(self.t.len() - 1);
+        let j1 = (j + 1).min(ne - 1);
+        let (a, b) = (&self.ln[i * ne + j], &self.ln[i * ne + j1]);
+        let (c, d) = (&self.ln[i1 * ne + j], &self.ln[i1 * ne + j1]);
+        [0, 1, 2].map(|x| {
+            let lo = a[x].lerp(b[x], fe);
+            let hi = c[x].lerp(d[x], fe);
+            lo.lerp(hi, ft).exp()
+        })
+    }
+}
 
 /// One incidence angle of the energy table: specular albedo and the largest
 /// `rho / A` of the reflection and transmission lobes.
@@ -68,6 +220,9 @@ struct Precomputed {
     /// Bound on the total albedo: [`ENERGY_MARGIN`], or exactly 1 where the table is exact
     /// (diffuse mode without specular lobe, so the diffuse limit holds up to `R + T = 1`).
     margin: f32,
+    /// White-sky albedo of each physical lobe at the texel's thickness and extinction
+    /// relative to the nominal texel (not used in diffuse mode, where it is exact per texel).
+    ratios: AlbedoRatios,
 }
 
 /// A leaf's maps and validated parameters. `Send + Sync`; per-texel queries are cheap and
@@ -218,6 +373,16 @@ impl Precomputed {
         } else {
             ENERGY_MARGIN
         };
+        let ratios = if params.mode == LeafMode::Diffuse {
+            AlbedoRatios::new([Vec3::ONE; 3], (0.5, 0.5), (0.5, 0.5), |_, _| {
+                [Vec3::ONE; 3]
+            })
+        } else {
+            let ws = |t: f32, e: f32| {
+                white_sky_albedos(&physical(params.mode, LayerStack::at_texel(params, t, e)))
+            };
+            AlbedoRatios::new(ws(0.5, 0.5), t_range, e_range, ws)
+        };
         Precomputed {
             borders,
             r_out,
@@ -225,6 +390,7 @@ impl Precomputed {
             a_layered,
             table,
             margin,
+            ratios,
         }
     }
 
@@ -329,16 +495,27 @@ impl LeafMaterial {
         let lambda = self.pre.energy_scale(cf, cb, ct);
         let a = &self.pre.a_mode;
         let scale = [cf * lambda / a[0], cb * lambda / a[1], ct * lambda / a[2]];
-        // Albedos at this texel: the colours times the diffusion's variation with
-        // thickness and extinction (the nominal texel gives the colours themselves).
-        let nominal = self.nominal_diffusion();
-        let var = |x: Vec3, x0: Vec3| {
-            Vec3::from_array([0, 1, 2].map(|c| if x0[c] > 0.0 { x[c] / x0[c] } else { 1.0 }))
+        // White-sky albedos of the lobes `eval` returns at this texel: the colours times the
+        // physical lobes' albedo at this texel relative to the nominal one (exactly the
+        // colours at the nominal texel). Diffuse mode: the Kubelka-Munk values, exact;
+        // otherwise interpolated in the table built with the material.
+        let ratio = if p.mode == LeafMode::Diffuse {
+            let nominal = self.nominal_diffusion();
+            let var = |x: Vec3, x0: Vec3| {
+                Vec3::from_array([0, 1, 2].map(|c| if x0[c] > 0.0 { x[c] / x0[c] } else { 1.0 }))
+            };
+            [
+                var(diff.r_top, nominal.r_top),
+                var(diff.r_bottom, nominal.r_bottom),
+                var(diff.t, nominal.t),
+            ]
+        } else {
+            self.pre.ratios.at(t, e)
         };
         let albedo = [
-            (cf * lambda * var(diff.r_top, nominal.r_top)).min(Vec3::ONE),
-            (cb * lambda * var(diff.r_bottom, nominal.r_bottom)).min(Vec3::ONE),
-            (ct * lambda * var(diff.t, nominal.t)).min(Vec3::ONE),
+            (cf * lambda * ratio[0]).min(Vec3::ONE),
+            (cb * lambda * ratio[1]).min(Vec3::ONE),
+            (ct * lambda * ratio[2]).min(Vec3::ONE),
         ];
         let normal = match &self.maps.bump {
             Some(m) if p.bump_scale > 0.0 => {

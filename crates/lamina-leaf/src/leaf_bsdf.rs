@@ -180,6 +180,13 @@ impl LeafBsdf {
         self.subsurface_with(wo, wi, || self.single(wo, wi))
     }
 
+    /// [`Self::subsurface`] with transmission from the closed form for the light's side only
+    /// (no mirror average): half the cost, and the same white-sky albedo, since single
+    /// scattering is reciprocal.
+    pub(crate) fn subsurface_one_way(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.subsurface_with(wo, wi, || single_scatter(&self.stack, wo, wi))
+    }
+
     /// Closed-form single scattering; transmission is averaged over the slab and its
     /// mirror image, so that through-light is the same from both sides (the paper's
     /// observation, Sec. 4) even when the two epidermis layers differ. Stays reciprocal.

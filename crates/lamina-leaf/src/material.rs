@@ -26,7 +26,7 @@
 //! `A_X(t, e) / A_X` is the exact Kubelka-Munk ratio per texel; otherwise it is tabulated
 //! here over 9 x 9 map values spanning the ranges the maps contain (denser toward low
 //! values; 0.5 is a node where it is inside, so nominal texels and a leaf without thickness
-//! or extinction maps are exact), by a 16 x 16 x 8 quadrature, and interpolated bilinearly
+//! or extinction maps are exact), by a 16 x 16 x 6 quadrature, and interpolated bilinearly
 //! in its logarithm (within about 2 % of a fine integration of `eval`).
 //!
 //! **Energy**: `lambda` (per texel and channel, `<= 1`) scales the colours down where the
@@ -61,13 +61,14 @@ const RATIO_N: usize = 9;
 /// Incidence (and exitance) cosines of the white-sky integration behind that table.
 const RATIO_MU: usize = 16;
 /// Azimuths (over `[0, pi]`, doubled) of that integration.
-const RATIO_PHI: usize = 8;
+const RATIO_PHI: usize = 6;
 
 /// White-sky albedos (adaxial R, abaxial R, T) of the physical subsurface lobes of `b`:
 /// `(1/pi) ∫∫ f_phys |cos_i| |cos_o| dwi dwo` over the geometric hemispheres. Exact
 /// Kubelka-Munk values in diffuse mode; otherwise a product quadrature (`mu = x^2` midpoints,
 /// dense near grazing; azimuth midpoints). T is integrated for light from above only: the
-/// subsurface lobes are reciprocal, so the white-sky transmittance is the same from below.
+/// subsurface lobes are reciprocal, so the white-sky transmittance is the same from below
+/// (and single scattering needs no mirror average).
 fn white_sky_albedos(b: &LeafBsdf) -> [Vec3; 3] {
     if b.mode == LeafMode::Diffuse {
         let d = &b.diffusion;
@@ -95,7 +96,7 @@ fn white_sky_albedos(b: &LeafBsdf) -> [Vec3; 3] {
                 let i_dn = Vec3::new(si * cp, si * sp, -mi);
                 acc[0] += b.subsurface(o_up, i_up) * w;
                 acc[1] += b.subsurface(o_dn, i_dn) * w;
-                acc[2] += b.subsurface(o_dn, i_up) * w;
+                acc[2] += b.subsurface_one_way(o_dn, i_up) * w;
             }
         }
     }

@@ -180,6 +180,17 @@ struct Tri {
 const _: () = assert!(std::mem::size_of::<Tri>() == 64);
 
 impl Tri {
+    /// The traversal record of triangle (or parallelogram) `tr` with shading data `info`.
+    fn new(tr: &Triangle, info: &PrimInfo) -> Self {
+        Tri {
+            v0: tr.v0.to_array(),
+            e1: (tr.v1 - tr.v0).to_array(),
+            e2: (tr.v2 - tr.v0).to_array(),
+            flags: info.flags,
+            uv: info.uv,
+        }
+    }
+
     #[inline(always)]
     fn uv_at(&self, b1: f32, b2: f32) -> Vec2 {
         self.uv[0] * (1.0 - b1 - b2) + self.uv[1] * b1 + self.uv[2] * b2
@@ -667,13 +678,7 @@ impl BlasBuilder {
                 .tris
                 .iter()
                 .zip(&self.prims)
-                .map(|(tr, info)| Tri {
-                    v0: tr.v0.to_array(),
-                    e1: (tr.v1 - tr.v0).to_array(),
-                    e2: (tr.v2 - tr.v0).to_array(),
-                    flags: info.flags,
-                    uv: info.uv,
-                })
+                .map(|(tr, info)| Tri::new(tr, info))
                 .collect();
             return Blas {
                 bvh: None,
@@ -701,16 +706,7 @@ impl BlasBuilder {
         let order = std::mem::take(&mut bvh.primitive_indices);
         let tris: Vec<Tri> = order
             .iter()
-            .map(|&i| {
-                let (tr, info) = (&self.tris[i as usize], &self.prims[i as usize]);
-                Tri {
-                    v0: tr.v0.to_array(),
-                    e1: (tr.v1 - tr.v0).to_array(),
-                    e2: (tr.v2 - tr.v0).to_array(),
-                    flags: info.flags,
-                    uv: info.uv,
-                }
-            })
+            .map(|&i| Tri::new(&self.tris[i as usize], &self.prims[i as usize]))
             .collect();
         let prims: Vec<PrimInfo> = order.iter().map(|&i| self.prims[i as usize]).collect();
         let nidx: Vec<u32> = if self.nidx.is_empty() {

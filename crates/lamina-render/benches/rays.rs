@@ -119,31 +119,9 @@ fn main() {
     );
 
     let cam = CameraModel::new(&scene.camera, &scene.film).unwrap();
-    let camera_rays: Vec<Ray> = (0..w * h)
-        .map(|i| {
-            let (origin, dir) = cam.generate_ray(
-                Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5),
-                Vec2::ZERO,
-            );
-            Ray {
-                origin,
-                dir,
-                tmax: f32::INFINITY,
-            }
-        })
-        .collect();
+    let camera_rays = camera_rays(&cam, w, h);
     let n_random = 1 << 20;
-    let random_rays: Vec<Ray> = (0..n_random)
-        .map(|i| {
-            let a = sobol_2d(i, 11);
-            let b = sobol_2d(i, 12);
-            Ray {
-                origin: Vec3::new(a.x * 10.0 - 5.0, a.y * 10.0, b.x * 10.0 - 5.0),
-                dir: uniform_sphere(sobol_2d(i, 13)),
-                tmax: f32::INFINITY,
-            }
-        })
-        .collect();
+    let random_rays = random_rays(n_random);
     let report = |name: &str, (mr, mc, hits): (f64, f64, usize), n: usize| {
         println!(
             "{name:27} {mr:6.2} Mrays/s  ({mc:5.2} Mrays per CPU-second; {:.0} % hit)",
@@ -202,30 +180,8 @@ fn instances(pool: &rayon::ThreadPool, n: u32) {
     let cards = canopy::instanced_canopy_scene(n, w, h, canopy::card_mesh());
     let curved = canopy::instanced_canopy_scene(n, w, h, canopy::curved_leaf_mesh());
     let cam = CameraModel::new(&flat.camera, &flat.film).unwrap();
-    let camera_rays: Vec<Ray> = (0..w * h)
-        .map(|i| {
-            let (origin, dir) = cam.generate_ray(
-                Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5),
-                Vec2::ZERO,
-            );
-            Ray {
-                origin,
-                dir,
-                tmax: f32::INFINITY,
-            }
-        })
-        .collect();
-    let random_rays: Vec<Ray> = (0..1u32 << 18)
-        .map(|i| {
-            let a = sobol_2d(i, 11);
-            let b = sobol_2d(i, 12);
-            Ray {
-                origin: Vec3::new(a.x * 10.0 - 5.0, a.y * 10.0, b.x * 10.0 - 5.0),
-                dir: uniform_sphere(sobol_2d(i, 13)),
-                tmax: f32::INFINITY,
-            }
-        })
-        .collect();
+    let camera_rays = camera_rays(&cam, w, h);
+    let random_rays = random_rays(1 << 18);
     println!("{n} leaves; Mrays/s wall clock (per CPU-second), best of LAMINA_REPEAT (3); hit %");
     for (name, scene) in [
         ("flat cards", &flat),
@@ -258,4 +214,36 @@ fn instances(pool: &rayon::ThreadPool, n: u32) {
             accel.memory().bytes_per_instance()
         );
     }
+}
+
+/// One camera ray through the centre of each of the `w x h` pixels.
+fn camera_rays(cam: &CameraModel, w: u32, h: u32) -> Vec<Ray> {
+    (0..w * h)
+        .map(|i| {
+            let (origin, dir) = cam.generate_ray(
+                Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5),
+                Vec2::ZERO,
+            );
+            Ray {
+                origin,
+                dir,
+                tmax: f32::INFINITY,
+            }
+        })
+        .collect()
+}
+
+/// `n` rays from Sobol points in the canopy box in uniformly distributed directions.
+fn random_rays(n: u32) -> Vec<Ray> {
+    (0..n)
+        .map(|i| {
+            let a = sobol_2d(i, 11);
+            let b = sobol_2d(i, 12);
+            Ray {
+                origin: Vec3::new(a.x * 10.0 - 5.0, a.y * 10.0, b.x * 10.0 - 5.0),
+                dir: uniform_sphere(sobol_2d(i, 13)),
+                tmax: f32::INFINITY,
+            }
+        })
+        .collect()
 }

@@ -40,6 +40,25 @@ pub fn leaf_matte(size: u32) -> Texture {
     Texture::from_texels(size, size, texels, Wrap::Clamp)
 }
 
+/// Card `i`'s frame: `[across, along, normal, centre]`, a random orientation at a random
+/// point of the 10 m canopy box (shared by the flat and the instanced canopy).
+fn card_frame(i: u32, seed: u32) -> [Vec3; 4] {
+    let k = hash_u32(seed ^ i.wrapping_mul(0x9e37_79b9)).wrapping_mul(8);
+    let c = Vec3::new(
+        rnd(k) * 10.0 - 5.0,
+        rnd(k + 1) * 10.0,
+        rnd(k + 2) * 10.0 - 5.0,
+    );
+    let z = 1.0 - 2.0 * rnd(k + 3);
+    let phi = 2.0 * std::f32::consts::PI * rnd(k + 4);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let n = Vec3::new(r * phi.cos(), z, r * phi.sin());
+    let frame = lamina_leaf::frame::Frame::from_normal(n);
+    let a = 2.0 * std::f32::consts::PI * rnd(k + 5);
+    let up = frame.s * a.cos() + frame.t * a.sin();
+    [n.cross(up), up, n, c]
+}
+
 /// `n` leaf cards (0.1 x 0.15 m) with random positions in `[-5, 5] x [0, 10] x [-5, 5]` and
 /// random orientations, all in one mesh of material 0; plus a ground quad (material 1).
 pub fn canopy_meshes(n: u32, seed: u32) -> Vec<Mesh> {
@@ -48,20 +67,7 @@ pub fn canopy_meshes(n: u32, seed: u32) -> Vec<Mesh> {
         ..Default::default()
     };
     for i in 0..n {
-        let k = hash_u32(seed ^ i.wrapping_mul(0x9e37_79b9)).wrapping_mul(8);
-        let c = Vec3::new(
-            rnd(k) * 10.0 - 5.0,
-            rnd(k + 1) * 10.0,
-            rnd(k + 2) * 10.0 - 5.0,
-        );
-        let z = 1.0 - 2.0 * rnd(k + 3);
-        let phi = 2.0 * std::f32::consts::PI * rnd(k + 4);
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let n = Vec3::new(r * phi.cos(), z, r * phi.sin());
-        let frame = lamina_leaf::frame::Frame::from_normal(n);
-        let a = 2.0 * std::f32::consts::PI * rnd(k + 5);
-        let up = frame.s * a.cos() + frame.t * a.sin();
-        let side = n.cross(up);
+        let [side, up, _, c] = card_frame(i, seed);
         let (hw, hh) = (0.05, 0.075);
         let base = m.positions.len() as u32;
         for (du, dv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
@@ -148,20 +154,7 @@ pub fn canopy_scene(n: u32, width: u32, height: u32, spp: u32) -> Scene {
 pub fn canopy_transforms(n: u32, seed: u32) -> Vec<glam::Affine3A> {
     (0..n)
         .map(|i| {
-            let k = hash_u32(seed ^ i.wrapping_mul(0x9e37_79b9)).wrapping_mul(8);
-            let c = Vec3::new(
-                rnd(k) * 10.0 - 5.0,
-                rnd(k + 1) * 10.0,
-                rnd(k + 2) * 10.0 - 5.0,
-            );
-            let z = 1.0 - 2.0 * rnd(k + 3);
-            let phi = 2.0 * std::f32::consts::PI * rnd(k + 4);
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let n = Vec3::new(r * phi.cos(), z, r * phi.sin());
-            let frame = lamina_leaf::frame::Frame::from_normal(n);
-            let a = 2.0 * std::f32::consts::PI * rnd(k + 5);
-            let up = frame.s * a.cos() + frame.t * a.sin();
-            let side = n.cross(up);
+            let [side, up, n, c] = card_frame(i, seed);
             glam::Affine3A::from_cols(side.into(), up.into(), n.into(), c.into())
         })
         .collect()

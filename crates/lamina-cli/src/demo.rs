@@ -2,10 +2,11 @@
 //! procedural leaf lit from the front, the same leaf lit from behind, and a small bush lit
 //! by a low sun from behind.
 
-use crate::render_cmd::{RenderFlags, check_outputs, options, render_scene, write_all};
+use crate::render_cmd::{RenderFlags, check_outputs, options, render_scene, write_result};
 use anyhow::{Context, Result};
 use glam::{Vec2, Vec3};
-use lamina_render::Image;
+use lamina_io::{FolderSpec, Replace};
+use lamina_render::{Image, RenderOutput};
 use lamina_scene::builtin::{self, BuiltinLeaf};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -26,6 +27,10 @@ pub struct DemoArgs {
     /// branches, alpha PNG) with diffuse-transmission leaves, for other renderers.
     #[arg(long, value_name = "DIR")]
     pub export_bush: Option<PathBuf>,
+    /// With --export-bush: also write into a folder that is not a bush export of lamina's,
+    /// replacing only the files the export writes and keeping every other file.
+    #[arg(long, requires = "export_bush")]
+    pub force: bool,
     #[command(flatten)]
     pub flags: RenderFlags,
 }
@@ -76,7 +81,12 @@ pub fn run(args: DemoArgs) -> Result<()> {
     let leaf = demo_leaf(&args.species, 1)?;
     let spp = args.flags.spp.unwrap_or(64);
     if let Some(dir) = &args.export_bush {
-        return export_bush(dir, &leaf, args.size, spp);
+        let replace = if args.force {
+            Replace::Force
+        } else {
+            Replace::IfOurs
+        };
+        return export_bush(dir, &leaf, args.size, spp, replace);
     }
     check_outputs(&args.output)?;
     let size = (args.size, args.size);
@@ -85,12 +95,39 @@ pub fn run(args: DemoArgs) -> Result<()> {
         ("back-lit leaf", builtin::leaf_back_lit(&leaf, size, spp)),
         ("bush", builtin::bush_scene(&leaf, size, spp)),
     ];
-    let mut images = Vec::new();
-    for (label, scene) in &panels {
-        let (opts, bar) = options(&args.flags, label)?;
-        images.push(render_scene(scene, &opts, bar, label)?.image);
+    // Ctrl-C quits at once until the last panel has a completed pass (before that there is
+    // no demo image to write); after it, it stops the last panel at a pass boundary.
+    let mut outs = Vec::new();
+    for (i, (label, scene)) in panels.iter().enumerate() {
+        let (opts, bar) = options(&args.flags, label, i + 1 == panels.len())?;
+        outs.push(render_scene(scene, &opts, bar, label)?);
     }
-    write_all(&args.output, &side_by_side(&images), &panels[0].1.film)
+    let images: Vec<Image> = outs.iter().map(|o| o.image.clone()).collect();
+    let combined = RenderOutput {
+        image: side_by_side(&images),
+        stats: outs.last().expect("three panels").stats,
+    };
+    write_result(&args.output, &combined, &panels[0].1.film)
+}
+
+/// The files a bush export writes (and so may replace in a folder it wrote before).
+fn bush_export_file(name: &str) -> bool {
+    let numbered = |prefix: &str, ext: &str| {
+        name.strip_prefix(prefix)
+            .and_then(|r| r.strip_suffix(ext))
+            .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+    };
+    name == "bush.toml"
+        || name == "bush_wood.obj"
+        || numbered("bush_cards_", ".csv")
+        || numbered("leaf_alpha_", ".png")
+}
+
+/// The first line of an exported `bush.toml`: marks the folder as a lamina export.
+const BUSH_MARKER: &str = "# The lamina demo bush, exported by `lamina demo --export-bush`.";
+
+fn is_bush_export(toml: &std::path::Path) -> bool {
+    std::fs::read_to_string(toml).is_ok_and(|t| t.starts_with(BUSH_MARKER))
 }
 
 /// Writes the demo bush as an ordinary scene folder (for other renderers and benchmarks):
@@ -99,12 +136,26 @@ pub fn run(args: DemoArgs) -> Result<()> {
 /// matte, since other renderers do not have lamina's leaf model; bark is a constant colour;
 /// the sun is a delta light (angular diameter 0) so that it matches a directional light
 /// elsewhere.
-pub fn export_bush(dir: &std::path::Path, leaf: &BuiltinLeaf, size: u32, spp: u32) -> Result<()> {
+pub fn export_bush(
+    dir: &std::path::Path,
+    leaf: &BuiltinLeaf,
+    size: u32,
+    spp: u32,
+    replace: Replace,
+) -> Result<()> {
     use std::fmt::Write as _;
+    let spec = FolderSpec {
+        kind: "bush export",
+        owns: &bush_export_file,
+        marker: "bush.toml",
+        is_marked: &is_bush_export,
+        inputs: &[],
+    };
+    let staged = lamina_io::stage(dir, &spec, replace)?;
+    let out = staged.path().to_owned();
     let plant = lamina_plant::generate_plant(&builtin::bush_params(7))?;
     let scene = builtin::bush_scene_with(&plant, leaf, (size, size), spp)?;
     let wood = &plant.branches;
-    std::fs::create_dir_all(dir).with_context(|| format!("creating '{}'", dir.display()))?;
     let mut leaf_tables = String::new();
     for (i, (cards, variant)) in plant.leaves.iter().zip(&plant.leaf_variants).enumerate() {
         // The alpha matte as an 8-bit grey PNG.
@@ -120,9 +171,7 @@ pub fn export_bush(dir: &std::path::Path, leaf: &BuiltinLeaf, size: u32, spp: u3
             .map(|t| (t.x.clamp(0.0, 1.0) * 255.0).round() as u8)
             .collect();
         let img = image::GrayImage::from_raw(w, h, grey).context("alpha size")?;
-        write_atomic(&dir.join(format!("leaf_alpha_{i}.png")), |p| {
-            img.save(p).map_err(anyhow::Error::from)
-        })?;
+        lamina_io::save_image(&out.join(format!("leaf_alpha_{i}.png")), &img)?;
         let mut csv = String::from("cx,cy,cz,nx,ny,nz,ux,uy,uz,width,height\n");
         for c in cards {
             let v = [c.center.to_array(), c.normal.to_array(), c.up.to_array()].concat();
@@ -133,9 +182,7 @@ pub fn export_bush(dir: &std::path::Path, leaf: &BuiltinLeaf, size: u32, spp: u3
                 .collect();
             writeln!(csv, "{}", nums.join(","))?;
         }
-        write_atomic(&dir.join(format!("bush_cards_{i}.csv")), |p| {
-            Ok(std::fs::write(p, &csv)?)
-        })?;
+        lamina_io::write_bytes(&out.join(format!("bush_cards_{i}.csv")), csv.as_bytes())?;
         write!(
             leaf_tables,
             r#"
@@ -164,7 +211,7 @@ file = "bush_cards_{i}.csv"
         let [a, b, c] = t.map(|i| i + 1);
         writeln!(obj, "f {a}//{a} {b}//{b} {c}//{c}")?;
     }
-    write_atomic(&dir.join("bush_wood.obj"), |p| Ok(std::fs::write(p, &obj)?))?;
+    lamina_io::write_bytes(&out.join("bush_wood.obj"), obj.as_bytes())?;
     let cam = &scene.camera;
     let (sun_dir, sun_e) = match &scene.lights[0] {
         lamina_scene::Light::Sun {
@@ -180,7 +227,7 @@ file = "bush_cards_{i}.csv"
     };
     let a = |v: Vec3| format!("[{}, {}, {}]", v.x, v.y, v.z);
     let toml = format!(
-        r#"# The lamina demo bush, exported by `lamina demo --export-bush`.
+        r#"{BUSH_MARKER}
 # Leaves are diffuse_transmission cards with each leaf variant's alpha matte.
 
 [camera]
@@ -238,7 +285,8 @@ edge_v = [0.0, 0.0, -12.0]
         sun_dir = a(sun_dir),
         sun_e = a(sun_e),
     );
-    write_atomic(&dir.join("bush.toml"), |p| Ok(std::fs::write(p, &toml)?))?;
+    lamina_io::write_bytes(&out.join("bush.toml"), toml.as_bytes())?;
+    staged.commit(&spec)?;
     eprintln!(
         "wrote {} ({} leaf cards, {} branch triangles)",
         dir.join("bush.toml").display(),
@@ -246,19 +294,4 @@ edge_v = [0.0, 0.0, -12.0]
         wood.indices.len()
     );
     Ok(())
-}
-
-/// Writes a file through a temporary name in the same directory, then renames it.
-fn write_atomic(
-    path: &std::path::Path,
-    write: impl FnOnce(&std::path::Path) -> Result<()>,
-) -> Result<()> {
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("tmp");
-    let tmp = path.with_extension(format!("tmp-{}.{ext}", std::process::id()));
-    let result =
-        write(&tmp).and_then(|()| std::fs::rename(&tmp, path).map_err(anyhow::Error::from));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.with_context(|| format!("writing '{}'", path.display()))
 }

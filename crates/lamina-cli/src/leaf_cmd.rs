@@ -3,7 +3,10 @@
 
 use anyhow::Context;
 use lamina_leafmaps::sheet::SheetOptions;
-use lamina_leafmaps::{LeafSpec, PrepareInput, Species, generate, prepare, sheet};
+use lamina_leafmaps::{
+    FolderWrite, LeafSpec, PrepareInput, Replace, Species, check_leaf_folder, generate, prepare,
+    sheet,
+};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -21,9 +24,14 @@ pub enum LeafCommand {
         /// Pixels along the longer side of the card.
         #[arg(short, long, default_value_t = 1024)]
         resolution: u32,
-        /// Output leaf folder (replaced atomically if it exists).
+        /// Output leaf folder. An existing one is replaced (atomically) only if lamina wrote
+        /// it and it holds nothing else; see --force.
         #[arg(short, long)]
         out: PathBuf,
+        /// Write into an existing folder that lamina did not write: replace only the seven
+        /// maps and leaf.toml in it and keep every other file.
+        #[arg(long)]
+        force: bool,
         /// Also write a contact sheet PNG of the result.
         #[arg(long)]
         sheet: Option<PathBuf>,
@@ -64,9 +72,14 @@ pub enum LeafCommand {
         /// Take the leaf model parameters from this species preset (default: a generic green leaf).
         #[arg(short, long, value_parser = parse_species)]
         species: Option<Species>,
-        /// Output leaf folder (replaced atomically if it exists).
+        /// Output leaf folder. An existing one is replaced (atomically) only if lamina wrote
+        /// it and it holds nothing else; see --force. It may not overwrite an input.
         #[arg(short, long)]
         out: PathBuf,
+        /// Write into an existing folder that lamina did not write: replace only the seven
+        /// maps and leaf.toml in it and keep every other file (inputs are never overwritten).
+        #[arg(long)]
+        force: bool,
         /// Also write a contact sheet PNG of the result.
         #[arg(long)]
         sheet: Option<PathBuf>,
@@ -76,7 +89,7 @@ pub enum LeafCommand {
     Sheet {
         /// The leaf folder (holding leaf.toml).
         dir: PathBuf,
-        /// Output PNG.
+        /// Output image: .png or .jpg (written atomically).
         #[arg(short, long)]
         out: PathBuf,
         /// Tile size in pixels.
@@ -90,6 +103,18 @@ pub enum LeafCommand {
 
 fn parse_species(s: &str) -> Result<Species, String> {
     s.parse::<Species>().map_err(|e| e.to_string())
+}
+
+fn replace_mode(force: bool) -> Replace {
+    if force { Replace::Force } else { Replace::IfOurs }
+}
+
+/// A `--sheet` path must name an image type lamina writes: checked before the work.
+fn check_sheet(path: Option<&std::path::Path>) -> anyhow::Result<()> {
+    if let Some(p) = path {
+        lamina_io::image_out::format_for(p).context("--sheet")?;
+    }
+    Ok(())
 }
 
 fn write_sheet(dir: &std::path::Path, out: &std::path::Path) -> anyhow::Result<()> {
@@ -107,12 +132,21 @@ pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
             seed,
             resolution,
             out,
+            force,
             sheet: sheet_png,
         } => {
             let t = Instant::now();
+            let how = FolderWrite {
+                replace: replace_mode(force),
+                ..FolderWrite::default()
+            };
+            // Refuse before the work, not after it.
+            check_leaf_folder(&out, &how)
+                .with_context(|| format!("writing leaf folder '{}'", out.display()))?;
+            check_sheet(sheet_png.as_deref())?;
             let leaf = generate(&LeafSpec::new(species, seed, resolution));
             let (w, h) = leaf.planes.size();
-            leaf.write_folder(&out)
+            leaf.write_folder_with(&out, &how)
                 .with_context(|| format!("writing leaf folder '{}'", out.display()))?;
             eprintln!(
                 "wrote {} ({species}, seed {seed}, {w}x{h} px, card {:.3} x {:.3} m) in {:.2} s",
@@ -137,9 +171,11 @@ pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
             blur_radius,
             species,
             out,
+            force,
             sheet: sheet_png,
         } => {
             let t = Instant::now();
+            check_sheet(sheet_png.as_deref())?;
             let mut input = PrepareInput::new(front, &out);
             input.back = back;
             input.translucency = translucency;
@@ -149,6 +185,7 @@ pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
             input.bump = bump;
             input.dpi = dpi;
             input.blur_radius = blur_radius;
+            input.replace = replace_mode(force);
             if let Some(s) = species {
                 input.params = s.params();
             }

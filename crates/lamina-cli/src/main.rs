@@ -1,12 +1,15 @@
 //! `lamina`: render leaf and plant scenes.
 //!
 //! Errors are reported with their whole chain (`error: ...: ...`) and exit code 1; usage
-//! errors exit with 2 (clap's convention). Nothing here panics on bad input.
+//! errors exit with 2 (clap's convention); a command stopped by Ctrl-C exits with 130
+//! (see [`lamina_io::interrupt`] for what Ctrl-C does when). Nothing here panics on bad
+//! input.
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod demo;
+mod interrupted;
 mod gpu_cmd;
 mod leaf_cmd;
 mod plant_cmd;
@@ -45,6 +48,10 @@ enum PlantCommand {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // One handler for the whole process, before any work (in "quit at once" mode).
+    if let Err(e) = lamina_io::interrupt::install() {
+        eprintln!("warning: {e}; Ctrl-C will end lamina without cleaning up");
+    }
     let result = match cli.command {
         Command::Render(args) => render_cmd::run(args),
         Command::Demo(args) => demo::run(args),
@@ -54,6 +61,10 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is::<interrupted::Interrupted>() => {
+            eprintln!("{e}");
+            ExitCode::from(lamina_io::interrupt::EXIT_CODE)
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE

@@ -5,8 +5,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use lamina_render::{Image, RenderOptions, RenderOutput, RenderStats};
 use lamina_scene::{Film, Scene};
 use std::path::{Path, PathBuf};
+use crate::interrupted::Interrupted;
+use lamina_io::interrupt::{self, Mode};
+use std::io::IsTerminal;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 /// Options shared by every command that renders.
@@ -21,7 +23,8 @@ pub struct RenderFlags {
     /// Random seed: the same scene, seed and sample count give the same image.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Stop after this many seconds and write what is done (whole passes).
+    /// Stop after this many seconds and write what is done (whole passes; the first pass
+    /// always completes).
     #[arg(long, value_name = "SECONDS")]
     pub time_limit: Option<f64>,
     /// No progress bar.
@@ -71,24 +74,36 @@ pub fn check_outputs(outputs: &[PathBuf]) -> Result<()> {
                 dir.display()
             );
         }
+        if out.is_dir() {
+            bail!(
+                "output '{}' is a folder: name an image file",
+                out.display()
+            );
+        }
     }
     Ok(())
 }
 
-/// Builds render options from flags, with Ctrl-C wired to cancellation and an optional bar.
-pub fn options(flags: &RenderFlags, label: &str) -> Result<(RenderOptions, Option<ProgressBar>)> {
+/// Builds render options from flags, with Ctrl-C wired to cancellation and progress shown
+/// as a bar on a terminal, or as one line per pass when stderr is not one (logs, batch
+/// jobs) unless `--quiet`.
+///
+/// With `keep_partial`, the process switches to [`Mode::Stop`] once the first pass is done:
+/// from then on the first Ctrl-C stops the render at a pass boundary and the image of the
+/// completed passes is kept. Without it (a render whose partial image would be of no use,
+/// like the demo's first panels) Ctrl-C keeps quitting at once.
+pub fn options(
+    flags: &RenderFlags,
+    label: &str,
+    keep_partial: bool,
+) -> Result<(RenderOptions, Option<ProgressBar>)> {
     let time_limit = match flags.time_limit {
         None => None,
         Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
         Some(s) => bail!("--time-limit must be a positive number of seconds, got {s}"),
     };
-    let cancel = Arc::new(AtomicBool::new(false));
-    {
-        let cancel = cancel.clone();
-        // A second handler cannot be installed (the demo renders several scenes): ignore that.
-        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::SeqCst));
-    }
-    let bar = (!flags.quiet).then(|| {
+    let terminal = std::io::stderr().is_terminal();
+    let bar = (!flags.quiet && terminal).then(|| {
         let bar = ProgressBar::new(1);
         bar.set_style(
             ProgressStyle::with_template(
@@ -100,20 +115,35 @@ pub fn options(flags: &RenderFlags, label: &str) -> Result<(RenderOptions, Optio
         bar.set_message(label.to_string());
         bar
     });
-    let progress: Option<Arc<dyn Fn(lamina_render::Progress) + Send + Sync>> =
-        bar.clone().map(|bar| {
-            Arc::new(move |p: lamina_render::Progress| {
-                bar.set_length(p.spp_total as u64);
-                bar.set_position(p.spp_done as u64);
-            }) as Arc<dyn Fn(lamina_render::Progress) + Send + Sync>
-        });
+    let log_passes = !flags.quiet && !terminal;
+    let label = label.to_string();
+    let bar_cb = bar.clone();
+    let progress = Arc::new(move |p: lamina_render::Progress| {
+        if keep_partial && p.passes_done == 1 {
+            interrupt::set_mode(Mode::Stop);
+        }
+        if let Some(bar) = &bar_cb {
+            bar.set_length(p.spp_total as u64);
+            bar.set_position(p.spp_done as u64);
+        }
+        if log_passes {
+            eprintln!(
+                "{label}: pass {}/{} done, {}/{} spp, {:.2} s",
+                p.passes_done,
+                p.passes_total,
+                p.spp_done,
+                p.spp_total,
+                p.elapsed.as_secs_f64()
+            );
+        }
+    }) as Arc<dyn Fn(lamina_render::Progress) + Send + Sync>;
     let opts = RenderOptions {
         spp: flags.spp,
         threads: flags.threads.map(|t| t as usize),
         seed: flags.seed,
         time_limit,
-        cancel: Some(cancel),
-        progress,
+        cancel: Some(interrupt::flag()),
+        progress: Some(progress),
     };
     Ok((opts, bar))
 }
@@ -160,6 +190,25 @@ pub fn write_all(outputs: &[PathBuf], image: &Image, film: &Film) -> Result<()> 
     Ok(())
 }
 
+/// After a render that Ctrl-C may have stopped: writes the image if it holds at least one
+/// completed pass, and returns [`Interrupted`] (exit code 130) if Ctrl-C was pressed.
+pub fn write_result(outputs: &[PathBuf], out: &RenderOutput, film: &Film) -> Result<()> {
+    let s = &out.stats;
+    if !interrupt::interrupted() {
+        return write_all(outputs, &out.image, film);
+    }
+    if s.passes_done == 0 {
+        return Err(Interrupted("no pass completed, nothing written".into()).into());
+    }
+    write_all(outputs, &out.image, film)?;
+    Err(Interrupted(format!(
+        "{} of {} passes completed ({} spp), the pass in progress was dropped; \
+         the image written holds the completed passes",
+        s.passes_done, s.passes_total, s.spp_done
+    ))
+    .into())
+}
+
 pub fn run(args: RenderArgs) -> Result<()> {
     let outputs = if args.output.is_empty() {
         let stem = args
@@ -172,12 +221,21 @@ pub fn run(args: RenderArgs) -> Result<()> {
         args.output.clone()
     };
     check_outputs(&outputs)?;
+    if !args.flags.quiet && !std::io::stderr().is_terminal() {
+        eprintln!("loading {}", args.scene.display());
+    }
     let scene = lamina_scene::load_scene(&args.scene)?;
     let label = args.scene.display().to_string();
     if args.gpu {
         return crate::gpu_cmd::render_gpu(&scene, &label, &outputs);
     }
-    let (opts, bar) = options(&args.flags, &label)?;
+    if !args.flags.quiet && !std::io::stderr().is_terminal() {
+        eprintln!(
+            "{label}: loaded, rendering {}x{}",
+            scene.film.width, scene.film.height
+        );
+    }
+    let (opts, bar) = options(&args.flags, &label, true)?;
     let out = render_scene(&scene, &opts, bar, &label)?;
-    write_all(&outputs, &out.image, &scene.film)
+    write_result(&outputs, &out, &scene.film)
 }

@@ -328,8 +328,8 @@ impl Viewer {
             .render_screenshot(&view, &s.film, Some(&overlay))?;
         let img =
             image::RgbaImage::from_raw(view.width, view.height, rgba).context("screenshot size")?;
-        img.save(path)
-            .with_context(|| format!("writing '{}'", path.display()))?;
+        lamina_io::save_image(path, &img)
+            .with_context(|| format!("writing the screenshot '{}'", path.display()))?;
         eprintln!(
             "wrote {} after {} frames ({:.1} ms per frame)",
             path.display(),
@@ -435,7 +435,11 @@ impl ApplicationHandler for Viewer {
         }
     }
 
-    fn about_to_wait(&mut self, _el: &ActiveEventLoop) {
+    fn about_to_wait(&mut self, el: &ActiveEventLoop) {
+        if lamina_io::interrupt::interrupted() {
+            el.exit();
+            return;
+        }
         if let Some(s) = &self.state {
             s.window.request_redraw();
         }
@@ -443,6 +447,9 @@ impl ApplicationHandler for Viewer {
 }
 
 pub fn run(args: ViewArgs) -> Result<()> {
+    if let Some(p) = &args.screenshot {
+        lamina_io::image_out::format_for(p).context("--screenshot")?;
+    }
     let scene = load_view_scene(&args.scene, (args.width, args.height))?;
     let event_loop = EventLoop::new().map_err(|e| {
         anyhow!(
@@ -457,9 +464,15 @@ pub fn run(args: ViewArgs) -> Result<()> {
         state: None,
         error: None,
     };
+    // With the window open, Ctrl-C closes it (at the next frame) instead of killing the
+    // process mid-frame; a second Ctrl-C still quits at once.
+    lamina_io::interrupt::set_mode(lamina_io::interrupt::Mode::Stop);
     event_loop
         .run_app(&mut viewer)
         .context("the window's event loop failed")?;
+    if lamina_io::interrupt::interrupted() {
+        return Err(crate::interrupted::Interrupted("window closed, no screenshot written".into()).into());
+    }
     if let Some(e) = viewer.error.take() {
         return Err(e);
     }

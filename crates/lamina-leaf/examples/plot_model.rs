@@ -236,7 +236,7 @@ fn plot_rt(out: &Path) {
         }
     }
     let path = out.join("rt_vs_angle.png");
-    img.save(&path).unwrap();
+    lamina_io::save_image(&path, &img).unwrap();
     println!("wrote {}", path.display());
 
     // The three modes, green channel, adaxial side.
@@ -275,7 +275,7 @@ fn plot_rt(out: &Path) {
         panel.curve(&mut img, &t, colour, true);
     }
     let path = out.join("rt_modes.png");
-    img.save(&path).unwrap();
+    lamina_io::save_image(&path, &img).unwrap();
     println!("wrote {}", path.display());
 }
 
@@ -379,7 +379,7 @@ fn render_patch(out: &Path) {
         }
     }
     let path = out.join("texel_patch.png");
-    img.save(&path).unwrap();
+    lamina_io::save_image(&path, &img).unwrap();
     println!("wrote {}", path.display());
 }
 

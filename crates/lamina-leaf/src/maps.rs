@@ -47,6 +47,11 @@ pub struct LeafMapPaths {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LeafDescription {
+    /// The program that wrote this file, e.g. `"lamina 0.1.0 (leaf generate)"`; `None` for
+    /// a hand-written file. A leaf folder whose `leaf.toml` names lamina here (and that
+    /// holds only lamina's files) is one lamina may replace; see `lamina_io::folder`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub generator: Option<String>,
     /// The map files.
     pub maps: LeafMapPaths,
     /// The physical parameters.

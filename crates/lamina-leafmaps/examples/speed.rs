@@ -49,9 +49,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
     };
     let front = tmp.join("capture_front.png");
-    over(&leaf.planes.front, [0.9, 0.9, 0.88]).save(&front)?;
+    lamina_io::save_image(&front, &over(&leaf.planes.front, [0.9, 0.9, 0.88]))?;
     let scan = tmp.join("capture_scan.png");
-    over(&leaf.planes.translucency, [1.0, 1.0, 1.0]).save(&scan)?;
+    lamina_io::save_image(&scan, &over(&leaf.planes.translucency, [1.0, 1.0, 1.0]))?;
     let bump = &leaf.planes.bump;
     let normal = RgbImage::from_fn(cw, ch, |x, y| {
         let (x, y) = (x as isize - ox as isize, y as isize - oy as isize);
@@ -66,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Rgb([n.x, n.y, n.z].map(|v| ((v * 0.5 + 0.5) * 255.0 + 0.5) as u8))
     });
     let normal_path = tmp.join("capture_normal.png");
-    normal.save(&normal_path)?;
+    lamina_io::save_image(&normal_path, &normal)?;
     drop(leaf);
 
     for with_normal in [false, true] {

@@ -8,6 +8,7 @@ use glam::Vec4;
 use lamina_leaf::texture::linear_to_srgb;
 use lamina_leaf::{LeafDescription, LeafMapPaths, LeafMaps, LeafParams, Texture, Wrap};
 use rayon::prelude::*;
+use lamina_io::{FolderSpec, Replace};
 use std::path::{Path, PathBuf};
 
 /// The seven maps of one leaf, all of the same size, row 0 at the top of the card.
@@ -268,107 +269,134 @@ fn write_err(path: &Path) -> impl FnOnce(std::io::Error) -> LeafMapsError + '_ {
     }
 }
 
-/// Writes a leaf folder atomically: the seven maps ([`MAP_FILES`]) and `leaf.toml`, whose
-/// first lines are `comments` (each written as a `# ` line; use them to say which maps were
-/// derived and how) followed by the serialised [`LeafDescription`] with relative paths and
-/// clamped addressing.
+/// How [`write_leaf_folder`] treats an existing folder, and what it records.
+#[derive(Clone, Debug)]
+pub struct FolderWrite {
+    /// [`Replace::IfOurs`] (default): replace only a leaf folder lamina wrote that holds
+    /// nothing else; [`Replace::Force`]: also write into another folder, replacing only the
+    /// seven maps and `leaf.toml` and keeping every other file.
+    pub replace: Replace,
+    /// The command's input files, which the folder must never overwrite.
+    pub inputs: Vec<PathBuf>,
+    /// What `leaf.toml`'s `generator` key says (the marker of a lamina-written folder).
+    pub generator: String,
+}
+
+impl Default for FolderWrite {
+    fn default() -> Self {
+        FolderWrite {
+            replace: Replace::IfOurs,
+            inputs: Vec::new(),
+            generator: GENERATOR.to_owned(),
+        }
+    }
+}
+
+/// The `generator` of the leaf folders this version writes.
+pub const GENERATOR: &str = concat!("lamina ", env!("CARGO_PKG_VERSION"));
+
+fn owns_leaf_file(name: &str) -> bool {
+    name == "leaf.toml" || MAP_FILES.contains(&name)
+}
+
+/// Whether a `leaf.toml` says lamina wrote it (its `generator` starts with `lamina`).
+pub fn written_by_lamina(leaf_toml: &Path) -> bool {
+    std::fs::read_to_string(leaf_toml)
+        .ok()
+        .and_then(|t| toml::from_str::<toml::Table>(&t).ok())
+        .and_then(|t| t.get("generator")?.as_str().map(|g| g.starts_with("lamina")))
+        .unwrap_or(false)
+}
+
+fn leaf_folder_spec(inputs: &[PathBuf]) -> FolderSpec<'_> {
+    FolderSpec {
+        kind: "leaf folder",
+        owns: &owns_leaf_file,
+        marker: "leaf.toml",
+        is_marked: &written_by_lamina,
+        inputs,
+    }
+}
+
+/// Checks, before any work, that [`write_leaf_folder`] could write `dir` with `how`:
+/// the same refusals (a foreign folder without `--force`, an input in the way), nothing
+/// changed.
+pub fn check_leaf_folder(dir: &Path, how: &FolderWrite) -> Result<(), LeafMapsError> {
+    lamina_io::check_folder(dir, &leaf_folder_spec(&how.inputs), how.replace)?;
+    Ok(())
+}
+
+/// Writes a leaf folder: the seven maps ([`MAP_FILES`]) and `leaf.toml`, whose first
+/// lines are `comments` (each written as a `# ` line; use them to say which maps were
+/// derived and how) followed by `generator = ...` and the serialised [`LeafDescription`]
+/// with relative paths and clamped addressing.
 ///
-/// Everything is written into a temporary sibling folder (`.NAME.tmp-PID-N`), which is then
-/// renamed to `dir`. An existing `dir` is first moved aside and deleted only after the
-/// rename succeeded, so at every moment `dir` is either the old complete folder or the new
-/// one; on any error the temporary folder is removed and the old folder is left as it was.
+/// Every file is written into a temporary sibling folder first; what happens then to an
+/// existing `dir` is [`lamina_io::folder`]'s rule: a new or empty folder is renamed into
+/// place; a leaf folder lamina wrote (its `leaf.toml` has a `generator` naming lamina and it
+/// holds only the seven maps and `leaf.toml`) is exchanged with the new one in one step on
+/// Linux (elsewhere: moved aside, then replaced); any other folder is an error naming the
+/// foreign files, unless `how.replace` is [`Replace::Force`], which writes lamina's eight
+/// files into it and keeps every other file. An input named in `how.inputs` is never
+/// overwritten. On any error the temporary folder is removed and `dir` is left as it was.
 pub fn write_leaf_folder(
     dir: &Path,
     maps: &MapPlanes,
     params: &LeafParams,
     comments: &[String],
+    how: &FolderWrite,
 ) -> Result<PathBuf, LeafMapsError> {
     params.validate()?;
-    let name = dir
-        .file_name()
-        .ok_or_else(|| LeafMapsError::Write {
-            path: dir.to_owned(),
-            cause: std::io::Error::new(std::io::ErrorKind::InvalidInput, "no folder name"),
-        })?
-        .to_string_lossy()
-        .into_owned();
-    let parent = match dir.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_owned(),
-        _ => PathBuf::from("."),
+    let spec = leaf_folder_spec(&how.inputs);
+    let staged = lamina_io::stage(dir, &spec, how.replace)?;
+    let tmp = staged.path().to_owned();
+    let [f, b, t, a, th, e, bu] = MAP_FILES;
+    // Encode the seven maps in parallel (PNG compression dominates the write time).
+    let jobs: Vec<Box<dyn Fn() -> Result<(), LeafMapsError> + Send + Sync>> = vec![
+        Box::new(|| write_srgb_png(&tmp.join(f), &maps.front)),
+        Box::new(|| write_srgb_png(&tmp.join(b), &maps.back)),
+        Box::new(|| write_srgb_png(&tmp.join(t), &maps.translucency)),
+        Box::new(|| write_gray16_png(&tmp.join(a), &maps.alpha)),
+        Box::new(|| write_gray16_png(&tmp.join(th), &maps.thickness)),
+        Box::new(|| write_gray16_png(&tmp.join(e), &maps.extinction)),
+        Box::new(|| write_gray16_png(&tmp.join(bu), &maps.bump)),
+    ];
+    jobs.par_iter()
+        .map(|j| j())
+        .collect::<Result<Vec<()>, _>>()?;
+    let desc = LeafDescription {
+        generator: Some(how.generator.clone()),
+        maps: LeafMapPaths {
+            front: Some(f.into()),
+            back: Some(b.into()),
+            translucency: Some(t.into()),
+            alpha: Some(a.into()),
+            thickness: Some(th.into()),
+            extinction: Some(e.into()),
+            bump: Some(bu.into()),
+            wrap: Wrap::Clamp,
+        },
+        params: *params,
     };
-    std::fs::create_dir_all(&parent).map_err(write_err(&parent))?;
-    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tmp = parent.join(format!(".{name}.tmp-{}-{n}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&tmp);
-    std::fs::create_dir(&tmp).map_err(write_err(&tmp))?;
-    let result = (|| -> Result<(), LeafMapsError> {
-        let [f, b, t, a, th, e, bu] = MAP_FILES;
-        // Encode the seven maps in parallel (PNG compression dominates the write time).
-        let jobs: Vec<Box<dyn Fn() -> Result<(), LeafMapsError> + Send + Sync>> = vec![
-            Box::new(|| write_srgb_png(&tmp.join(f), &maps.front)),
-            Box::new(|| write_srgb_png(&tmp.join(b), &maps.back)),
-            Box::new(|| write_srgb_png(&tmp.join(t), &maps.translucency)),
-            Box::new(|| write_gray16_png(&tmp.join(a), &maps.alpha)),
-            Box::new(|| write_gray16_png(&tmp.join(th), &maps.thickness)),
-            Box::new(|| write_gray16_png(&tmp.join(e), &maps.extinction)),
-            Box::new(|| write_gray16_png(&tmp.join(bu), &maps.bump)),
-        ];
-        jobs.par_iter()
-            .map(|j| j())
-            .collect::<Result<Vec<()>, _>>()?;
-        let desc = LeafDescription {
-            maps: LeafMapPaths {
-                front: Some(f.into()),
-                back: Some(b.into()),
-                translucency: Some(t.into()),
-                alpha: Some(a.into()),
-                thickness: Some(th.into()),
-                extinction: Some(e.into()),
-                bump: Some(bu.into()),
-                wrap: Wrap::Clamp,
-            },
-            params: *params,
-        };
-        let mut text = String::new();
-        for c in comments {
-            for line in c.lines() {
-                text.push_str("# ");
-                text.push_str(line);
-                text.push('\n');
-            }
+    let mut text = String::new();
+    for c in comments {
+        for line in c.lines() {
+            text.push_str("# ");
+            text.push_str(line);
+            text.push('\n');
         }
-        text.push('\n');
-        text.push_str(&toml::to_string(&desc)?);
-        let toml_path = tmp.join("leaf.toml");
-        std::fs::write(&toml_path, text).map_err(write_err(&toml_path))?;
-        Ok(())
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_dir_all(&tmp);
-        return Err(e);
     }
-    let old = parent.join(format!(".{name}.old-{}-{n}", std::process::id()));
-    let had_old = dir.exists();
-    if had_old && let Err(source) = std::fs::rename(dir, &old) {
-        let _ = std::fs::remove_dir_all(&tmp);
-        return Err(LeafMapsError::Write {
-            path: dir.to_owned(),
-            cause: source,
-        });
+    text.push('\n');
+    text.push_str(&toml::to_string(&desc)?);
+    let toml_path = tmp.join("leaf.toml");
+    std::fs::write(&toml_path, text).map_err(write_err(&toml_path))?;
+    // The maps were written with plain writes into the temporary folder: flush them before
+    // the folder is put in place.
+    for name in MAP_FILES.iter().chain(&["leaf.toml"]) {
+        let p = tmp.join(name);
+        std::fs::File::open(&p)
+            .and_then(|f| f.sync_all())
+            .map_err(write_err(&p))?;
     }
-    if let Err(source) = std::fs::rename(&tmp, dir) {
-        if had_old {
-            let _ = std::fs::rename(&old, dir);
-        }
-        let _ = std::fs::remove_dir_all(&tmp);
-        return Err(LeafMapsError::Write {
-            path: dir.to_owned(),
-            cause: source,
-        });
-    }
-    if had_old {
-        let _ = std::fs::remove_dir_all(&old);
-    }
-    Ok(dir.to_owned())
+    Ok(staged.commit(&spec)?)
 }

@@ -35,7 +35,7 @@ use crate::folder::{MapPlanes, extinction_from_translucency, thickness_from_exti
 use crate::noise::{Rng, fbm, gradient, worley};
 use crate::plane::{Gray, Plane, Rgb};
 use crate::species::{Preset, Profile, Species, Teeth, VenationKind, srgb8_to_linear};
-use crate::{LeafMapsError, write_leaf_folder};
+use crate::{FolderWrite, LeafMapsError, write_leaf_folder};
 use glam::{Vec2, Vec3};
 use lamina_leaf::{LeafMaps, LeafParams};
 use std::path::{Path, PathBuf};
@@ -83,9 +83,15 @@ pub struct GeneratedLeaf {
 }
 
 impl GeneratedLeaf {
-    /// Writes the leaf folder (seven PNG maps and `leaf.toml`) atomically, see
-    /// [`write_leaf_folder`]. Returns the folder.
+    /// Writes the leaf folder (seven PNG maps and `leaf.toml`), replacing only a leaf folder
+    /// lamina wrote; see [`write_leaf_folder`]. Returns the folder.
     pub fn write_folder(&self, dir: &Path) -> Result<PathBuf, LeafMapsError> {
+        self.write_folder_with(dir, &FolderWrite::default())
+    }
+
+    /// [`GeneratedLeaf::write_folder`] with an explicit rule for an existing folder
+    /// (e.g. [`crate::Replace::Force`]).
+    pub fn write_folder_with(&self, dir: &Path, how: &FolderWrite) -> Result<PathBuf, LeafMapsError> {
         let (w, h) = self.planes.size();
         let comments = vec![
             format!(
@@ -100,7 +106,7 @@ impl GeneratedLeaf {
                 .into(),
             "extinction = 1 - luma(translucency), thickness = its blur re-centred on 0.5.".into(),
         ];
-        write_leaf_folder(dir, &self.planes, &self.params, &comments)
+        write_leaf_folder(dir, &self.planes, &self.params, &comments, how)
     }
 }
 

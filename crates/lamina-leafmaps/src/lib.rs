@@ -37,7 +37,10 @@ pub mod prepare;
 pub mod sheet;
 pub mod species;
 
-pub use folder::{MapPlanes, write_leaf_folder};
+pub use folder::{
+    FolderWrite, GENERATOR, MapPlanes, check_leaf_folder, write_leaf_folder, written_by_lamina,
+};
+pub use lamina_io::Replace;
 pub use generate::{GeneratedLeaf, LeafSpec, generate};
 pub use prepare::{PrepareInput, Prepared, prepare};
 pub use sheet::{SheetOptions, sheet};
@@ -109,6 +112,13 @@ pub enum LeafMapsError {
     /// `leaf.toml` could not be serialised.
     #[error("cannot serialise leaf.toml: {0}")]
     Toml(#[from] toml::ser::Error),
+    /// The output folder may not be written (foreign files, an input in the way) or could
+    /// not be put in place.
+    #[error(transparent)]
+    Folder(#[from] lamina_io::FolderError),
+    /// An output image has a type lamina cannot write, or could not be encoded or written.
+    #[error(transparent)]
+    Output(#[from] lamina_io::ImageOutError),
     /// A bad option value.
     #[error("invalid option {option}: {reason}")]
     Option {

@@ -44,11 +44,11 @@
 //!
 //! `leaf.toml` starts with comments naming each input and what was derived, and the warnings.
 
-use crate::LeafMapsError;
 use crate::folder::{
-    MapPlanes, decode_srgb, extinction_from_translucency, luma_encoded, thickness_from_extinction,
+    FolderWrite, MapPlanes, check_leaf_folder, decode_srgb, extinction_from_translucency, luma_encoded, thickness_from_extinction,
     write_leaf_folder,
 };
+use crate::{LeafMapsError, Replace};
 use crate::plane::{
     Gray, Plane, Rgb, fill_holes, gaussian_blur, integrate_gradients, otsu, remove_specks,
 };
@@ -86,6 +86,10 @@ pub struct PrepareInput {
     pub params: LeafParams,
     /// The leaf folder to write.
     pub out: PathBuf,
+    /// What to do when `out` exists and is not a leaf folder lamina wrote: refuse
+    /// ([`Replace::IfOurs`], the default) or write lamina's files into it and keep the others
+    /// ([`Replace::Force`]). The inputs are never overwritten either way.
+    pub replace: Replace,
 }
 
 impl PrepareInput {
@@ -103,6 +107,28 @@ impl PrepareInput {
             refine_alpha: true,
             params: LeafParams::default(),
             out: out.into(),
+            replace: Replace::IfOurs,
+        }
+    }
+
+    /// Every input file given.
+    pub fn input_files(&self) -> Vec<PathBuf> {
+        std::iter::once(&self.front)
+            .chain(&self.back)
+            .chain(&self.translucency)
+            .chain(&self.alpha)
+            .chain(&self.normal)
+            .chain(&self.bump)
+            .cloned()
+            .collect()
+    }
+
+    /// How the output folder is written: [`PrepareInput::replace`], the inputs protected.
+    pub fn folder_write(&self) -> FolderWrite {
+        FolderWrite {
+            replace: self.replace,
+            inputs: self.input_files(),
+            ..FolderWrite::default()
         }
     }
 }
@@ -133,21 +159,18 @@ struct Stored {
 }
 
 fn load_stored(path: &Path) -> Result<Stored, LeafMapsError> {
-    let img = image::ImageReader::open(path)
-        .map_err(|e| LeafMapsError::Read {
-            path: path.to_owned(),
-            cause: image::ImageError::IoError(e),
-        })?
-        .with_guessed_format()
-        .map_err(|e| LeafMapsError::Read {
-            path: path.to_owned(),
-            cause: image::ImageError::IoError(e),
-        })?
-        .decode()
-        .map_err(|source| LeafMapsError::Read {
-            path: path.to_owned(),
+    // The size is checked from the header before decoding, and a decoder panic is an error
+    // (see `lamina_leaf::texture::open_image`).
+    let img = lamina_leaf::texture::open_image(path).map_err(|e| match e {
+        lamina_leaf::TextureError::Read { path, source } => LeafMapsError::Read {
+            path,
             cause: source,
-        })?;
+        },
+        other => LeafMapsError::BadInput {
+            path: path.to_owned(),
+            reason: other.to_string(),
+        },
+    })?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     if w == 0 || h == 0 {
         return Err(LeafMapsError::BadInput {
@@ -421,6 +444,9 @@ fn refine_matte(mask: &Plane<bool>, photo: &Plane<[f32; 4]>) -> Option<(Plane<bo
 pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
     let mut warnings = Vec::new();
     let mut prov = Vec::new();
+    // Refuse a folder that may not be written before the long work, not after it.
+    let how = input.folder_write();
+    check_leaf_folder(&input.out, &how)?;
     if let Some(d) = input.dpi
         && !(d.is_finite() && d > 0.0)
     {
@@ -795,7 +821,7 @@ pub fn prepare(input: &PrepareInput) -> Result<Prepared, LeafMapsError> {
     for wmsg in &warnings {
         comments.push(format!("warning: {wmsg}"));
     }
-    let dir = write_leaf_folder(&input.out, &maps, &params, &comments)?;
+    let dir = write_leaf_folder(&input.out, &maps, &params, &comments, &how)?;
     timer.lap("write folder");
     Ok(Prepared {
         dir,

@@ -43,14 +43,17 @@ const BG: [f32; 3] = [0.5, 0.5, 0.5];
 const LABEL_H: usize = 14;
 
 /// Renders the contact sheet of the leaf folder `dir` (which holds `leaf.toml`) and writes it
-/// to `out` (PNG). Maps missing from the description show as empty tiles.
+/// to `out` (`.png` or `.jpg`, checked before any work; written atomically). Maps missing
+/// from the description show as empty tiles.
 pub fn sheet(dir: &Path, out: &Path, opts: &SheetOptions) -> Result<(), LeafMapsError> {
+    lamina_io::image_out::format_for(out)?;
     let img = sheet_image(dir, opts)?;
     save_rgb(out, &img)
 }
 
-/// Writes an RGB image, creating the parent folder.
+/// Writes an RGB image atomically (type from the extension), creating the parent folder.
 pub fn save_rgb(out: &Path, img: &RgbImage) -> Result<(), LeafMapsError> {
+    lamina_io::image_out::format_for(out)?;
     if let Some(p) = out.parent()
         && !p.as_os_str().is_empty()
     {
@@ -59,10 +62,7 @@ pub fn save_rgb(out: &Path, img: &RgbImage) -> Result<(), LeafMapsError> {
             cause: source,
         })?;
     }
-    img.save(out).map_err(|source| LeafMapsError::Encode {
-        path: out.to_owned(),
-        cause: source,
-    })
+    Ok(lamina_io::save_image(out, img)?)
 }
 
 /// The contact sheet of the leaf folder `dir` as an image (see the module docs).

@@ -94,7 +94,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         image::Rgb([enc(c.x), enc(c.y), enc(c.z)])
     });
     let path = with_suffix(&out, "bark");
-    tiled.save(&path)?;
+    lamina_io::save_image(&path, &tiled)?;
     println!("wrote {}", path.display());
     // A close look at the crown's edge: leaf orientation, petioles, bark.
     let h = bush.stats.bounds[1].y;

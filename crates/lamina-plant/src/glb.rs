@@ -298,21 +298,9 @@ pub fn write_glb(plant: &Plant, path: &Path) -> Result<(), PlantError> {
     out.extend_from_slice(b"BIN\0");
     out.extend_from_slice(&b.bin);
 
-    let io = |source| PlantError::Io {
+    // Atomic: a temporary file in the same folder, synced, then renamed over `path`.
+    lamina_io::write_bytes(path, &out).map_err(|e| PlantError::Io {
         path: path.to_owned(),
-        source,
-    };
-    let file_name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "plant.glb".into());
-    let tmp = path.with_file_name(format!(".{file_name}.tmp{}", std::process::id()));
-    if let Err(e) = std::fs::write(&tmp, &out) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(io(e));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        io(e)
+        source: std::io::Error::new(e.source.kind(), format!("{}: {}", e.what, e.source)),
     })
 }

@@ -10,17 +10,15 @@
 //!
 //!   then the sRGB transfer curve (IEC 61966-2-1) and rounding to 8 bits. NaNs become 0.
 //!
-//! Both are written atomically: the encoder writes `<name>.tmp-<pid>` in the target
-//! directory, which is then renamed over `<name>`; on any failure the temporary file is
-//! removed and no output file appears.
+//! Both are encoded in memory and then written atomically by [`lamina_io::write_bytes`]
+//! (a temporary file in the target's folder, synced, renamed over the target): on any
+//! failure no output file appears and an existing one is untouched.
 
 use crate::error::RenderError;
 use crate::render::Image;
 use lamina_core::{Film, ToneMap};
 use lamina_leaf::texture::linear_to_srgb;
-use std::fs::File;
-use std::io::BufWriter;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Tone-maps one linear channel value already multiplied by the exposure, to `[0, 1]`
 /// (before the sRGB curve).
@@ -81,50 +79,26 @@ pub fn write_image(path: &Path, image: &Image, film: &Film) -> Result<(), Render
             height: h,
         });
     }
-    let Some(name) = path.file_name() else {
-        return Err(RenderError::Io {
-            path: path.to_owned(),
-            what: "the path names no file",
-            source: std::io::Error::from(std::io::ErrorKind::InvalidInput),
-        });
-    };
-    let mut tmp_name = name.to_owned();
-    tmp_name.push(format!(".tmp-{}", std::process::id()));
-    let tmp: PathBuf = path.with_file_name(tmp_name);
-    let io = |what: &'static str| {
-        move |source| RenderError::Io {
-            path: path.to_owned(),
-            what,
-            source,
-        }
-    };
-    let file = File::create(&tmp).map_err(io("cannot create the temporary file"))?;
-    let result = (|| {
-        let mut out = BufWriter::new(file);
-        let encoded = match format {
-            image::ImageFormat::OpenExr => {
-                let data: Vec<f32> = image.pixels.iter().flat_map(|p| p.to_array()).collect();
-                image::Rgb32FImage::from_raw(w, h, data)
-                    .expect("size checked above")
-                    .write_to(&mut out, format)
-            }
-            _ => image::RgbImage::from_raw(w, h, to_srgb8(image, film))
+    // Encode in memory first: a failed encode must leave no file behind.
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    let encoded = match format {
+        image::ImageFormat::OpenExr => {
+            let data: Vec<f32> = image.pixels.iter().flat_map(|p| p.to_array()).collect();
+            image::Rgb32FImage::from_raw(w, h, data)
                 .expect("size checked above")
-                .write_to(&mut out, format),
-        };
-        encoded.map_err(|source| RenderError::Encode {
-            path: path.to_owned(),
-            source,
-        })?;
-        let file = out
-            .into_inner()
-            .map_err(|e| io("cannot write")(e.into_error()))?;
-        file.sync_all().map_err(io("cannot flush"))?;
-        drop(file);
-        std::fs::rename(&tmp, path).map_err(io("cannot rename the temporary file into place"))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+                .write_to(&mut bytes, format)
+        }
+        _ => image::RgbImage::from_raw(w, h, to_srgb8(image, film))
+            .expect("size checked above")
+            .write_to(&mut bytes, format),
+    };
+    encoded.map_err(|source| RenderError::Encode {
+        path: path.to_owned(),
+        source,
+    })?;
+    lamina_io::write_bytes(path, &bytes.into_inner()).map_err(|e| RenderError::Io {
+        path: path.to_owned(),
+        what: e.what,
+        source: e.source,
+    })
 }

@@ -99,6 +99,10 @@ pub struct RenderStats {
     pub elapsed: Duration,
     /// Samples per pixel in the image (completed passes).
     pub spp_done: u32,
+    /// Passes completed (their samples are the image); 0 only if cancelled in the first.
+    pub passes_done: u32,
+    /// Passes planned for the requested samples per pixel.
+    pub passes_total: u32,
     /// Camera samples in the image (`spp_done · width · height`).
     pub samples: u64,
     /// All rays traced (camera, indirect and shadow), interrupted pass included.
@@ -200,6 +204,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
     let passes = pass_schedule(spp_total);
     let mut acc = Accumulator::new(film.width, film.height);
     let (mut spp_done, mut rays, mut stopped_early) = (0u32, 0u64, false);
+    let mut passes_done = 0u32;
     for (pi, &(s0, s1)) in passes.iter().enumerate() {
         let first = pi == 0;
         let stop = || cancelled() || (!first && deadline.is_some_and(|d| Instant::now() >= d));
@@ -230,6 +235,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
             }
         }
         spp_done = s1;
+        passes_done = pi as u32 + 1;
         if let Some(cb) = &opts.progress {
             cb(Progress {
                 passes_done: pi as u32 + 1,
@@ -249,6 +255,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
         stats: RenderStats {
             elapsed: start.elapsed(),
             spp_done,
+            passes_done,
+            passes_total: passes.len() as u32,
             samples: spp_done as u64 * film.width as u64 * film.height as u64,
             rays,
             stopped_early,

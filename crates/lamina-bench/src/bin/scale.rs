@@ -240,7 +240,7 @@ fn write_csv(path: &std::path::Path, rows: &[Measurement]) -> Result<()> {
             r.threads
         );
     }
-    std::fs::write(path, s)?;
+    lamina_io::write_bytes(path, s.as_bytes())?;
     Ok(())
 }
 
@@ -270,7 +270,7 @@ fn main() -> Result<()> {
     let mut record = |m: Measurement| -> Result<()> {
         rows.push(m);
         write_csv(&csv, &rows)?;
-        std::fs::write(&json, serde_json::to_string_pretty(&rows)?)?;
+        lamina_io::write_bytes(&json, serde_json::to_string_pretty(&rows)?.as_bytes())?;
         Ok(())
     };
     for &leaves in &args.levels {

@@ -1,0 +1,243 @@
+//! Outputs never destroy what lamina did not write: the real `lamina` binary writing leaf
+//! folders, contact sheets, screenshots and exports over folders and files a user already
+//! has.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn lamina() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_lamina"))
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lamina-outputs-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn names(d: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+fn run(args: &[&str], cwd: &Path) -> Output {
+    lamina().args(args).current_dir(cwd).output().unwrap()
+}
+
+fn assert_refused(o: &Output, words: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "exit status for:\n{err}");
+    assert!(!err.contains("panicked"), "panic:\n{err}");
+    for w in words {
+        assert!(err.contains(w), "expected '{w}' in:\n{err}");
+    }
+}
+
+const LEAF_FILES: [&str; 8] = [
+    "alpha.png",
+    "back.png",
+    "bump.png",
+    "extinction.png",
+    "front.png",
+    "leaf.toml",
+    "thickness.png",
+    "translucency.png",
+];
+
+/// A user's folder: a photo and notes.
+fn users_folder(root: &Path) -> PathBuf {
+    let mine = root.join("leaves/mine");
+    std::fs::create_dir_all(&mine).unwrap();
+    leaf_photo(&mine.join("photo.png"));
+    std::fs::write(mine.join("notes.txt"), "collected 2026-06-01, Grunewald").unwrap();
+    mine
+}
+
+/// A photograph-like leaf: a green ellipse on a white background.
+fn leaf_photo(path: &Path) {
+    let img = image::RgbImage::from_fn(96, 128, |x, y| {
+        let (u, v) = ((x as f32 - 48.0) / 36.0, (y as f32 - 64.0) / 56.0);
+        if u * u + v * v < 1.0 {
+            image::Rgb([40, 110 + (x % 7) as u8, 30])
+        } else {
+            image::Rgb([245, 245, 240])
+        }
+    });
+    img.save(path).unwrap();
+}
+
+#[test]
+fn leaf_generate_refuses_a_folder_of_user_files_and_keeps_them() {
+    let root = scratch("generate-foreign");
+    let mine = users_folder(&root);
+    let photo = std::fs::read(mine.join("photo.png")).unwrap();
+    let o = run(
+        &["leaf", "generate", "--species", "beech", "-r", "96", "-o", "leaves/mine"],
+        &root,
+    );
+    assert_refused(&o, &["leaves/mine", "photo.png", "notes.txt", "--force"]);
+    assert_eq!(names(&mine), ["notes.txt", "photo.png"]);
+    assert_eq!(std::fs::read(mine.join("photo.png")).unwrap(), photo);
+    assert_eq!(names(&root.join("leaves")), ["mine"], "no temporary folder left");
+
+    // --force writes lamina's eight files and keeps the user's two.
+    let o = run(
+        &["leaf", "generate", "-r", "96", "-o", "leaves/mine", "--force"],
+        &root,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut want: Vec<&str> = LEAF_FILES.to_vec();
+    want.extend(["notes.txt", "photo.png"]);
+    want.sort();
+    assert_eq!(names(&mine), want);
+    assert_eq!(std::fs::read(mine.join("photo.png")).unwrap(), photo);
+    assert_eq!(names(&root.join("leaves")), ["mine"]);
+}
+
+#[test]
+fn leaf_generate_replaces_its_own_folder() {
+    let root = scratch("generate-own");
+    let run_gen = |seed: &str| {
+        let o = run(&["leaf", "generate", "-r", "96", "--seed", seed, "-o", "leaf"], &root);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(root.join("leaf/front.png")).unwrap()
+    };
+    let a = run_gen("1");
+    let toml = std::fs::read_to_string(root.join("leaf/leaf.toml")).unwrap();
+    assert!(toml.contains("generator = \"lamina "), "{toml}");
+    let b = run_gen("2");
+    assert_ne!(a, b, "the second seed replaced the first leaf");
+    assert_eq!(names(&root.join("leaf")), LEAF_FILES);
+    assert_eq!(names(&root), ["leaf"], "no temporary or old folder left beside it");
+
+    // A file added by the user makes it foreign again.
+    std::fs::write(root.join("leaf/my-notes.md"), "keep").unwrap();
+    let o = run(&["leaf", "generate", "-r", "96", "-o", "leaf"], &root);
+    assert_refused(&o, &["my-notes.md"]);
+    assert!(root.join("leaf/my-notes.md").exists());
+
+    // A hand-written leaf.toml (no generator) is foreign too.
+    let hand = root.join("hand");
+    std::fs::create_dir(&hand).unwrap();
+    std::fs::write(hand.join("leaf.toml"), "[params]\nthickness_mm = 0.3\n").unwrap();
+    let o = run(&["leaf", "generate", "-r", "96", "-o", "hand"], &root);
+    assert_refused(&o, &["leaf.toml (not written by lamina)"]);
+    assert_eq!(
+        std::fs::read_to_string(hand.join("leaf.toml")).unwrap(),
+        "[params]\nthickness_mm = 0.3\n"
+    );
+}
+
+#[test]
+fn leaf_prepare_never_deletes_its_input() {
+    let root = scratch("prepare-input");
+    let mine = users_folder(&root);
+    let photo = std::fs::read(mine.join("photo.png")).unwrap();
+    let args = ["leaf", "prepare", "--front", "leaves/mine/photo.png", "-o", "leaves/mine"];
+    let o = run(&args, &root);
+    assert_refused(&o, &["leaves/mine", "photo.png", "--force"]);
+    assert_eq!(std::fs::read(mine.join("photo.png")).unwrap(), photo);
+
+    let mut forced = args.to_vec();
+    forced.push("--force");
+    let o = run(&forced, &root);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(mine.join("photo.png")).unwrap(), photo);
+    assert!(mine.join("notes.txt").exists());
+    assert!(mine.join("front.png").exists() && mine.join("leaf.toml").exists());
+
+    // An input under an output's own name is refused even with --force.
+    let other = root.join("other");
+    std::fs::create_dir(&other).unwrap();
+    leaf_photo(&other.join("front.png"));
+    let before = std::fs::read(other.join("front.png")).unwrap();
+    let o = run(
+        &["leaf", "prepare", "--front", "other/front.png", "-o", "other", "--force"],
+        &root,
+    );
+    assert_refused(&o, &["other/front.png", "is an input"]);
+    assert_eq!(std::fs::read(other.join("front.png")).unwrap(), before);
+    assert_eq!(names(&other), ["front.png"]);
+    assert_eq!(names(&root), ["leaves", "other"]);
+}
+
+#[test]
+fn sheets_of_types_lamina_cannot_write_leave_nothing() {
+    let root = scratch("sheet-types");
+    let o = run(&["leaf", "generate", "-r", "96", "-o", "leaf"], &root);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for name in ["sheet.bmp", "sheet.tga", "sheet.gif"] {
+        let o = run(&["leaf", "sheet", "leaf", "-o", name], &root);
+        assert_refused(&o, &[name, "cannot write images of this type"]);
+        assert!(!root.join(name).exists(), "{name} left behind");
+        // The same check runs before generating when --sheet is given.
+        let o = run(&["leaf", "generate", "-r", "96", "-o", "leaf2", "--sheet", name], &root);
+        assert_refused(&o, &[name]);
+        assert!(!root.join("leaf2").exists());
+    }
+    let o = run(&["leaf", "sheet", "leaf", "-o", "sheet.jpg"], &root);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(names(&root), ["leaf", "sheet.jpg"]);
+}
+
+#[test]
+fn an_existing_output_folder_in_place_of_an_image_is_kept() {
+    let root = scratch("render-over-dir");
+    std::fs::write(
+        root.join("s.toml"),
+        "[camera]\nposition = [0, 0, 1]\nlook_at = [0, 0, 0]\n[film]\nwidth = 8\nheight = 8\nspp = 1\n\
+         [sky]\ntype = \"constant\"\nradiance = 0.5\n",
+    )
+    .unwrap();
+    std::fs::create_dir(root.join("out.png")).unwrap();
+    std::fs::write(root.join("out.png/inside.txt"), "mine").unwrap();
+    let o = run(&["render", "s.toml", "-o", "out.png", "-q"], &root);
+    assert_refused(&o, &["out.png", "folder"]);
+    assert!(root.join("out.png/inside.txt").exists());
+    assert_eq!(names(&root), ["out.png", "s.toml"]);
+}
+
+#[test]
+fn demo_export_refuses_a_foreign_folder_and_replaces_its_own() {
+    let root = scratch("export");
+    let export = |dir: &str, force: bool| {
+        let mut args = vec!["demo", "--export-bush", dir, "--size", "32", "--spp", "1"];
+        if force {
+            args.push("--force");
+        }
+        run(&args, &root)
+    };
+    let o = export("bush", false);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let first = names(&root.join("bush"));
+    assert!(first.contains(&"bush.toml".to_string()), "{first:?}");
+    let o = export("bush", false);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(names(&root.join("bush")), first);
+    assert_eq!(names(&root), ["bush"]);
+
+    let theirs = root.join("theirs");
+    std::fs::create_dir(&theirs).unwrap();
+    std::fs::write(theirs.join("bush.toml"), "# my own scene\n").unwrap();
+    let o = export("theirs", false);
+    assert_refused(&o, &["theirs", "bush.toml (not written by lamina)"]);
+    assert_eq!(std::fs::read_to_string(theirs.join("bush.toml")).unwrap(), "# my own scene\n");
+    std::fs::write(theirs.join("README"), "keep me").unwrap();
+    let o = export("theirs", true);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(theirs.join("README").exists());
+    assert!(
+        std::fs::read_to_string(theirs.join("bush.toml"))
+            .unwrap()
+            .starts_with("# The lamina demo bush")
+    );
+}

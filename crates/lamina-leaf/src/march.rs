@@ -10,7 +10,16 @@
 //! Steps that leave the layer contribute nothing (the ray reaches the next layer, whose own
 //! step is drawn there, with the exact attenuation of the layers crossed). It is an unbiased
 //! estimator of [`crate::analytic::single_scatter`]; the test `march_converges_to_analytic`
-//! checks that. Colour channels share the random numbers but use their own `sigma_t`.
+//! checks that, and `single_scattering_matches_a_random_walk` checks both against a photon
+//! random walk that shares no code with them. Colour channels share the random numbers but
+//! use their own `sigma_t`.
+//!
+//! Transmission through an optically thick scattering layer is this estimator's weak spot:
+//! the step follows the view ray's attenuation only, while the transmitted integrand is
+//! nearly flat in depth, so its values span a factor `e^{sigma_t d / mu_i}` and the large
+//! ones are rare. Unbiased, but at a few hundred steps it reads low: for the default leaf's
+//! blue mesophyll (optical thickness 11.2), normal incidence and exit, 0.58 of the closed
+//! form at 64 steps, 0.71 at 256, 0.95 at 4096, within 1 % from 65536.
 
 use crate::analytic::SlabPaths;
 use crate::layers::LayerStack;

@@ -1,7 +1,8 @@
 //! `prepare` on the real scans in `../shared/data/textures/` (ambientCG atlases and the
 //! Syngonium leaves), with sanity checks and contact sheets, plus side-by-side sheets of a
 //! real leaf next to a generated one of a similar species. Skipped, with a note, when the
-//! shared data folder is absent. Outputs go to `out/leafmaps/real/` (git-ignored).
+//! shared data folder is absent; when it is there, at least one scan must be processed.
+//! Outputs go to `out/leafmaps/real/` (git-ignored).
 
 use lamina_leaf::LeafParams;
 use lamina_leafmaps::sheet::{SheetOptions, save_rgb, sheet_image, side_by_side};
@@ -12,10 +13,12 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
+/// The shared data folder (`../shared/data` next to the workspace, or `shared/data` inside
+/// it), if there is one. When there is, the test must process at least one scan from it.
 fn data_dir() -> Option<PathBuf> {
     [root().join("shared/data"), root().join("../shared/data")]
         .into_iter()
-        .find(|p| p.join("textures").is_dir())
+        .find(|p| p.is_dir())
 }
 
 fn mean_rgb(p: &lamina_leafmaps::plane::Rgb, a: &lamina_leafmaps::plane::Gray) -> [f32; 3] {
@@ -78,6 +81,9 @@ fn prepare_real_scans() {
         eprintln!("note: shared/data not found next to the workspace: real-data test skipped");
         return;
     };
+    let t0 = std::time::Instant::now();
+    // Scans run through `prepare` and checked.
+    let mut processed = Vec::new();
     let out = root().join("out/leafmaps/real");
     let ambient = data.join("textures/ambientcg");
     let opts = SheetOptions {
@@ -108,6 +114,7 @@ fn prepare_real_scans() {
             .unwrap_or_else(|_| LeafParams::default());
         let r = prepare(&input).unwrap_or_else(|e| panic!("{sp}: {e}"));
         check_sane(sp, &r);
+        processed.push(sp.to_string());
         let img = sheet_image(&r.dir, &opts).unwrap();
         save_rgb(&out.join(format!("sheet_{sp}.png")), &img).unwrap();
         sheets.push((sp, img));
@@ -118,6 +125,7 @@ fn prepare_real_scans() {
         let r = prepare(&PrepareInput::new(&front, out.join("oak_segmented"))).unwrap();
         check_sane("oak_segmented", &r);
         assert!(r.provenance.iter().any(|p| p.contains("segmented")));
+        processed.push("oak_segmented".into());
     }
     // Syngonium: 1024^2, black background, approximate threshold matte.
     let syn = data.join("textures/syngonium");
@@ -128,6 +136,7 @@ fn prepare_real_scans() {
         input.normal = Some(syn.join("potted_plant_02_leaves_nor_gl.jpg"));
         let r = prepare(&input).unwrap();
         check_sane("syngonium", &r);
+        processed.push("syngonium".into());
         save_rgb(
             &out.join("sheet_syngonium.png"),
             &sheet_image(&r.dir, &opts).unwrap(),
@@ -136,7 +145,22 @@ fn prepare_real_scans() {
         // And segmented from the black background.
         let r = prepare(&PrepareInput::new(&front, out.join("syngonium_segmented"))).unwrap();
         check_sane("syngonium_segmented", &r);
+        processed.push("syngonium_segmented".into());
     }
+    // The data folder is there: a test that skipped every scan (moved or renamed files)
+    // would prove nothing.
+    eprintln!(
+        "real data: {} scans processed from {} ({:?}): {processed:?}",
+        processed.len(),
+        data.display(),
+        t0.elapsed()
+    );
+    assert!(
+        !processed.is_empty(),
+        "{} exists but no scan in it was processed (expected textures/ambientcg/*_color.jpg \
+         or textures/syngonium/potted_plant_02_leaves_diff.jpg)",
+        data.display()
+    );
     // Real next to generated, for the species both have.
     for (sp, img) in &sheets {
         let Ok(species) = sp.parse::<Species>() else {

@@ -106,7 +106,11 @@ fn parse_species(s: &str) -> Result<Species, String> {
 }
 
 fn replace_mode(force: bool) -> Replace {
-    if force { Replace::Force } else { Replace::IfOurs }
+    if force {
+        Replace::Force
+    } else {
+        Replace::IfOurs
+    }
 }
 
 /// A `--sheet` path must name an image type lamina writes: checked before the work.

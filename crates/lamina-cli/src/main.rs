@@ -9,8 +9,8 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod demo;
-mod interrupted;
 mod gpu_cmd;
+mod interrupted;
 mod leaf_cmd;
 mod plant_cmd;
 mod render_cmd;

@@ -1,13 +1,13 @@
 //! `lamina render`: load a scene file, render it with a progress bar, write the images.
 
+use crate::interrupted::Interrupted;
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
+use lamina_io::interrupt::{self, Mode};
 use lamina_render::{Image, RenderOptions, RenderOutput, RenderStats};
 use lamina_scene::{Film, Scene};
-use std::path::{Path, PathBuf};
-use crate::interrupted::Interrupted;
-use lamina_io::interrupt::{self, Mode};
 use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -75,10 +75,7 @@ pub fn check_outputs(outputs: &[PathBuf]) -> Result<()> {
             );
         }
         if out.is_dir() {
-            bail!(
-                "output '{}' is a folder: name an image file",
-                out.display()
-            );
+            bail!("output '{}' is a folder: name an image file", out.display());
         }
     }
     Ok(())

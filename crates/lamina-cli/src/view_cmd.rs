@@ -471,7 +471,9 @@ pub fn run(args: ViewArgs) -> Result<()> {
         .run_app(&mut viewer)
         .context("the window's event loop failed")?;
     if lamina_io::interrupt::interrupted() {
-        return Err(crate::interrupted::Interrupted("window closed, no screenshot written".into()).into());
+        return Err(
+            crate::interrupted::Interrupted("window closed, no screenshot written".into()).into(),
+        );
     }
     if let Some(e) = viewer.error.take() {
         return Err(e);

@@ -68,7 +68,10 @@ impl Running {
     fn wait_for(&self, needle: &str, timeout: Duration) {
         let end = Instant::now() + timeout;
         loop {
-            match self.lines.recv_timeout(end.saturating_duration_since(Instant::now())) {
+            match self
+                .lines
+                .recv_timeout(end.saturating_duration_since(Instant::now()))
+            {
                 Ok(l) if l.contains(needle) => return,
                 Ok(_) => {}
                 Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => {
@@ -195,7 +198,11 @@ fn assert_interrupted_untouched(d: &Path, status: ExitStatus, log: &str) {
     assert_eq!(status.code(), Some(130), "exit code:\n{log}");
     assert!(!log.contains("panicked"), "{log}");
     assert!(log.contains("interrupted"), "{log}");
-    assert_eq!(std::fs::read(d.join("out.png")).unwrap(), OLD_PNG, "out.png changed:\n{log}");
+    assert_eq!(
+        std::fs::read(d.join("out.png")).unwrap(),
+        OLD_PNG,
+        "out.png changed:\n{log}"
+    );
     assert_eq!(names(d), ["out.png", "s.toml"], "files left behind:\n{log}");
 }
 
@@ -207,8 +214,14 @@ fn ctrl_c_during_loading_stops_at_once_and_writes_nothing() {
     std::thread::sleep(Duration::from_millis(300));
     r.sigint();
     let (status, took, log) = r.finish(Duration::from_secs(30));
-    assert!(!log.contains("loaded, rendering"), "loading had finished:\n{log}");
-    assert!(took < Duration::from_secs(2), "took {took:?} to stop:\n{log}");
+    assert!(
+        !log.contains("loaded, rendering"),
+        "loading had finished:\n{log}"
+    );
+    assert!(
+        took < Duration::from_secs(2),
+        "took {took:?} to stop:\n{log}"
+    );
     assert_interrupted_untouched(&d, status, &log);
 }
 
@@ -221,8 +234,14 @@ fn ctrl_c_during_the_first_pass_writes_nothing() {
     std::thread::sleep(Duration::from_millis(200));
     r.sigint();
     let (status, took, log) = r.finish(Duration::from_secs(30));
-    assert!(!log.contains("pass 1/"), "the first pass had finished:\n{log}");
-    assert!(took < Duration::from_secs(2), "took {took:?} to stop:\n{log}");
+    assert!(
+        !log.contains("pass 1/"),
+        "the first pass had finished:\n{log}"
+    );
+    assert!(
+        took < Duration::from_secs(2),
+        "took {took:?} to stop:\n{log}"
+    );
     assert_interrupted_untouched(&d, status, &log);
 }
 
@@ -246,7 +265,10 @@ fn ctrl_c_during_a_later_pass_keeps_the_completed_passes() {
     assert!(k >= 3 && k < n, "{line}");
     let spp: u32 = words[6].trim_start_matches('(').parse().unwrap();
     let last_pass_line = format!("pass {k}/{n} done, {spp}/4096 spp");
-    assert!(log.contains(&last_pass_line), "'{last_pass_line}' not in:\n{log}");
+    assert!(
+        log.contains(&last_pass_line),
+        "'{last_pass_line}' not in:\n{log}"
+    );
     // The image of those passes was written, whole, over the old file.
     let img = image::open(d.join("out.png")).unwrap().to_rgb8();
     assert_eq!(img.dimensions(), (256, 256));
@@ -269,7 +291,10 @@ fn a_second_ctrl_c_quits_at_once() {
     // Whichever press ended it, out.png is the old file or a whole new image, and no
     // temporary file is left.
     let bytes = std::fs::read(d.join("out.png")).unwrap();
-    assert!(bytes == OLD_PNG || image::load_from_memory(&bytes).is_ok(), "{log}");
+    assert!(
+        bytes == OLD_PNG || image::load_from_memory(&bytes).is_ok(),
+        "{log}"
+    );
     assert_eq!(names(&d), ["out.png", "s.toml"], "{log}");
 }
 

@@ -81,17 +81,38 @@ fn leaf_generate_refuses_a_folder_of_user_files_and_keeps_them() {
     let mine = users_folder(&root);
     let photo = std::fs::read(mine.join("photo.png")).unwrap();
     let o = run(
-        &["leaf", "generate", "--species", "beech", "-r", "96", "-o", "leaves/mine"],
+        &[
+            "leaf",
+            "generate",
+            "--species",
+            "beech",
+            "-r",
+            "96",
+            "-o",
+            "leaves/mine",
+        ],
         &root,
     );
     assert_refused(&o, &["leaves/mine", "photo.png", "notes.txt", "--force"]);
     assert_eq!(names(&mine), ["notes.txt", "photo.png"]);
     assert_eq!(std::fs::read(mine.join("photo.png")).unwrap(), photo);
-    assert_eq!(names(&root.join("leaves")), ["mine"], "no temporary folder left");
+    assert_eq!(
+        names(&root.join("leaves")),
+        ["mine"],
+        "no temporary folder left"
+    );
 
     // --force writes lamina's eight files and keeps the user's two.
     let o = run(
-        &["leaf", "generate", "-r", "96", "-o", "leaves/mine", "--force"],
+        &[
+            "leaf",
+            "generate",
+            "-r",
+            "96",
+            "-o",
+            "leaves/mine",
+            "--force",
+        ],
         &root,
     );
     assert!(o.status.success(), "{}", stderr(&o));
@@ -107,7 +128,10 @@ fn leaf_generate_refuses_a_folder_of_user_files_and_keeps_them() {
 fn leaf_generate_replaces_its_own_folder() {
     let root = scratch("generate-own");
     let run_gen = |seed: &str| {
-        let o = run(&["leaf", "generate", "-r", "96", "--seed", seed, "-o", "leaf"], &root);
+        let o = run(
+            &["leaf", "generate", "-r", "96", "--seed", seed, "-o", "leaf"],
+            &root,
+        );
         assert!(o.status.success(), "{}", stderr(&o));
         std::fs::read(root.join("leaf/front.png")).unwrap()
     };
@@ -117,7 +141,11 @@ fn leaf_generate_replaces_its_own_folder() {
     let b = run_gen("2");
     assert_ne!(a, b, "the second seed replaced the first leaf");
     assert_eq!(names(&root.join("leaf")), LEAF_FILES);
-    assert_eq!(names(&root), ["leaf"], "no temporary or old folder left beside it");
+    assert_eq!(
+        names(&root),
+        ["leaf"],
+        "no temporary or old folder left beside it"
+    );
 
     // A file added by the user makes it foreign again.
     std::fs::write(root.join("leaf/my-notes.md"), "keep").unwrap();
@@ -142,7 +170,14 @@ fn leaf_prepare_never_deletes_its_input() {
     let root = scratch("prepare-input");
     let mine = users_folder(&root);
     let photo = std::fs::read(mine.join("photo.png")).unwrap();
-    let args = ["leaf", "prepare", "--front", "leaves/mine/photo.png", "-o", "leaves/mine"];
+    let args = [
+        "leaf",
+        "prepare",
+        "--front",
+        "leaves/mine/photo.png",
+        "-o",
+        "leaves/mine",
+    ];
     let o = run(&args, &root);
     assert_refused(&o, &["leaves/mine", "photo.png", "--force"]);
     assert_eq!(std::fs::read(mine.join("photo.png")).unwrap(), photo);
@@ -161,7 +196,15 @@ fn leaf_prepare_never_deletes_its_input() {
     leaf_photo(&other.join("front.png"));
     let before = std::fs::read(other.join("front.png")).unwrap();
     let o = run(
-        &["leaf", "prepare", "--front", "other/front.png", "-o", "other", "--force"],
+        &[
+            "leaf",
+            "prepare",
+            "--front",
+            "other/front.png",
+            "-o",
+            "other",
+            "--force",
+        ],
         &root,
     );
     assert_refused(&o, &["other/front.png", "is an input"]);
@@ -180,7 +223,12 @@ fn sheets_of_types_lamina_cannot_write_leave_nothing() {
         assert_refused(&o, &[name, "cannot write images of this type"]);
         assert!(!root.join(name).exists(), "{name} left behind");
         // The same check runs before generating when --sheet is given.
-        let o = run(&["leaf", "generate", "-r", "96", "-o", "leaf2", "--sheet", name], &root);
+        let o = run(
+            &[
+                "leaf", "generate", "-r", "96", "-o", "leaf2", "--sheet", name,
+            ],
+            &root,
+        );
         assert_refused(&o, &[name]);
         assert!(!root.join("leaf2").exists());
     }
@@ -230,7 +278,10 @@ fn demo_export_refuses_a_foreign_folder_and_replaces_its_own() {
     std::fs::write(theirs.join("bush.toml"), "# my own scene\n").unwrap();
     let o = export("theirs", false);
     assert_refused(&o, &["theirs", "bush.toml (not written by lamina)"]);
-    assert_eq!(std::fs::read_to_string(theirs.join("bush.toml")).unwrap(), "# my own scene\n");
+    assert_eq!(
+        std::fs::read_to_string(theirs.join("bush.toml")).unwrap(),
+        "# my own scene\n"
+    );
     std::fs::write(theirs.join("README"), "keep me").unwrap();
     let o = export("theirs", true);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -133,7 +133,9 @@ pub fn write_file(
         }
     };
     if path.is_dir() {
-        return Err(err("it is a folder")(std::io::ErrorKind::IsADirectory.into()));
+        return Err(err("it is a folder")(
+            std::io::ErrorKind::IsADirectory.into(),
+        ));
     }
     let tmp = Temporary::sibling_of(path, false)?;
     let file = File::create(tmp.path()).map_err(err("cannot create a temporary file"))?;
@@ -172,7 +174,8 @@ mod tests {
     use super::*;
 
     fn scratch(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("lamina-io-atomic-{name}-{}", std::process::id()));
+        let d =
+            std::env::temp_dir().join(format!("lamina-io-atomic-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).unwrap();
         d

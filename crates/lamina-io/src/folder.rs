@@ -80,7 +80,9 @@ pub enum FolderError {
         more: usize,
     },
     /// Writing the folder would replace or remove one of the command's inputs.
-    #[error("'{input}' is an input of this command and would be overwritten by the {kind} '{dir}'; nothing was changed. Write the output to another folder")]
+    #[error(
+        "'{input}' is an input of this command and would be overwritten by the {kind} '{dir}'; nothing was changed. Write the output to another folder"
+    )]
     OverwritesInput {
         /// The input.
         input: PathBuf,
@@ -261,7 +263,11 @@ impl Staged {
         Ok(dir)
     }
 
-    fn commit_exchange(self, spec: &FolderSpec, old_names: &[String]) -> Result<PathBuf, FolderError> {
+    fn commit_exchange(
+        self,
+        spec: &FolderSpec,
+        old_names: &[String],
+    ) -> Result<PathBuf, FolderError> {
         if exchange(self.tmp.path(), &self.dir).is_ok() {
             // The temporary path now holds the old folder: remove its files by name.
             sync_parent(&self.dir);
@@ -296,7 +302,9 @@ impl Staged {
                     source,
                 });
             }
-            return Err(self.io("cannot rename the finished folder into place")(source));
+            return Err(self.io("cannot rename the finished folder into place")(
+                source,
+            ));
         }
         sync_parent(&self.dir);
         remove_owned(aside.path(), spec, old_names);
@@ -371,7 +379,9 @@ fn check_not_input(target: &Path, dir: &Path, spec: &FolderSpec) -> Result<(), F
 /// A symbolic link to a folder stands for the folder it points to.
 fn resolve(dir: &Path) -> PathBuf {
     match std::fs::symlink_metadata(dir) {
-        Ok(m) if m.file_type().is_symlink() => dir.canonicalize().unwrap_or_else(|_| dir.to_owned()),
+        Ok(m) if m.file_type().is_symlink() => {
+            dir.canonicalize().unwrap_or_else(|_| dir.to_owned())
+        }
         _ => dir.to_owned(),
     }
 }
@@ -427,7 +437,8 @@ mod tests {
     }
 
     fn scratch(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("lamina-io-folder-{name}-{}", std::process::id()));
+        let d =
+            std::env::temp_dir().join(format!("lamina-io-folder-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).unwrap();
         d
@@ -437,7 +448,11 @@ mod tests {
         let s = spec(&[]);
         let st = stage(dir, &s, mode)?;
         std::fs::write(st.path().join("a.png"), tag).unwrap();
-        std::fs::write(st.path().join("leaf.toml"), format!("generator = \"lamina\"\n# {tag}")).unwrap();
+        std::fs::write(
+            st.path().join("leaf.toml"),
+            format!("generator = \"lamina\"\n# {tag}"),
+        )
+        .unwrap();
         st.commit(&s)
     }
 
@@ -469,12 +484,21 @@ mod tests {
         std::fs::write(dir.join("notes.txt"), "notes").unwrap();
         let e = write(&dir, "x", Replace::IfOurs).unwrap_err();
         let msg = e.to_string();
-        assert!(msg.contains("photo.jpg") && msg.contains("notes.txt") && msg.contains("--force"), "{msg}");
+        assert!(
+            msg.contains("photo.jpg") && msg.contains("notes.txt") && msg.contains("--force"),
+            "{msg}"
+        );
         assert_eq!(names(&dir), ["notes.txt", "photo.jpg"]);
         assert_eq!(names(&root), ["mine"]);
         write(&dir, "forced", Replace::Force).unwrap();
-        assert_eq!(names(&dir), ["a.png", "leaf.toml", "notes.txt", "photo.jpg"]);
-        assert_eq!(std::fs::read_to_string(dir.join("photo.jpg")).unwrap(), "holiday");
+        assert_eq!(
+            names(&dir),
+            ["a.png", "leaf.toml", "notes.txt", "photo.jpg"]
+        );
+        assert_eq!(
+            std::fs::read_to_string(dir.join("photo.jpg")).unwrap(),
+            "holiday"
+        );
         assert_eq!(names(&root), ["mine"]);
     }
 
@@ -487,7 +511,10 @@ mod tests {
         std::fs::write(dir.join("a.png"), "hand-made").unwrap();
         let msg = write(&dir, "x", Replace::IfOurs).unwrap_err().to_string();
         assert!(msg.contains("leaf.toml (not written by lamina)"), "{msg}");
-        assert_eq!(std::fs::read_to_string(dir.join("a.png")).unwrap(), "hand-made");
+        assert_eq!(
+            std::fs::read_to_string(dir.join("a.png")).unwrap(),
+            "hand-made"
+        );
     }
 
     #[test]
@@ -537,7 +564,10 @@ mod tests {
         let root = scratch("empty");
         let dir = root.join("leaf");
         std::fs::create_dir(&dir).unwrap();
-        assert_eq!(check_folder(&dir, &spec(&[]), Replace::IfOurs).unwrap(), FolderState::New);
+        assert_eq!(
+            check_folder(&dir, &spec(&[]), Replace::IfOurs).unwrap(),
+            FolderState::New
+        );
         write(&dir, "one", Replace::IfOurs).unwrap();
         assert_eq!(names(&dir), ["a.png", "leaf.toml"]);
     }

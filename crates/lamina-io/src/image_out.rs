@@ -125,7 +125,10 @@ mod tests {
         for name in ["sheet.bmp", "sheet.tga", "sheet.gif", "sheet", "sheet.tiff"] {
             let p = d.join(name);
             let e = save_image(&p, &img).unwrap_err();
-            assert!(matches!(e, ImageOutError::UnsupportedType { .. }), "{name}: {e}");
+            assert!(
+                matches!(e, ImageOutError::UnsupportedType { .. }),
+                "{name}: {e}"
+            );
             assert!(e.to_string().contains(name), "{e}");
             assert!(!p.exists(), "{name} was created");
         }
@@ -148,7 +151,8 @@ mod tests {
     #[test]
     fn round_trips_8_16_bit_and_float() {
         let d = scratch("roundtrip");
-        let rgb = image::RgbImage::from_fn(3, 2, |x, y| image::Rgb([x as u8 * 80, y as u8 * 90, 7]));
+        let rgb =
+            image::RgbImage::from_fn(3, 2, |x, y| image::Rgb([x as u8 * 80, y as u8 * 90, 7]));
         save_image(&d.join("a.PNG"), &rgb).unwrap();
         assert_eq!(image::open(d.join("a.PNG")).unwrap().to_rgb8(), rgb);
         let g16 = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(3, 2, |x, y| {
@@ -156,7 +160,9 @@ mod tests {
         });
         save_image(&d.join("b.png"), &g16).unwrap();
         assert_eq!(image::open(d.join("b.png")).unwrap().to_luma16(), g16);
-        let f = image::Rgb32FImage::from_fn(3, 2, |x, y| image::Rgb([x as f32 * 0.25, y as f32 + 0.5, 3.0]));
+        let f = image::Rgb32FImage::from_fn(3, 2, |x, y| {
+            image::Rgb([x as f32 * 0.25, y as f32 + 0.5, 3.0])
+        });
         save_image(&d.join("c.exr"), &f).unwrap();
         assert_eq!(image::open(d.join("c.exr")).unwrap().to_rgb32f(), f);
     }

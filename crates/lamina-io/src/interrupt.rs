@@ -43,7 +43,8 @@ static INSTALLED: OnceLock<Result<(), String>> = OnceLock::new();
 /// The flag that a Ctrl-C in [`Mode::Stop`] raises (shared by every render of the process,
 /// e.g. the demo's three panels).
 pub fn flag() -> Arc<AtomicBool> {
-    FLAG.get_or_init(|| Arc::new(AtomicBool::new(false))).clone()
+    FLAG.get_or_init(|| Arc::new(AtomicBool::new(false)))
+        .clone()
 }
 
 /// Whether Ctrl-C was pressed since the process started.
@@ -77,7 +78,8 @@ pub fn install() -> Result<(), String> {
     INSTALLED
         .get_or_init(|| {
             let _ = flag();
-            ctrlc::set_handler(on_ctrl_c).map_err(|e| format!("cannot install the Ctrl-C handler: {e}"))
+            ctrlc::set_handler(on_ctrl_c)
+                .map_err(|e| format!("cannot install the Ctrl-C handler: {e}"))
         })
         .clone()
 }
@@ -88,8 +90,7 @@ pub fn critical<R>(f: impl FnOnce() -> R) -> R {
     struct Guard;
     impl Drop for Guard {
         fn drop(&mut self) {
-            if CRITICAL.fetch_sub(1, Ordering::SeqCst) == 1 && QUIT_PENDING.load(Ordering::SeqCst)
-            {
+            if CRITICAL.fetch_sub(1, Ordering::SeqCst) == 1 && QUIT_PENDING.load(Ordering::SeqCst) {
                 quit_now();
             }
         }

@@ -5,10 +5,10 @@
 use crate::LeafMapsError;
 use crate::plane::{Gray, Plane, Rgb, gaussian_blur};
 use glam::Vec4;
+use lamina_io::{FolderSpec, Replace};
 use lamina_leaf::texture::linear_to_srgb;
 use lamina_leaf::{LeafDescription, LeafMapPaths, LeafMaps, LeafParams, Texture, Wrap};
 use rayon::prelude::*;
-use lamina_io::{FolderSpec, Replace};
 use std::path::{Path, PathBuf};
 
 /// The seven maps of one leaf, all of the same size, row 0 at the top of the card.
@@ -304,7 +304,11 @@ pub fn written_by_lamina(leaf_toml: &Path) -> bool {
     std::fs::read_to_string(leaf_toml)
         .ok()
         .and_then(|t| toml::from_str::<toml::Table>(&t).ok())
-        .and_then(|t| t.get("generator")?.as_str().map(|g| g.starts_with("lamina")))
+        .and_then(|t| {
+            t.get("generator")?
+                .as_str()
+                .map(|g| g.starts_with("lamina"))
+        })
         .unwrap_or(false)
 }
 

@@ -91,7 +91,11 @@ impl GeneratedLeaf {
 
     /// [`GeneratedLeaf::write_folder`] with an explicit rule for an existing folder
     /// (e.g. [`crate::Replace::Force`]).
-    pub fn write_folder_with(&self, dir: &Path, how: &FolderWrite) -> Result<PathBuf, LeafMapsError> {
+    pub fn write_folder_with(
+        &self,
+        dir: &Path,
+        how: &FolderWrite,
+    ) -> Result<PathBuf, LeafMapsError> {
         let (w, h) = self.planes.size();
         let comments = vec![
             format!(

@@ -40,8 +40,8 @@ pub mod species;
 pub use folder::{
     FolderWrite, GENERATOR, MapPlanes, check_leaf_folder, write_leaf_folder, written_by_lamina,
 };
-pub use lamina_io::Replace;
 pub use generate::{GeneratedLeaf, LeafSpec, generate};
+pub use lamina_io::Replace;
 pub use prepare::{PrepareInput, Prepared, prepare};
 pub use sheet::{SheetOptions, sheet};
 pub use species::{Preset, Species, UnknownSpecies};

@@ -62,12 +62,20 @@ impl LeafCard {
         if n.length_squared() < 1e-12 {
             return Err("normal has zero length".into());
         }
-        let n = n.normalize();
-        let up = Vec3::from(row.up);
+        // Huge finite components (1e30) would overflow the squared length: scale them down
+        // first (only then, so that ordinary cards stay bit for bit what they were).
+        let tame = |v: Vec3| {
+            if v.length_squared().is_finite() {
+                v
+            } else {
+                v / v.abs().max_element()
+            }
+        };
+        let n = tame(n).normalize();
+        let up = tame(Vec3::from(row.up));
+        let up_len2 = up.length_squared();
         let up = up - n * n.dot(up);
-        if up.length_squared() < 1e-10 * Vec3::from(row.up).length_squared().max(1e-30)
-            || up.length_squared() < 1e-20
-        {
+        if up.length_squared() < 1e-10 * up_len2.max(1e-30) || up.length_squared() < 1e-20 {
             return Err("up is zero or parallel to normal".into());
         }
         Ok(LeafCard {

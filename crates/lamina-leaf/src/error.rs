@@ -45,4 +45,12 @@ pub enum LeafError {
         #[source]
         source: Box<toml::de::Error>,
     },
+    /// Loading panicked inside a dependency (a bug; the input is rejected).
+    #[error("cannot load leaf '{path}': {message}")]
+    Panicked {
+        /// The file or folder being loaded.
+        path: PathBuf,
+        /// The panic message, in words.
+        message: String,
+    },
 }

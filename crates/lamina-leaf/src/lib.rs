@@ -29,6 +29,7 @@ pub mod bsdf;
 pub mod diffusion;
 pub mod error;
 pub mod frame;
+pub mod guard;
 pub mod lambert;
 pub mod layers;
 pub mod leaf_bsdf;

@@ -58,17 +58,49 @@ pub struct LeafDescription {
     pub params: LeafParams,
 }
 
+/// Largest `leaf.toml` accepted (bytes): 1 MiB; a description is a few hundred bytes.
+pub const MAX_DESCRIPTION_BYTES: u64 = 1 << 20;
+
 impl LeafDescription {
-    /// Reads and parses a `leaf.toml` (unknown keys are errors). Does not load the maps:
-    /// pass the result and the file's directory to [`crate::LeafMaterial::load`].
+    /// Reads and parses a `leaf.toml` (unknown keys are errors; at most
+    /// [`MAX_DESCRIPTION_BYTES`]). Does not load the maps: pass the result and the file's
+    /// directory to [`crate::LeafMaterial::load`]. A panic in the parser is an error naming
+    /// the file.
     pub fn from_toml_file(path: &Path) -> Result<Self, LeafError> {
-        let text = std::fs::read_to_string(path).map_err(|source| LeafError::Io {
+        let io = |source: std::io::Error| LeafError::Io {
             path: path.to_owned(),
             source: Box::new(source),
-        })?;
-        toml::from_str(&text).map_err(|source| LeafError::Parse {
-            path: path.to_owned(),
-            source: Box::new(source),
+        };
+        let meta = std::fs::metadata(path).map_err(io)?;
+        if !meta.is_file() {
+            return Err(io(std::io::Error::other("not a regular file")));
+        }
+        let len = meta.len();
+        if len > MAX_DESCRIPTION_BYTES {
+            return Err(io(std::io::Error::other(format!(
+                "the file is {len} bytes, more than the {MAX_DESCRIPTION_BYTES} a leaf description may have"
+            ))));
+        }
+        let text = std::fs::read_to_string(path).map_err(io)?;
+        Self::from_toml_str(&text, path)
+    }
+
+    /// Parses the text of a `leaf.toml`; `path` names it in errors. Checks the parameters'
+    /// types, not their ranges (see [`crate::LeafParams::validate`]). A panic in the parser
+    /// is an error naming the file.
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<Self, LeafError> {
+        crate::guard::catch_panic(|| {
+            crate::guard::fault_point("leaf_toml");
+            toml::from_str(text).map_err(|source| LeafError::Parse {
+                path: path.to_owned(),
+                source: Box::new(source),
+            })
+        })
+        .unwrap_or_else(|message| {
+            Err(LeafError::Panicked {
+                path: path.to_owned(),
+                message: crate::guard::panic_error_message(&message),
+            })
         })
     }
 }
@@ -119,5 +151,56 @@ impl LeafMaps {
             extinction: one("extinction", &paths.extinction, Encoding::Linear)?,
             bump: one("bump", &paths.bump, Encoding::Linear)?,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn leaf_toml_errors_name_the_file() {
+        let dir = std::env::temp_dir().join(format!("lamina-leaf-desc-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("leaf.toml");
+        std::fs::write(&p, "[params]\nthickness_mm = 0.3\n").unwrap();
+        assert!(LeafDescription::from_toml_file(&p).is_ok());
+        // A panic while parsing (injected) is an error naming the file.
+        crate::guard::FAULT.with(|f| f.set(Some("leaf_toml")));
+        let e = LeafDescription::from_toml_file(&p);
+        crate::guard::FAULT.with(|f| f.set(None));
+        let e = e.unwrap_err().to_string();
+        assert!(
+            e.contains("leaf.toml") && e.contains("injected fault"),
+            "{e}"
+        );
+        // A file far larger than any description is not read.
+        let big = dir.join("big.toml");
+        let f = std::fs::File::create(&big).unwrap();
+        f.set_len(MAX_DESCRIPTION_BYTES + 1).unwrap();
+        let e = LeafDescription::from_toml_file(&big)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("big.toml") && e.contains("1048576"), "{e}");
+        // A huge map is rejected before it is decoded, naming the map and the file.
+        let png = dir.join("huge.png");
+        std::fs::write(&png, crate::texture::tests::png_header_only(16384, 16384)).unwrap();
+        let d: LeafDescription = toml::from_str("[maps]\nfront = \"huge.png\"\n").unwrap();
+        let e = crate::LeafMaterial::load(&d, &dir).unwrap_err().to_string();
+        assert!(
+            e.contains("front") && e.contains("huge.png") && e.contains("too large"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_panic_while_loading_the_maps_is_an_error() {
+        let d = LeafDescription::default();
+        assert!(crate::LeafMaterial::load(&d, Path::new("leafdir")).is_ok());
+        crate::guard::FAULT.with(|f| f.set(Some("leaf_material")));
+        let e = crate::LeafMaterial::load(&d, Path::new("leafdir"));
+        crate::guard::FAULT.with(|f| f.set(None));
+        let e = e.unwrap_err().to_string();
+        assert!(e.contains("leafdir") && e.contains("injected fault"), "{e}");
     }
 }

@@ -450,10 +450,23 @@ impl LeafMaterial {
 
     /// Loads the maps of `desc` (paths relative to `base_dir`) and validates its parameters.
     /// The error names the map and the file, or the parameter.
+    ///
+    /// Each map's size is checked before it is decoded (see
+    /// [`crate::texture::check_image_size`]); a panic while loading is an error naming
+    /// `base_dir`.
     pub fn load(desc: &LeafDescription, base_dir: &Path) -> Result<Self, LeafError> {
-        desc.params.validate()?;
-        let maps = LeafMaps::load(&desc.maps, base_dir)?;
-        Self::new(maps, desc.params)
+        crate::guard::catch_panic(|| {
+            crate::guard::fault_point("leaf_material");
+            desc.params.validate()?;
+            let maps = LeafMaps::load(&desc.maps, base_dir)?;
+            Self::new(maps, desc.params)
+        })
+        .unwrap_or_else(|message| {
+            Err(LeafError::Panicked {
+                path: base_dir.to_owned(),
+                message: crate::guard::panic_error_message(&message),
+            })
+        })
     }
 
     /// Alpha test at texture coordinates `uv`: `true` where the leaf is (matte `>= 0.5`;

@@ -5,6 +5,12 @@
 //! taken as stored ([`Encoding::Linear`]). Float formats (EXR, HDR) are always linear.
 //! Texture coordinates: `u` to the right, `v` *up*, origin at the bottom-left of the image
 //! (the OpenGL / glTF-with-flip convention used by OBJ): `v = 1` is the top row of the file.
+//!
+//! **Limits**: an image file is checked before it is decoded (from its header): at most
+//! [`MAX_IMAGE_SIDE`] pixels a side and [`MAX_IMAGE_PIXELS`] pixels in all, so that neither
+//! the decoder (at most [`MAX_IMAGE_DECODED_BYTES`] for the stored pixels × channels × bytes
+//! per channel) nor the texture (16 bytes a texel) allocates without bound on a crafted
+//! header; a panic inside a decoder becomes [`TextureError::Panicked`].
 
 use glam::{Vec2, Vec3, Vec4};
 use std::path::{Path, PathBuf};
@@ -30,6 +36,43 @@ pub enum Wrap {
     Clamp,
 }
 
+/// Largest width or height (pixels) of an image that [`Texture::load`] and
+/// [`open_image`] accept.
+pub const MAX_IMAGE_SIDE: u32 = 32768;
+
+/// Largest number of pixels (width × height) of an image that [`Texture::load`] and
+/// [`open_image`] accept: 2^26 (8192 x 8192), 1 GiB as a [`Texture`]'s linear RGBA `f32`
+/// texels.
+pub const MAX_IMAGE_PIXELS: u64 = 1 << 26;
+
+/// Largest size (bytes) of an image's stored pixels (width × height × channels × bytes per
+/// channel) that the decoder may allocate: 1 GiB (2^26 pixels of 32-bit float RGBA).
+pub const MAX_IMAGE_DECODED_BYTES: u64 = 1 << 30;
+
+/// Checks an image's size against [`MAX_IMAGE_SIDE`], [`MAX_IMAGE_PIXELS`] and
+/// [`MAX_IMAGE_DECODED_BYTES`] (`bytes_per_pixel` of the stored format); `Err` says what is
+/// too large and the limit.
+pub fn check_image_size(width: u32, height: u32, bytes_per_pixel: u64) -> Result<(), String> {
+    let pixels = width as u64 * height as u64;
+    if width > MAX_IMAGE_SIDE || height > MAX_IMAGE_SIDE {
+        return Err(format!(
+            "{width}x{height} pixels: a side is longer than the {MAX_IMAGE_SIDE} supported"
+        ));
+    }
+    if pixels > MAX_IMAGE_PIXELS {
+        return Err(format!(
+            "{width}x{height} = {pixels} pixels: more than the {MAX_IMAGE_PIXELS} (8192 x 8192) supported"
+        ));
+    }
+    let bytes = pixels.saturating_mul(bytes_per_pixel);
+    if bytes > MAX_IMAGE_DECODED_BYTES {
+        return Err(format!(
+            "{width}x{height} pixels of {bytes_per_pixel} bytes = {bytes} bytes decoded: more than the {MAX_IMAGE_DECODED_BYTES} supported"
+        ));
+    }
+    Ok(())
+}
+
 /// Why a map could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum TextureError {
@@ -52,6 +95,98 @@ pub enum TextureError {
         /// Height in pixels.
         height: u32,
     },
+    /// The image's header announces more pixels than are supported (checked before
+    /// decoding, see [`MAX_IMAGE_PIXELS`]).
+    #[error("image '{path}' is too large ({channels} channels): {reason}")]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Channels of the stored format.
+        channels: u8,
+        /// What is too large, and the limit.
+        reason: String,
+    },
+    /// The decoder panicked on the file (a bug in it; the file is rejected).
+    #[error("image '{path}' cannot be decoded: {message}")]
+    Panicked {
+        /// The file.
+        path: PathBuf,
+        /// The decoder's panic message, in words.
+        message: String,
+    },
+}
+
+/// Opens an image file and decodes it, after checking its size from the header (see
+/// [`check_image_size`]). The decoder runs under [`crate::guard::catch_panic`]. Errors name
+/// the file.
+pub fn open_image(path: &Path) -> Result<image::DynamicImage, TextureError> {
+    let path_buf = path.to_owned();
+    crate::guard::catch_panic(|| {
+        crate::guard::fault_point("open_image");
+        let reader = image::ImageReader::open(path).map_err(|e| TextureError::Read {
+            path: path.to_owned(),
+            source: image::ImageError::IoError(e),
+        })?;
+        decode_checked(reader, path)
+    })
+    .unwrap_or_else(|message| {
+        Err(TextureError::Panicked {
+            path: path_buf,
+            message: crate::guard::panic_error_message(&message),
+        })
+    })
+}
+
+/// Decodes an image held in memory (the format guessed from its content), with the checks
+/// of [`open_image`]; `name` names it in errors.
+pub fn decode_image(bytes: &[u8], name: &Path) -> Result<image::DynamicImage, TextureError> {
+    crate::guard::catch_panic(|| {
+        decode_checked(image::ImageReader::new(std::io::Cursor::new(bytes)), name)
+    })
+    .unwrap_or_else(|message| {
+        Err(TextureError::Panicked {
+            path: name.to_owned(),
+            message: crate::guard::panic_error_message(&message),
+        })
+    })
+}
+
+/// Guesses the format, reads the header, checks the size, then decodes.
+fn decode_checked<R: std::io::BufRead + std::io::Seek>(
+    reader: image::ImageReader<R>,
+    path: &Path,
+) -> Result<image::DynamicImage, TextureError> {
+    use image::ImageDecoder;
+    let read_err = |source| TextureError::Read {
+        path: path.to_owned(),
+        source,
+    };
+    let mut reader = reader
+        .with_guessed_format()
+        .map_err(|e| read_err(image::ImageError::IoError(e)))?;
+    // The size is checked from the header below; this bounds what a decoder may allocate
+    // while it reads the header and the pixels.
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(MAX_IMAGE_DECODED_BYTES);
+    reader.limits(limits);
+    let decoder = reader.into_decoder().map_err(read_err)?;
+    let (width, height) = decoder.dimensions();
+    let color = decoder.color_type();
+    if width == 0 || height == 0 {
+        return Err(TextureError::Empty {
+            path: path.to_owned(),
+            width,
+            height,
+        });
+    }
+    check_image_size(width, height, color.bytes_per_pixel() as u64).map_err(|reason| {
+        TextureError::TooLarge {
+            path: path.to_owned(),
+            channels: color.channel_count(),
+            reason,
+        }
+    })?;
+    image::DynamicImage::from_decoder(decoder).map_err(read_err)
 }
 
 /// A bilinearly filtered RGBA image of linear values, cheap to clone (shared storage).
@@ -110,22 +245,25 @@ impl Texture {
     /// Loads an image file. 8/16-bit channels are normalised to `[0, 1]` and, for
     /// [`Encoding::Srgb`], decoded to linear; float images are taken as linear. Grey images
     /// are expanded to RGB; a missing alpha channel reads as 1.
+    ///
+    /// The size is checked before decoding (see [`check_image_size`]); a panic inside the
+    /// decoder is an error. Errors name the file.
     pub fn load(path: &Path, encoding: Encoding) -> Result<Self, TextureError> {
-        let img = image::ImageReader::open(path)
-            .map_err(|e| TextureError::Read {
-                path: path.to_owned(),
-                source: image::ImageError::IoError(e),
-            })?
-            .with_guessed_format()
-            .map_err(|e| TextureError::Read {
-                path: path.to_owned(),
-                source: image::ImageError::IoError(e),
-            })?
-            .decode()
-            .map_err(|source| TextureError::Read {
-                path: path.to_owned(),
-                source,
-            })?;
+        Self::from_image(open_image(path)?, encoding, path)
+    }
+
+    /// [`Texture::load`] for an image file held in memory (PNG, JPEG, EXR, HDR, the format
+    /// guessed from the content); `name` names it in errors.
+    pub fn decode(bytes: &[u8], encoding: Encoding, name: &Path) -> Result<Self, TextureError> {
+        Self::from_image(decode_image(bytes, name)?, encoding, name)
+    }
+
+    /// A decoded image as a texture (see [`Texture::load`]).
+    fn from_image(
+        img: image::DynamicImage,
+        encoding: Encoding,
+        path: &Path,
+    ) -> Result<Self, TextureError> {
         let (width, height) = (img.width(), img.height());
         if width == 0 || height == 0 {
             return Err(TextureError::Empty {
@@ -202,14 +340,16 @@ impl Texture {
     #[inline]
     fn neighbours(&self, i: i64, n: u32) -> (usize, usize) {
         let n = n as i64;
-        if i >= 0 && i + 1 < n {
+        // (`i < n - 1`, not `i + 1 < n`: a huge texture coordinate saturates `i` to
+        // `i64::MAX`, where `i + 1` would wrap around.)
+        if i >= 0 && i < n - 1 {
             return (i as usize, i as usize + 1);
         }
         let at = |i: i64| match self.wrap {
             Wrap::Repeat => i.rem_euclid(n) as usize,
             Wrap::Clamp => i.clamp(0, n - 1) as usize,
         };
-        (at(i), at(i + 1))
+        (at(i), at(i.saturating_add(1)))
     }
 
     /// Filtered RGB at `uv`.
@@ -251,7 +391,7 @@ impl Texture {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     #[test]
@@ -261,6 +401,107 @@ mod tests {
             assert!((linear_to_srgb(srgb_to_linear(c)) - c).abs() < 1e-5);
         }
         assert!((srgb_to_linear(0.5) - 0.214).abs() < 1e-3);
+    }
+
+    /// A PNG file whose header says `width` x `height` 8-bit grey, with a few bytes of
+    /// (truncated) pixel data: what a crafted file that asks for a huge buffer looks like.
+    pub(crate) fn png_header_only(width: u32, height: u32) -> Vec<u8> {
+        fn crc32(bytes: &[u8]) -> u32 {
+            let mut c = 0xFFFF_FFFFu32;
+            for &b in bytes {
+                c ^= b as u32;
+                for _ in 0..8 {
+                    c = if c & 1 != 0 {
+                        0xEDB8_8320 ^ (c >> 1)
+                    } else {
+                        c >> 1
+                    };
+                }
+            }
+            !c
+        }
+        let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+        let mut chunk = |kind: &[u8; 4], data: &[u8]| {
+            out.extend((data.len() as u32).to_be_bytes());
+            let mut body = kind.to_vec();
+            body.extend(data);
+            out.extend(&body);
+            out.extend(crc32(&body).to_be_bytes());
+        };
+        let mut ihdr = Vec::new();
+        ihdr.extend(width.to_be_bytes());
+        ihdr.extend(height.to_be_bytes());
+        ihdr.extend([8, 0, 0, 0, 0]); // 8-bit grey, deflate, no filter, no interlace
+        chunk(b"IHDR", &ihdr);
+        chunk(b"IDAT", &[0x78, 0x9c, 0x63, 0x00, 0x00]);
+        chunk(b"IEND", &[]);
+        out
+    }
+
+    #[test]
+    fn huge_image_headers_are_rejected_before_decoding() {
+        let dir = std::env::temp_dir().join(format!("lamina-texture-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // 16384 x 16384 grey: 256 MiB as stored (within the image crate's own default
+        // limit), 4 GiB as a texture.
+        let p = dir.join("huge.png");
+        std::fs::write(&p, png_header_only(16384, 16384)).unwrap();
+        let e = Texture::load(&p, Encoding::Linear).unwrap_err();
+        assert!(matches!(e, TextureError::TooLarge { .. }), "{e}");
+        let e = e.to_string();
+        assert!(e.contains("huge.png") && e.contains("67108864"), "{e}");
+        // One side too long.
+        let p = dir.join("long.png");
+        std::fs::write(&p, png_header_only(40000, 1)).unwrap();
+        let e = Texture::load(&p, Encoding::Srgb).unwrap_err().to_string();
+        assert!(e.contains("long.png") && e.contains("32768"), "{e}");
+        // The same from memory.
+        let e = Texture::decode(
+            &png_header_only(16384, 8192),
+            Encoding::Linear,
+            Path::new("m.png"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("m.png") && e.contains("too large"), "{e}");
+    }
+
+    #[test]
+    fn a_decoder_panic_is_an_error_naming_the_file() {
+        let dir = std::env::temp_dir().join(format!("lamina-texture-p-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("fine.png");
+        image::GrayImage::from_pixel(2, 2, image::Luma([128]))
+            .save(&p)
+            .unwrap();
+        assert!(Texture::load(&p, Encoding::Linear).is_ok());
+        crate::guard::FAULT.with(|f| f.set(Some("open_image")));
+        let e = Texture::load(&p, Encoding::Linear);
+        crate::guard::FAULT.with(|f| f.set(None));
+        let e = e.unwrap_err();
+        assert!(matches!(e, TextureError::Panicked { .. }), "{e}");
+        let e = e.to_string();
+        assert!(
+            e.contains("fine.png") && e.contains("injected fault"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn huge_texture_coordinates_do_not_index_out_of_bounds() {
+        // A finite but absurd coordinate (an OBJ `vt 1e30 0`) saturates the texel index.
+        for wrap in [Wrap::Repeat, Wrap::Clamp] {
+            let t = Texture::from_texels(2, 2, vec![Vec4::ONE; 4], wrap);
+            for uv in [
+                Vec2::new(1e30, 0.5),
+                Vec2::new(-1e30, 0.5),
+                Vec2::new(0.5, 1e30),
+                Vec2::new(f32::MAX, f32::MIN),
+            ] {
+                assert_eq!(t.sample(uv), Vec4::ONE, "{uv:?} {wrap:?}");
+                assert!(t.gradient(uv).is_finite());
+            }
+        }
     }
 
     #[test]

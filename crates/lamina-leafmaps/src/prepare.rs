@@ -45,14 +45,14 @@
 //! `leaf.toml` starts with comments naming each input and what was derived, and the warnings.
 
 use crate::folder::{
-    FolderWrite, MapPlanes, check_leaf_folder, decode_srgb, extinction_from_translucency, luma_encoded, thickness_from_extinction,
-    write_leaf_folder,
+    FolderWrite, MapPlanes, check_leaf_folder, decode_srgb, extinction_from_translucency,
+    luma_encoded, thickness_from_extinction, write_leaf_folder,
 };
-use crate::{LeafMapsError, Replace};
 use crate::plane::{
     Gray, Plane, Rgb, fill_holes, gaussian_blur, integrate_gradients, otsu, remove_specks,
 };
 use crate::species::srgb8_to_linear;
+use crate::{LeafMapsError, Replace};
 use glam::Vec3;
 use lamina_leaf::LeafParams;
 use rayon::prelude::*;

@@ -21,7 +21,27 @@ mod rng;
 pub mod skeleton;
 
 pub use glb::write_glb;
-pub use params::{CrownShape, MAX_LEAVES, PlantKind, PlantParams, Resolved};
+pub use params::{
+    CrownShape, MAX_LEAF_MAP_TEXELS, MAX_LEAVES, MAX_PARAM_FILE_BYTES, PlantKind, PlantParams,
+    Resolved,
+};
+
+#[cfg(test)]
+thread_local! {
+    /// The fault point that panics on this thread, for the tests of the guarded loaders.
+    pub(crate) static FAULT: std::cell::Cell<Option<&'static str>> =
+        const { std::cell::Cell::new(None) };
+}
+
+/// A place where the tests can make a loader panic, to prove that the guard around it turns
+/// the panic into an error. Does nothing outside tests.
+#[inline]
+pub(crate) fn fault_point(_name: &'static str) {
+    #[cfg(test)]
+    if FAULT.with(std::cell::Cell::get) == Some(_name) {
+        panic!("injected fault at {_name}");
+    }
+}
 
 use glam::{Vec2, Vec3};
 use lamina_core::cards::{LeafCard, append_cards};
@@ -53,6 +73,15 @@ pub enum PlantError {
         /// The I/O error.
         #[source]
         source: std::io::Error,
+    },
+    /// A parameter file is bad: names the file, with what was wrong.
+    #[error("{}: {source}", path.display())]
+    File {
+        /// The parameter file.
+        path: std::path::PathBuf,
+        /// What was wrong with it.
+        #[source]
+        source: Box<PlantError>,
     },
     /// The leaf model rejected a generated leaf.
     #[error("leaf material: {0}")]

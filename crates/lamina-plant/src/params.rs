@@ -12,6 +12,15 @@ use serde::{Deserialize, Serialize};
 /// Largest leaf count accepted (20 million cards is about 1 GB of leaf cards).
 pub const MAX_LEAVES: u32 = 20_000_000;
 
+/// Largest `leaf_variants × leaf_resolution²` accepted: 2^24 texels of generated leaf maps
+/// per plant (16 variants at 1024 px, 4 at 2048, 1 at 4096). Each texel costs about 150
+/// bytes while a leaf is generated (seven RGBA `f32` maps plus intermediates), so this keeps
+/// a plant's leaf maps to about 2.5 GB at most.
+pub const MAX_LEAF_MAP_TEXELS: u64 = 1 << 24;
+
+/// Largest plant parameter file accepted (bytes): 1 MiB (a parameter file is a few lines).
+pub const MAX_PARAM_FILE_BYTES: u64 = 1 << 20;
+
 /// What kind of plant to grow.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -73,7 +82,8 @@ pub struct PlantParams {
     /// Number of distinct generated leaves (same species, different seeds) the leaves are
     /// spread over, for colour and shape variation. 1-16.
     pub leaf_variants: u32,
-    /// Resolution of each generated leaf's maps (pixels along the longer side), 16-4096.
+    /// Resolution of each generated leaf's maps (pixels along the longer side), 16-4096,
+    /// with `leaf_variants × leaf_resolution²` at most [`MAX_LEAF_MAP_TEXELS`].
     pub leaf_resolution: u32,
     /// How far each blade turns its adaxial (upper) side toward the light: 0 = natural
     /// orientation from the twig, 1 = facing the light. 0-1.
@@ -223,20 +233,45 @@ impl PlantParams {
         }
     }
 
-    /// Parses TOML text (unknown fields are errors) and validates it.
+    /// Parses TOML text (unknown fields are errors) and validates it. A panic in the parser
+    /// is an error.
     pub fn from_toml(text: &str) -> Result<Self, PlantError> {
-        let p: PlantParams = toml::from_str(text).map_err(|e| PlantError::Parse(e.to_string()))?;
-        p.validate()?;
-        Ok(p)
+        lamina_leaf::guard::catch_panic(|| {
+            crate::fault_point("plant_params");
+            let p: PlantParams =
+                toml::from_str(text).map_err(|e| PlantError::Parse(e.to_string()))?;
+            p.validate()?;
+            Ok(p)
+        })
+        .unwrap_or_else(|m| {
+            Err(PlantError::Parse(lamina_leaf::guard::panic_error_message(
+                &m,
+            )))
+        })
     }
 
-    /// Reads and validates a TOML parameter file.
+    /// Reads and validates a TOML parameter file (at most [`MAX_PARAM_FILE_BYTES`]). Errors
+    /// name the file.
     pub fn load(path: &std::path::Path) -> Result<Self, PlantError> {
-        let text = std::fs::read_to_string(path).map_err(|source| PlantError::Read {
+        let read = |source| PlantError::Read {
             path: path.to_owned(),
             source,
-        })?;
-        Self::from_toml(&text)
+        };
+        let meta = std::fs::metadata(path).map_err(read)?;
+        if !meta.is_file() {
+            return Err(read(std::io::Error::other("not a regular file")));
+        }
+        let len = meta.len();
+        if len > MAX_PARAM_FILE_BYTES {
+            return Err(read(std::io::Error::other(format!(
+                "the file is {len} bytes, more than the {MAX_PARAM_FILE_BYTES} a parameter file may have"
+            ))));
+        }
+        let text = std::fs::read_to_string(path).map_err(read)?;
+        Self::from_toml(&text).map_err(|e| PlantError::File {
+            path: path.to_owned(),
+            source: Box::new(e),
+        })
     }
 
     /// Checks every field; the error names the field and its allowed range.
@@ -293,6 +328,15 @@ impl PlantParams {
         )?;
         let leaf_variants = check_u("leaf_variants", self.leaf_variants, 1, 16)?;
         let leaf_resolution = check_u("leaf_resolution", self.leaf_resolution, 16, 4096)?;
+        let texels = leaf_variants as u64 * (leaf_resolution as u64).pow(2);
+        if texels > MAX_LEAF_MAP_TEXELS {
+            return Err(bad(
+                "leaf_resolution",
+                format!(
+                    "leaf_variants x leaf_resolution² = {leaf_variants} x {leaf_resolution}² = {texels} texels of leaf maps, more than the {MAX_LEAF_MAP_TEXELS} supported (e.g. 16 variants at 1024, 4 at 2048, 1 at 4096)"
+                ),
+            ));
+        }
         let phototropism = check("phototropism", self.phototropism, 0.0, 1.0, "")?;
         let l = Vec3::from(self.light_direction);
         let len2 = l.length_squared();
@@ -356,5 +400,56 @@ impl PlantParams {
             twig_radius,
             attraction_points,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn leaf_map_budget_and_file_errors() {
+        // 16 variants of 4096 px maps would be ~40 GB while generating.
+        let mut p = PlantParams::bush(1);
+        p.leaf_variants = 16;
+        p.leaf_resolution = 4096;
+        let e = p.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("leaf_resolution") && e.contains("16777216"),
+            "{e}"
+        );
+        p.leaf_variants = 1;
+        assert!(p.validate().is_ok());
+
+        let dir = std::env::temp_dir().join(format!("lamina-plant-params-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("bush.toml");
+        std::fs::write(&f, "leaf_count = 0\n").unwrap();
+        let e = PlantParams::load(&f).unwrap_err().to_string();
+        assert!(e.contains("bush.toml") && e.contains("leaf_count"), "{e}");
+        std::fs::write(&f, "leaf_count = \"many\"\n").unwrap();
+        let e = PlantParams::load(&f).unwrap_err().to_string();
+        assert!(e.contains("bush.toml") && e.contains("leaf_count"), "{e}");
+        let big = dir.join("big.toml");
+        std::fs::File::create(&big)
+            .unwrap()
+            .set_len(MAX_PARAM_FILE_BYTES + 1)
+            .unwrap();
+        let e = PlantParams::load(&big).unwrap_err().to_string();
+        assert!(e.contains("big.toml") && e.contains("1048576"), "{e}");
+    }
+
+    #[test]
+    fn a_parser_panic_is_an_error_naming_the_file() {
+        let dir = std::env::temp_dir().join(format!("lamina-plant-panic-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("ok.toml");
+        std::fs::write(&f, "seed = 3\n").unwrap();
+        assert!(PlantParams::load(&f).is_ok());
+        crate::FAULT.with(|c| c.set(Some("plant_params")));
+        let e = PlantParams::load(&f);
+        crate::FAULT.with(|c| c.set(None));
+        let e = e.unwrap_err().to_string();
+        assert!(e.contains("ok.toml") && e.contains("injected fault"), "{e}");
     }
 }

@@ -10,61 +10,159 @@ use crate::error::SceneError;
 pub use lamina_core::cards::*;
 use std::path::Path;
 
-/// Reads leaf cards from a `.json` or `.csv` file. Errors name the file, the row (1-based
-/// line for CSV, 0-based card index for JSON) and what was wrong.
+/// Most cards one leaf-card file may hold: the scene-wide limit on leaves
+/// ([`crate::limits::MAX_SCENE_LEAVES`]).
+pub const MAX_CARDS: usize = crate::limits::MAX_SCENE_LEAVES as usize;
+
+/// Reads leaf cards from a `.json` or `.csv` file (at most
+/// [`crate::limits::MAX_TEXT_FILE_BYTES`] and [`MAX_CARDS`] cards). Errors name the file,
+/// the row (1-based line for CSV, 0-based card index for JSON) and what was wrong; a panic
+/// in a parser is an error naming the file.
 pub fn read_card_file(path: &Path) -> Result<Vec<LeafCard>, SceneError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| SceneError::new(path, None, "", format!("cannot read leaf-card file: {e}")))?;
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    match ext.as_str() {
-        "json" => parse_json(path, &text),
-        "csv" => parse_csv(path, &text),
-        _ => Err(SceneError::new(
-            path,
-            None,
-            "",
-            "leaf-card files must end in .json or .csv",
-        )),
-    }
+    read_card_file_capped(path, MAX_CARDS)
 }
 
-fn parse_json(path: &Path, text: &str) -> Result<Vec<LeafCard>, SceneError> {
-    #[derive(serde::Deserialize)]
-    #[serde(untagged)]
-    enum Doc {
-        List(Vec<serde_json::Value>),
-        Wrapped { cards: Vec<serde_json::Value> },
+/// [`read_card_file`] that stops with an error after `max` cards.
+pub(crate) fn read_card_file_capped(path: &Path, max: usize) -> Result<Vec<LeafCard>, SceneError> {
+    crate::error::guarded(path, || {
+        crate::error::fault_point("cards");
+        let text =
+            crate::error::read_text(path, "leaf-card file", crate::limits::MAX_TEXT_FILE_BYTES)?;
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        match ext.as_str() {
+            "json" => parse_json_capped(path, &text, max),
+            "csv" => parse_csv_capped(path, &text, max),
+            _ => Err(SceneError::new(
+                path,
+                None,
+                "",
+                "leaf-card files must end in .json or .csv",
+            )),
+        }
+    })
+}
+
+/// Parses the text of a JSON leaf-card file (see the module docs); `path` names it in
+/// errors. The entry point for fuzzing.
+pub fn parse_json(path: &Path, text: &str) -> Result<Vec<LeafCard>, SceneError> {
+    crate::error::guarded(path, || parse_json_capped(path, text, MAX_CARDS))
+}
+
+/// Parses the text of a CSV leaf-card file (see the module docs); `path` names it in
+/// errors. The entry point for fuzzing.
+pub fn parse_csv(path: &Path, text: &str) -> Result<Vec<LeafCard>, SceneError> {
+    crate::error::guarded(path, || parse_csv_capped(path, text, MAX_CARDS))
+}
+
+/// Too many cards in `path`.
+fn too_many(path: &Path, line: Option<usize>, max: usize) -> SceneError {
+    SceneError::new(
+        path,
+        line,
+        "",
+        format!(
+            "more than {max} leaf cards (at most {} leaves in a scene, cards and plant leaves together)",
+            crate::limits::MAX_SCENE_LEAVES
+        ),
+    )
+}
+
+fn parse_json_capped(path: &Path, text: &str, max: usize) -> Result<Vec<LeafCard>, SceneError> {
+    use serde::de::{self, Deserializer as _};
+    use std::cell::RefCell;
+    /// The top level, `[...]` or `{"cards": [...]}`; one card at a time, so that memory
+    /// stays proportional to the cards (not to a JSON tree of the whole file).
+    struct Top<'a> {
+        path: &'a Path,
+        max: usize,
+        /// The error of a card, with its key, reported after serde unwinds.
+        card_error: &'a RefCell<Option<SceneError>>,
     }
-    let doc: Doc = serde_json::from_str(text).map_err(|e| {
-        SceneError::new(
-            path,
-            Some(e.line()),
-            "",
-            format!("not a JSON array of leaf cards (or {{\"cards\": [...]}}): {e}"),
-        )
-    })?;
-    let rows = match doc {
-        Doc::List(r) | Doc::Wrapped { cards: r } => r,
+    struct Cards<'a>(&'a Top<'a>);
+    impl<'de> de::DeserializeSeed<'de> for Cards<'_> {
+        type Value = Vec<LeafCard>;
+        fn deserialize<D: de::Deserializer<'de>>(self, d: D) -> Result<Self::Value, D::Error> {
+            d.deserialize_seq(self)
+        }
+    }
+    impl<'de> de::Visitor<'de> for Cards<'_> {
+        type Value = Vec<LeafCard>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("an array of leaf cards")
+        }
+        fn visit_seq<A: de::SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+            let top = self.0;
+            let mut out = Vec::new();
+            while let Some(v) = seq.next_element::<serde_json::Value>()? {
+                let i = out.len();
+                if i >= top.max {
+                    *top.card_error.borrow_mut() = Some(too_many(top.path, None, top.max));
+                    return Err(de::Error::custom("too many cards"));
+                }
+                let card = serde_json::from_value::<CardRow>(v)
+                    .map_err(|e| e.to_string())
+                    .and_then(|row| LeafCard::new(&row));
+                match card {
+                    Ok(c) => out.push(c),
+                    Err(m) => {
+                        *top.card_error.borrow_mut() =
+                            Some(SceneError::new(top.path, None, format!("card {i}"), m));
+                        return Err(de::Error::custom("bad card"));
+                    }
+                }
+            }
+            Ok(out)
+        }
+    }
+    impl<'de> de::Visitor<'de> for &Top<'_> {
+        type Value = Vec<LeafCard>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("an array of leaf cards or {\"cards\": [...]}")
+        }
+        fn visit_seq<A: de::SeqAccess<'de>>(self, seq: A) -> Result<Self::Value, A::Error> {
+            de::Visitor::visit_seq(Cards(self), seq)
+        }
+        fn visit_map<A: de::MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+            let mut cards = None;
+            while let Some(k) = map.next_key::<String>()? {
+                if k == "cards" && cards.is_none() {
+                    cards = Some(map.next_value_seed(Cards(self))?);
+                } else {
+                    map.next_value::<de::IgnoredAny>()?;
+                }
+            }
+            cards.ok_or_else(|| de::Error::missing_field("cards"))
+        }
+    }
+    let card_error = RefCell::new(None);
+    let top = Top {
+        path,
+        max,
+        card_error: &card_error,
     };
-    rows.into_iter()
-        .enumerate()
-        .map(|(i, v)| {
-            let row: CardRow = serde_json::from_value(v)
-                .map_err(|e| SceneError::new(path, None, format!("card {i}"), e.to_string()))?;
-            LeafCard::new(&row).map_err(|m| SceneError::new(path, None, format!("card {i}"), m))
+    let mut d = serde_json::Deserializer::from_str(text);
+    let cards = d.deserialize_any(&top).and_then(|c| d.end().map(|_| c));
+    cards.map_err(|e| {
+        card_error.take().unwrap_or_else(|| {
+            SceneError::new(
+                path,
+                Some(e.line()),
+                "",
+                format!("not a JSON array of leaf cards (or {{\"cards\": [...]}}): {e}"),
+            )
         })
-        .collect()
+    })
 }
 
 const CSV_COLUMNS: [&str; 11] = [
     "cx", "cy", "cz", "nx", "ny", "nz", "ux", "uy", "uz", "width", "height",
 ];
 
-fn parse_csv(path: &Path, text: &str) -> Result<Vec<LeafCard>, SceneError> {
+fn parse_csv_capped(path: &Path, text: &str, max: usize) -> Result<Vec<LeafCard>, SceneError> {
     let mut reader = csv::ReaderBuilder::new()
         .comment(Some(b'#'))
         .trim(csv::Trim::All)
@@ -95,6 +193,9 @@ fn parse_csv(path: &Path, text: &str) -> Result<Vec<LeafCard>, SceneError> {
             SceneError::new(path, line, "", e.to_string())
         })?;
         let line = record.position().map(|p| p.line() as usize);
+        if cards.len() >= max {
+            return Err(too_many(path, line, max));
+        }
         let mut v = [0.0f32; 11];
         for ((slot, &col), name) in v.iter_mut().zip(&columns).zip(CSV_COLUMNS) {
             let field = record.get(col).ok_or_else(|| {

@@ -2,7 +2,7 @@
 //! wrong.
 
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Why a scene could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -44,6 +44,74 @@ impl SceneError {
             key: key.into(),
             message: message.into(),
         }
+    }
+}
+
+/// Reads a whole file after checking that it is at most `max_bytes` long (a crafted or
+/// mistaken path to a huge file is rejected before anything is allocated). `what` names the
+/// kind of file in errors (`"OBJ"`, `"scene file"`).
+pub(crate) fn read_bytes(path: &Path, what: &str, max_bytes: u64) -> Result<Vec<u8>, SceneError> {
+    let fail = |msg: String| SceneError::new(path, None, "", msg);
+    let meta = std::fs::metadata(path).map_err(|e| fail(format!("cannot read {what}: {e}")))?;
+    if !meta.is_file() {
+        // (A device such as /dev/zero reports no length and never ends.)
+        return Err(fail(format!("cannot read {what}: not a regular file")));
+    }
+    let len = meta.len();
+    if len > max_bytes {
+        return Err(fail(format!(
+            "cannot read {what}: the file is {len} bytes, more than the {max_bytes} supported"
+        )));
+    }
+    std::fs::read(path).map_err(|e| fail(format!("cannot read {what}: {e}")))
+}
+
+/// [`read_bytes`] for a text file (UTF-8).
+pub(crate) fn read_text(path: &Path, what: &str, max_bytes: u64) -> Result<String, SceneError> {
+    String::from_utf8(read_bytes(path, what, max_bytes)?).map_err(|e| {
+        SceneError::new(
+            path,
+            None,
+            "",
+            format!(
+                "cannot read {what}: not UTF-8 text (invalid byte at offset {})",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })
+}
+
+/// Runs a loader; a panic inside it (in a dependency, on input that the checks let
+/// through) becomes an error naming `file` instead of taking the program down. See
+/// [`lamina_leaf::guard`]; the panic hook stays quiet for it.
+pub(crate) fn guarded<T>(
+    file: &Path,
+    f: impl FnOnce() -> Result<T, SceneError>,
+) -> Result<T, SceneError> {
+    lamina_leaf::guard::catch_panic(f).unwrap_or_else(|message| {
+        Err(SceneError::new(
+            file,
+            None,
+            "",
+            lamina_leaf::guard::panic_error_message(&message),
+        ))
+    })
+}
+
+#[cfg(test)]
+thread_local! {
+    /// The fault point that panics on this thread, for the tests of the guarded loaders.
+    pub(crate) static FAULT: std::cell::Cell<Option<&'static str>> =
+        const { std::cell::Cell::new(None) };
+}
+
+/// A place where the tests make a loader panic (see `FAULT`), to prove that the guard
+/// around each entry point turns the panic into an error. Does nothing outside tests.
+#[inline]
+pub(crate) fn fault_point(_name: &'static str) {
+    #[cfg(test)]
+    if FAULT.with(std::cell::Cell::get) == Some(_name) {
+        panic!("injected fault at {_name}");
     }
 }
 

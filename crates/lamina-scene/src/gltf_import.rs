@@ -23,14 +23,15 @@
 //! triangles; a mesh that several nodes use becomes one [`Prototype`] (in the mesh's own
 //! space) with one [`Instance`] per node, unless the caller asks for everything flattened.
 
-use crate::error::SceneError;
+use crate::error::{SceneError, guarded, read_bytes};
+use crate::gltf_accessor::{self as acc, check_accessor, read_f32};
+use crate::limits::{MAX_GLTF_ELEMENTS, MAX_GLTF_FILE_BYTES, MAX_GLTF_NODES};
 use crate::scene::{
     AlphaMask, ColorInput, Instance, Material, Mesh, NormalMap, PbrMaterial, Prototype,
 };
 use crate::transform::Transform;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
-use lamina_leaf::texture::srgb_to_linear;
-use lamina_leaf::{Texture, Wrap};
+use lamina_leaf::{Encoding, Texture, Wrap};
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
@@ -44,8 +45,13 @@ const UNDERSTOOD: &[&str] = &[
     "KHR_mesh_quantization",
 ];
 
-/// The largest number of vertices or triangles we accept in one primitive.
-const MAX_ELEMENTS: usize = 1 << 28;
+/// Vertices and triangles read so far from one file (every flattened use of a mesh
+/// counted), against [`MAX_GLTF_ELEMENTS`] each.
+#[derive(Default)]
+struct Budget {
+    vertices: usize,
+    triangles: usize,
+}
 
 /// A glTF file converted to lamina meshes and materials.
 #[derive(Debug, Default)]
@@ -74,13 +80,98 @@ pub fn load_gltf(path: &Path, xf: &Transform) -> Result<GltfScene, SceneError> {
 
 /// [`load_gltf`]; with `instance_repeated` false every mesh use becomes world-space
 /// triangles (no prototypes), as when the whole file is itself one prototype.
+///
+/// The file (and each external buffer) may have at most [`MAX_GLTF_FILE_BYTES`]; every
+/// accessor is checked before it is read (see [`crate::gltf_accessor`]); a panic inside the
+/// gltf crate or an image decoder is an error naming the file.
 pub fn load_gltf_with(
     path: &Path,
     xf: &Transform,
     instance_repeated: bool,
 ) -> Result<GltfScene, SceneError> {
+    guarded(path, || {
+        let bytes = read_bytes(path, "glTF", MAX_GLTF_FILE_BYTES)?;
+        parse_gltf_with(&bytes, path, xf, instance_repeated)
+    })
+}
+
+/// [`load_gltf`] for a file already in memory, `.gltf` (JSON) or `.glb` (binary): `path`
+/// names it in errors and anchors its relative buffer and image URIs. The entry point for
+/// fuzzing.
+pub fn parse_gltf(bytes: &[u8], path: &Path, xf: &Transform) -> Result<GltfScene, SceneError> {
+    guarded(path, || parse_gltf_with(bytes, path, xf, true))
+}
+
+/// The gltf crate's validation (every index in range, required fields present, ...),
+/// except that it rejects the extensions it does not implement itself even where lamina
+/// reads them ([`UNDERSTOOD`]): required extensions are checked by the caller instead.
+fn validate(doc: &gltf::Document) -> Result<(), String> {
+    use gltf::json::validation::{Error, Validate};
+    let root = doc.as_json();
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, error| {
+        let path = path().to_string();
+        if !(error == Error::Unsupported && path.starts_with("extensionsRequired")) {
+            errors.push(format!("{path}: {error}"));
+        }
+    });
+    if errors.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("invalid glTF: {}", errors.join("; ")))
+    }
+}
+
+/// A relative URI's path: percent-decoded, and valid UTF-8 (the gltf crate panics on one
+/// that is not).
+fn uri_path(uri: &str) -> Result<String, String> {
+    let b = uri.as_bytes();
+    let hex = |c: u8| (c as char).to_digit(16).map(|d| d as u8);
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        match (
+            b[i],
+            b.get(i + 1).copied().and_then(hex),
+            b.get(i + 2).copied().and_then(hex),
+        ) {
+            (b'%', Some(h), Some(l)) => {
+                out.push(h << 4 | l);
+                i += 3;
+            }
+            (c, _, _) => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8(out).map_err(|_| format!("URI '{uri}' is not UTF-8 once percent-decoded"))
+}
+
+/// The file an external buffer URI refers to, as the gltf crate resolves it (`file:` URIs
+/// as given, other URIs without a scheme relative to `base`); `None` for `data:` URIs and
+/// other schemes (which the crate decodes or rejects itself).
+fn buffer_file(base: &Path, uri: &str) -> Result<Option<std::path::PathBuf>, String> {
+    if uri.contains(':') {
+        return Ok(uri
+            .strip_prefix("file://")
+            .or_else(|| uri.strip_prefix("file:"))
+            .map(std::path::PathBuf::from));
+    }
+    Ok(Some(base.join(uri_path(uri)?)))
+}
+
+fn parse_gltf_with(
+    bytes: &[u8],
+    path: &Path,
+    xf: &Transform,
+    instance_repeated: bool,
+) -> Result<GltfScene, SceneError> {
+    crate::error::fault_point("gltf");
     let fail = |key: &str, msg: String| SceneError::new(path, None, key, msg);
-    let gltf = gltf::Gltf::open(path).map_err(|e| fail("", format!("cannot read glTF: {e}")))?;
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| fail("", format!("cannot read glTF: {e}")))?;
+    validate(&gltf.document).map_err(|e| fail("", format!("cannot read glTF: {e}")))?;
     for ext in gltf.extensions_required() {
         if !UNDERSTOOD.contains(&ext) {
             return Err(fail(
@@ -91,17 +182,47 @@ pub fn load_gltf_with(
     }
     let base = path.parent().unwrap_or(Path::new(""));
     let doc = gltf.document;
-    // Name the missing buffer file (the gltf crate only says "No such file").
+    // Name the missing buffer file (the gltf crate only says "No such file"), and check
+    // each file's size before the crate reads it whole.
     for b in doc.buffers() {
-        if let gltf::buffer::Source::Uri(uri) = b.source()
-            && !uri.starts_with("data:")
-        {
-            let file = base.join(uri);
-            if let Err(e) = std::fs::metadata(&file) {
-                return Err(fail(
-                    &format!("buffers[{}]", b.index()),
-                    format!("cannot read buffer '{uri}' ({}): {e}", file.display()),
-                ));
+        let key = format!("buffers[{}]", b.index());
+        if b.length() as u64 > MAX_GLTF_FILE_BYTES {
+            return Err(fail(
+                &key,
+                format!(
+                    "byteLength {} is more than the {MAX_GLTF_FILE_BYTES} supported",
+                    b.length()
+                ),
+            ));
+        }
+        if let gltf::buffer::Source::Uri(uri) = b.source() {
+            let Some(file) = buffer_file(base, uri).map_err(|e| fail(&key, e))? else {
+                continue;
+            };
+            match std::fs::metadata(&file) {
+                Err(e) => {
+                    return Err(fail(
+                        &key,
+                        format!("cannot read buffer '{uri}' ({}): {e}", file.display()),
+                    ));
+                }
+                Ok(m) if !m.is_file() => {
+                    return Err(fail(
+                        &key,
+                        format!("buffer '{uri}' ({}) is not a regular file", file.display()),
+                    ));
+                }
+                Ok(m) if m.len() > MAX_GLTF_FILE_BYTES => {
+                    return Err(fail(
+                        &key,
+                        format!(
+                            "buffer '{uri}' ({}) is {} bytes, more than the {MAX_GLTF_FILE_BYTES} supported",
+                            file.display(),
+                            m.len()
+                        ),
+                    ));
+                }
+                Ok(_) => {}
             }
         }
     }
@@ -137,16 +258,34 @@ pub fn load_gltf_with(
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| fail("scenes", "the file has no scene".into()))?;
     let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, xf.m)).collect();
-    let mut visited = 0usize;
+    // Nodes put on the stack so far: a node hierarchy that is not a tree (a cycle, a node
+    // with several parents) could otherwise grow it without bound.
+    let mut visited = stack.len();
+    let too_many = || {
+        fail(
+            "nodes",
+            format!(
+                "the node hierarchy is too deep or cyclic (more than {MAX_GLTF_NODES} node visits)"
+            ),
+        )
+    };
+    if visited > MAX_GLTF_NODES {
+        return Err(too_many());
+    }
+    // glTF node hierarchies are trees: a node reached twice (a cycle, or a node with two
+    // parents) would be visited without end, or once per path to it.
+    let mut reached = vec![false; doc.nodes().len()];
     // (mesh, world transform) for every node with a mesh, in traversal order.
     let mut uses: Vec<(gltf::Mesh, Mat4)> = Vec::new();
     while let Some((node, parent)) = stack.pop() {
-        visited += 1;
-        if visited > 1 << 24 {
-            return Err(fail(
-                "nodes",
-                "the node hierarchy is too deep or cyclic".into(),
-            ));
+        match reached.get_mut(node.index()) {
+            Some(r) if !*r => *r = true,
+            _ => {
+                return Err(fail(
+                    &format!("nodes[{}]", node.index()),
+                    "is reached twice: the node hierarchy must be a tree (a node in a cycle, with two parents, or listed twice as a root)".into(),
+                ));
+            }
         }
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
@@ -159,8 +298,13 @@ pub fn load_gltf_with(
         if let Some(mesh) = node.mesh() {
             uses.push((mesh, world));
         }
+        visited = visited.saturating_add(node.children().len());
+        if visited > MAX_GLTF_NODES {
+            return Err(too_many());
+        }
         stack.extend(node.children().map(|c| (c, world)));
     }
+    let mut budget = Budget::default();
     let mut count: HashMap<usize, usize> = HashMap::new();
     for (m, _) in &uses {
         *count.entry(m.index()).or_default() += 1;
@@ -177,6 +321,7 @@ pub fn load_gltf_with(
                 Transform::from_matrix(*world),
                 default_material,
                 &mut out.warnings,
+                &mut budget,
             )?;
             out.meshes.extend(meshes);
             continue;
@@ -198,6 +343,7 @@ pub fn load_gltf_with(
                     Transform::default(),
                     default_material,
                     &mut out.warnings,
+                    &mut budget,
                 )?;
                 if meshes.is_empty() {
                     continue;
@@ -232,6 +378,7 @@ fn read_mesh(
     xf: Transform,
     default_material: u32,
     warnings: &mut Vec<String>,
+    budget: &mut Budget,
 ) -> Result<Vec<Mesh>, SceneError> {
     let mut out = Vec::new();
     for (pi, prim) in mesh.primitives().enumerate() {
@@ -253,7 +400,7 @@ fn read_mesh(
             .base_color_texture()
             .and_then(|t| t.texture_transform())
             .map(uv_transform);
-        if let Some(m) = read_primitive(path, &key, &prim, buffers, xf, material, uv_xf)? {
+        if let Some(m) = read_primitive(path, &key, &prim, buffers, xf, material, uv_xf, budget)? {
             out.push(m);
         }
     }
@@ -275,6 +422,7 @@ fn uv_transform(t: gltf::texture::TextureTransform) -> Mat3 {
     translation * rotation * scale
 }
 
+#[allow(clippy::too_many_arguments)]
 fn read_primitive(
     path: &Path,
     key: &str,
@@ -283,20 +431,51 @@ fn read_primitive(
     xf: Transform,
     material: u32,
     uv_xf: Option<Mat3>,
+    budget: &mut Budget,
 ) -> Result<Option<Mesh>, SceneError> {
+    use gltf::accessor::Dimensions;
+    use gltf::mesh::Semantic;
     let fail = |msg: String| SceneError::new(path, None, key, msg);
-    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-    let positions: Vec<Vec3> = reader
-        .read_positions()
-        .ok_or_else(|| fail("has no POSITION attribute".into()))?
-        .map(Vec3::from)
-        .collect();
-    if positions.len() > MAX_ELEMENTS {
+    // Types, counts and sizes first, before anything is read or allocated.
+    let pos = prim
+        .get(&Semantic::Positions)
+        .ok_or_else(|| fail("has no POSITION attribute".into()))?;
+    check_accessor(&pos, Dimensions::Vec3, acc::POSITION, "POSITION").map_err(fail)?;
+    let n = pos.count();
+    let normal = prim.get(&Semantic::Normals);
+    let tangent = prim.get(&Semantic::Tangents);
+    let texcoord = prim.get(&Semantic::TexCoords(0));
+    for (a, what) in [
+        (&normal, "NORMAL"),
+        (&tangent, "TANGENT"),
+        (&texcoord, "TEXCOORD_0"),
+    ] {
+        if let Some(a) = a
+            && a.count() != n
+        {
+            return Err(fail(format!(
+                "{what} (accessor {}): count {} differs from the POSITION count {n}",
+                a.index(),
+                a.count()
+            )));
+        }
+    }
+    let index = prim.indices();
+    let triangles = index.as_ref().map_or(n, |a| a.count()) / 3;
+    budget.vertices = budget.vertices.saturating_add(n);
+    budget.triangles = budget.triangles.saturating_add(triangles);
+    if budget.vertices > MAX_GLTF_ELEMENTS || budget.triangles > MAX_GLTF_ELEMENTS {
         return Err(fail(format!(
-            "{} vertices is more than the {MAX_ELEMENTS} supported",
-            positions.len()
+            "the file's meshes make {} vertices and {} triangles so far (every use of a mesh that is flattened counts), more than the {MAX_GLTF_ELEMENTS} supported",
+            budget.vertices, budget.triangles
         )));
     }
+    let positions: Vec<Vec3> =
+        read_f32::<3>(&pos, buffers, Dimensions::Vec3, acc::POSITION, "POSITION")
+            .map_err(fail)?
+            .into_iter()
+            .map(Vec3::from)
+            .collect();
     if let Some(bad) = positions
         .iter()
         .position(|p| !p.is_finite() || p.abs().max_element() > 1e12)
@@ -306,34 +485,33 @@ fn read_primitive(
             positions[bad]
         )));
     }
-    let normals: Vec<Vec3> = reader
-        .read_normals()
-        .map(|n| n.map(Vec3::from).collect())
-        .unwrap_or_default();
-    let tangents: Vec<Vec4> = reader
-        .read_tangents()
-        .map(|t| t.map(Vec4::from).collect())
-        .unwrap_or_default();
-    let uvs: Vec<Vec2> = reader
-        .read_tex_coords(0)
-        .map(|t| {
-            t.into_f32()
-                .map(|[u, v]| {
-                    let p = uv_xf.map_or(Vec3::new(u, v, 1.0), |m| m * Vec3::new(u, v, 1.0));
-                    Vec2::new(p.x, 1.0 - p.y)
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    let n = positions.len();
-    if (!normals.is_empty() && normals.len() != n)
-        || (!uvs.is_empty() && uvs.len() != n)
-        || (!tangents.is_empty() && tangents.len() != n)
-    {
-        return Err(fail(
-            "attribute counts differ from the POSITION count".into(),
-        ));
-    }
+    let normals: Vec<Vec3> = match &normal {
+        Some(a) => read_f32::<3>(a, buffers, Dimensions::Vec3, acc::DIRECTION, "NORMAL")
+            .map_err(fail)?
+            .into_iter()
+            .map(Vec3::from)
+            .collect(),
+        None => Vec::new(),
+    };
+    let tangents: Vec<Vec4> = match &tangent {
+        Some(a) => read_f32::<4>(a, buffers, Dimensions::Vec4, acc::DIRECTION, "TANGENT")
+            .map_err(fail)?
+            .into_iter()
+            .map(Vec4::from)
+            .collect(),
+        None => Vec::new(),
+    };
+    let uvs: Vec<Vec2> = match &texcoord {
+        Some(a) => read_f32::<2>(a, buffers, Dimensions::Vec2, acc::TEXCOORD, "TEXCOORD_0")
+            .map_err(fail)?
+            .into_iter()
+            .map(|[u, v]| {
+                let p = uv_xf.map_or(Vec3::new(u, v, 1.0), |m| m * Vec3::new(u, v, 1.0));
+                Vec2::new(p.x, 1.0 - p.y)
+            })
+            .collect(),
+        None => Vec::new(),
+    };
     if let Some(bad) = normals.iter().position(|v| !v.is_finite()) {
         return Err(fail(format!(
             "normal {bad} is not finite: {:?}",
@@ -352,18 +530,14 @@ fn read_primitive(
             uvs[bad]
         )));
     }
-    let flat: Vec<u32> = match reader.read_indices() {
-        Some(i) => i.into_u32().collect(),
+    let flat: Vec<u32> = match &index {
+        Some(a) => acc::read_indices(a, buffers).map_err(fail)?,
         None => (0..n as u32).collect(),
     };
-    if flat.len() / 3 > MAX_ELEMENTS {
+    if let Some((k, bad)) = flat.iter().enumerate().find(|&(_, &i)| i as usize >= n) {
         return Err(fail(format!(
-            "{} triangles is more than the {MAX_ELEMENTS} supported",
-            flat.len() / 3
+            "indices: index {bad} (entry {k}) is out of range ({n} vertices)"
         )));
-    }
-    if let Some(bad) = flat.iter().find(|&&i| i as usize >= n) {
-        return Err(fail(format!("index {bad} is out of range ({n} vertices)")));
     }
     let flips = xf.flips();
     let indices: Vec<[u32; 3]> = flat
@@ -418,16 +592,29 @@ fn image(
         return Ok(t.clone());
     }
     let fail = |msg: String| SceneError::new(path, None, format!("images[{}]", img.index()), msg);
-    let bytes: Vec<u8> = match img.source() {
+    let encoding = if srgb {
+        Encoding::Srgb
+    } else {
+        Encoding::Linear
+    };
+    // Decoded with the size checked from the header first (lamina_leaf::texture).
+    let mut t = match img.source() {
         gltf::image::Source::View { view, .. } => {
             let data = buffers
                 .get(view.buffer().index())
                 .ok_or_else(|| fail("its buffer is missing".into()))?;
             let (start, len) = (view.offset(), view.length());
-            data.0
-                .get(start..start + len)
-                .ok_or_else(|| fail("its buffer view is out of range".into()))?
-                .to_vec()
+            let bytes = start
+                .checked_add(len)
+                .and_then(|end| data.0.get(start..end))
+                .ok_or_else(|| {
+                    fail(format!(
+                        "bufferView {} (byteOffset {start}, byteLength {len}) is beyond its buffer ({} bytes)",
+                        view.index(),
+                        data.0.len()
+                    ))
+                })?;
+            Texture::decode(bytes, encoding, path).map_err(|e| fail(e.to_string()))?
         }
         gltf::image::Source::Uri { uri, .. } => {
             if uri.starts_with("data:") {
@@ -435,38 +622,17 @@ fn image(
                     "data-URI images are not supported; use a .glb or an image file".into(),
                 ));
             }
-            let file = path.parent().unwrap_or(Path::new("")).join(uri);
-            std::fs::read(&file)
-                .map_err(|e| fail(format!("cannot read '{}': {e}", file.display())))?
+            let file = path
+                .parent()
+                .unwrap_or(Path::new(""))
+                .join(uri_path(uri).map_err(fail)?);
+            Texture::load(&file, encoding).map_err(|e| fail(e.to_string()))?
         }
     };
-    let decoded =
-        image::load_from_memory(&bytes).map_err(|e| fail(format!("cannot decode: {e}")))?;
-    let is_float = matches!(
-        decoded.color(),
-        image::ColorType::Rgb32F | image::ColorType::Rgba32F
-    );
-    let rgba = decoded.into_rgba32f();
-    let (w, h) = rgba.dimensions();
-    if w == 0 || h == 0 {
-        return Err(fail("the image is empty".into()));
-    }
-    let texels = rgba
-        .pixels()
-        .map(|p| {
-            let [r, g, b, a] = p.0;
-            if srgb && !is_float {
-                Vec4::new(srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b), a)
-            } else {
-                Vec4::new(r, g, b, a)
-            }
-        })
-        .collect();
-    let wrap = match tex.sampler().wrap_s() {
+    t.wrap = match tex.sampler().wrap_s() {
         gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
         _ => Wrap::Repeat,
     };
-    let t = Texture::from_texels(w, h, texels, wrap);
     let _ = doc;
     cache.insert(key, t.clone());
     Ok(t)

@@ -16,7 +16,7 @@ pub const SCALE_RANGE: (f32, f32) = (1e-6, 1e6);
 /// single-precision ray tracing.
 pub const MAX_COORD: f32 = 1e7;
 
-/// Most instances one object may have.
+/// Most instances one object, and the whole scene over all objects, may have.
 pub const MAX_INSTANCES: usize = 1 << 27;
 
 /// Columns an instances CSV file may have.
@@ -75,9 +75,33 @@ pub fn affine(t: &Transform) -> Affine3A {
 /// per-axis scale or `s` uniform scale), then one placement per row. Missing columns take
 /// 0 (translation, rotation) or 1 (scale). `#` starts a comment line. Errors name the file,
 /// the line and the column.
+///
+/// At most [`crate::limits::MAX_TEXT_FILE_BYTES`] and [`MAX_INSTANCES`] rows; a panic in
+/// the reader is an error naming the file.
 pub fn read_instances_csv(path: &Path) -> Result<Vec<Transform>, SceneError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| SceneError::new(path, None, "", format!("cannot read instances file: {e}")))?;
+    read_instances_csv_capped(path, MAX_INSTANCES)
+}
+
+/// [`read_instances_csv`] that stops with an error after `max` placements.
+pub(crate) fn read_instances_csv_capped(
+    path: &Path,
+    max: usize,
+) -> Result<Vec<Transform>, SceneError> {
+    crate::error::guarded(path, || {
+        crate::error::fault_point("instances");
+        let text =
+            crate::error::read_text(path, "instances file", crate::limits::MAX_TEXT_FILE_BYTES)?;
+        parse_capped(&text, path, max)
+    })
+}
+
+/// Parses the text of an instances CSV file (see [`read_instances_csv`]); `path` names it
+/// in errors. The entry point for fuzzing.
+pub fn parse_instances_csv(text: &str, path: &Path) -> Result<Vec<Transform>, SceneError> {
+    crate::error::guarded(path, || parse_capped(text, path, MAX_INSTANCES))
+}
+
+fn parse_capped(text: &str, path: &Path, max: usize) -> Result<Vec<Transform>, SceneError> {
     // Plain comma-separated numbers: read by hand so that every line number is exact
     // (blank lines and `#` comments included).
     let mut lines = text
@@ -158,15 +182,17 @@ pub fn read_instances_csv(path: &Path) -> Result<Vec<Transform>, SceneError> {
             Vec3::new(v[0], v[1], v[2]),
         )
         .map_err(|(k, m)| SceneError::new(path, line, k, m))?;
-        out.push(t);
-        if out.len() > MAX_INSTANCES {
+        if out.len() >= max {
             return Err(SceneError::new(
                 path,
                 line,
                 "",
-                format!("more than {MAX_INSTANCES} instances"),
+                format!(
+                    "more than {max} instances (at most {MAX_INSTANCES} in a scene, over all objects)"
+                ),
             ));
         }
+        out.push(t);
     }
     Ok(out)
 }

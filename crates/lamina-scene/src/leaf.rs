@@ -19,9 +19,11 @@ use std::path::Path;
 
 /// Reads a `leaf.toml` into a TOML table whose map paths are made absolute.
 fn read_leaf_file(path: &Path) -> Result<toml::Table, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|e| {
-        SceneError::new(path, None, "", format!("cannot read leaf description: {e}"))
-    })?;
+    let text = crate::error::read_text(
+        path,
+        "leaf description",
+        lamina_leaf::maps::MAX_DESCRIPTION_BYTES,
+    )?;
     let mut table: toml::Table =
         toml::from_str(&text).map_err(|e| crate::load::toml_error(path, &text, &e))?;
     let dir = path.parent().unwrap_or(Path::new(""));
@@ -89,7 +91,17 @@ pub(crate) fn load_leaf_material(
                         cx.err(s.span(), format!("{key}.species"), e.to_string())
                     })?;
             let seed = cx.opt_count(&m.seed, &format!("{key}.seed"), 0, u32::MAX as i64, 1)?;
-            let res = cx.opt_count(&m.resolution, &format!("{key}.resolution"), 16, 8192, 512)?;
+            let res_key = format!("{key}.resolution");
+            let res = cx.opt_count(
+                &m.resolution,
+                &res_key,
+                16,
+                crate::limits::MAX_LEAF_RESOLUTION,
+                512,
+            )?;
+            // The scene-wide budget of procedural leaf maps, before they are generated.
+            let span = m.resolution.as_ref().map_or(s.span(), |r| r.span());
+            cx.spend_leaf_texels(span, &res_key, (res as u64).pow(2))?;
             let leaf = lamina_leafmaps::generate(&lamina_leafmaps::LeafSpec::new(
                 species,
                 seed as u64,

@@ -5,10 +5,14 @@ pub mod builtin;
 pub mod cards;
 pub mod error;
 pub mod file;
+mod gltf_accessor;
 pub mod gltf_import;
 pub mod instances;
 mod leaf;
+pub mod limits;
 pub mod load;
+#[cfg(test)]
+mod loader_tests;
 pub mod obj;
 mod plant_object;
 

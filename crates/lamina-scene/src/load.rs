@@ -2,31 +2,47 @@
 //! loading of everything the file refers to (maps, meshes, leaf-card files), with paths
 //! relative to the scene file.
 
-use crate::cards::{LeafCard, append_cards, read_card_file};
-use crate::error::{LineIndex, SceneError};
+use crate::cards::{LeafCard, append_cards};
+use crate::error::{LineIndex, SceneError, guarded, read_text};
 use crate::file::*;
+use crate::limits::Budgets;
 use crate::scene::*;
 use crate::transform::Transform;
 use glam::Vec3;
 use lamina_leaf::{Encoding, Texture};
+use std::cell::Cell;
 use std::collections::HashMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// Loads a scene file and everything it refers to.
+/// Loads a scene file (at most [`crate::limits::MAX_SCENE_FILE_BYTES`]) and everything it
+/// refers to. Every limit of [`crate::limits`] is checked before the allocation it bounds;
+/// a panic inside a dependency is an error naming the file being loaded.
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| SceneError::new(path, None, "", format!("cannot read scene file: {e}")))?;
-    parse_scene(&text, path)
+    guarded(path, || {
+        let text = read_text(path, "scene file", crate::limits::MAX_SCENE_FILE_BYTES)?;
+        parse_with(&text, path, Budgets::default())
+    })
 }
 
 /// Parses scene-file text; `path` names the file in errors and anchors relative paths.
+/// The entry point for fuzzing (files it refers to are read relative to `path`).
 pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    guarded(path, || parse_with(text, path, Budgets::default()))
+}
+
+/// [`parse_scene`] with the scene-wide budgets `budgets` (tests use small ones).
+pub(crate) fn parse_with(text: &str, path: &Path, budgets: Budgets) -> Result<Scene, SceneError> {
+    crate::error::fault_point("scene");
     let cx = Ctx {
         file: path.to_owned(),
         lines: LineIndex::new(text),
         base: path.parent().map(Path::to_owned).unwrap_or_default(),
+        budgets,
+        instances: Cell::new(0),
+        leaves: Cell::new(0),
+        leaf_texels: Cell::new(0),
     };
     let doc: SceneFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
     cx.build(doc)
@@ -92,6 +108,14 @@ pub(crate) struct Ctx {
     pub(crate) file: PathBuf,
     lines: LineIndex,
     pub(crate) base: PathBuf,
+    /// The scene-wide limits.
+    budgets: Budgets,
+    /// Instances of the objects built so far.
+    instances: Cell<usize>,
+    /// Leaves (cards, plant leaves) generated so far.
+    leaves: Cell<u64>,
+    /// Texels of procedural leaf maps generated so far.
+    leaf_texels: Cell<u64>,
 }
 
 fn v3(a: [f32; 3]) -> Vec3 {
@@ -110,6 +134,75 @@ impl Ctx {
 
     pub(crate) fn path(&self, p: &S<String>) -> PathBuf {
         self.base.join(p.get_ref())
+    }
+
+    /// Leaves the scene may still generate ([`crate::limits::MAX_SCENE_LEAVES`] in all).
+    pub(crate) fn leaves_left(&self) -> u64 {
+        self.budgets.leaves.saturating_sub(self.leaves.get())
+    }
+
+    /// Counts `n` more leaves for `key` (at `span`), or says that the scene would have more
+    /// than [`crate::limits::MAX_SCENE_LEAVES`].
+    pub(crate) fn spend_leaves(
+        &self,
+        span: Range<usize>,
+        key: &str,
+        n: u64,
+    ) -> Result<(), SceneError> {
+        let total = self.leaves.get().saturating_add(n);
+        if total > self.budgets.leaves {
+            return Err(self.err(
+                span,
+                key,
+                format!(
+                    "{n} leaves here make {total} leaves (leaf cards and plant leaves) in the scene, more than the {} supported in all",
+                    self.budgets.leaves
+                ),
+            ));
+        }
+        self.leaves.set(total);
+        Ok(())
+    }
+
+    /// Counts `n` more texels of procedural leaf maps for `key`, or says that the scene
+    /// would have more than [`crate::limits::MAX_SCENE_LEAF_TEXELS`].
+    pub(crate) fn spend_leaf_texels(
+        &self,
+        span: Range<usize>,
+        key: &str,
+        n: u64,
+    ) -> Result<(), SceneError> {
+        let total = self.leaf_texels.get().saturating_add(n);
+        if total > self.budgets.leaf_texels {
+            return Err(self.err(
+                span,
+                key,
+                format!(
+                    "{n} texels of procedural leaf maps here make {total} in the scene, more than the {} supported in all (lower the resolution or the number of leaf variants)",
+                    self.budgets.leaf_texels
+                ),
+            ));
+        }
+        self.leaf_texels.set(total);
+        Ok(())
+    }
+
+    /// Checks that `n` more instances for `key` keep the scene within
+    /// [`crate::limits::MAX_INSTANCES`] in all (does not count them).
+    fn check_instances(&self, span: Range<usize>, key: &str, n: usize) -> Result<(), SceneError> {
+        let before = self.instances.get();
+        let total = before.saturating_add(n);
+        if total > self.budgets.instances {
+            return Err(self.err(
+                span,
+                key,
+                format!(
+                    "{n} instances here and {before} in the objects before make {total} instances, more than the {} supported in all",
+                    self.budgets.instances
+                ),
+            ));
+        }
+        Ok(())
     }
 
     fn vec3(&self, v: &S<[f32; 3]>, key: &str) -> Result<Vec3, SceneError> {
@@ -355,6 +448,10 @@ impl Ctx {
         let mut instances = Vec::new();
         for (i, o) in doc.object.iter().enumerate() {
             let g = self.object(i, o, &by_name, &mut materials)?;
+            // Instances the object brought without placements (glTF meshes used by several
+            // nodes, curved leaves); placed objects were checked before their allocation.
+            self.check_instances(o.span(), &format!("object[{i}]"), g.instances.len())?;
+            self.instances.set(self.instances.get() + g.instances.len());
             let first = prototypes.len() as u32;
             meshes.extend(g.meshes);
             prototypes.extend(g.prototypes);
@@ -1081,7 +1178,12 @@ impl Ctx {
             }
         }
         if let Some(f) = &o.instances_file {
-            let rows = crate::instances::read_instances_csv(&self.path(f))?;
+            let left = self
+                .budgets
+                .instances
+                .saturating_sub(self.instances.get())
+                .saturating_sub(out.len());
+            let rows = crate::instances::read_instances_csv_capped(&self.path(f), left)?;
             out.extend(rows.iter().map(crate::instances::affine));
         }
         if out.is_empty() {
@@ -1204,6 +1306,21 @@ impl Ctx {
                             o.file.as_ref(),
                             t.span(),
                         )?;
+                        // The scene-wide budgets, before anything is generated.
+                        let r = params
+                            .resolve()
+                            .map_err(|e| self.err(t.span(), format!("{p}.plant"), e.to_string()))?;
+                        let plant_span = o.plant.as_ref().map_or(t.span(), |x| x.span());
+                        self.spend_leaves(
+                            plant_span.clone(),
+                            &format!("{p}.plant.leaf_count"),
+                            r.leaf_count as u64,
+                        )?;
+                        self.spend_leaf_texels(
+                            plant_span,
+                            &format!("{p}.plant.leaf_resolution"),
+                            r.leaf_variants as u64 * (r.leaf_resolution as u64).pow(2),
+                        )?;
                         let plant = lamina_plant::generate_plant(&params)
                             .map_err(|e| self.err(t.span(), format!("{p}.plant"), e.to_string()))?;
                         let (geometry, mats) = if curved {
@@ -1317,6 +1434,8 @@ impl Ctx {
                 ),
             ));
         }
+        // The scene-wide total, before the allocation.
+        self.check_instances(span.clone(), &format!("{p}.instances"), total)?;
         let mut prototypes = geometry.prototypes;
         let outer = (!geometry.meshes.is_empty()).then(|| {
             prototypes.push(Prototype {
@@ -1457,8 +1576,11 @@ impl Ctx {
                     }
                 }
                 if let Some(f) = &o.file {
-                    cards.extend(read_card_file(&self.path(f))?);
+                    let left = self.leaves_left().saturating_sub(cards.len() as u64);
+                    let max = usize::try_from(left).unwrap_or(usize::MAX);
+                    cards.extend(crate::cards::read_card_file_capped(&self.path(f), max)?);
                 }
+                self.spend_leaves(t.span(), &format!("{p}.cards"), cards.len() as u64)?;
                 if o.cards.is_none() && o.file.is_none() {
                     return Err(self.err(
                         t.span(),

@@ -40,7 +40,8 @@
 //!
 //! `Ka`, `Ke`, `map_Ks`, `map_Ns`, `map_Ka` and `illum` are ignored.
 
-use crate::error::SceneError;
+use crate::error::{SceneError, guarded, read_text};
+use crate::limits::MAX_TEXT_FILE_BYTES;
 use crate::scene::{AlphaMask, ColorInput, Material, Mesh, NormalMap, PbrMaterial};
 use glam::{Vec2, Vec3, Vec4};
 use lamina_leaf::texture::Wrap;
@@ -66,11 +67,72 @@ pub struct ObjScene {
 /// where known, and the texture path): unreadable files, a missing `mtllib` file, a
 /// `usemtl` of an undefined material, missing or corrupt textures, non-finite vertices,
 /// face indices out of range, no triangles.
+///
+/// The OBJ and each MTL file may have at most [`crate::limits::MAX_TEXT_FILE_BYTES`]; every
+/// texture's size is checked before it is decoded; a panic inside tobj or a decoder is an
+/// error naming the file.
 pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| SceneError::new(path, None, "", format!("cannot read OBJ: {e}")))?;
+    guarded(path, || {
+        let text = read_text(path, "OBJ", MAX_TEXT_FILE_BYTES)?;
+        parse_obj_text(&text, path)
+    })
+}
+
+/// [`load_obj`] for OBJ text in memory: `path` names it in errors and anchors its `mtllib`
+/// files (read from disk). The entry point for fuzzing.
+pub fn parse_obj(text: &str, path: &Path) -> Result<ObjScene, SceneError> {
+    guarded(path, || parse_obj_text(text, path))
+}
+
+/// MTL text as tobj can read it: a colour statement with one number (`Kd 0.5`, which the
+/// MTL format allows and means grey) written out as three, since tobj panics on it.
+/// [`scan_mtl`] has rejected every other short colour statement.
+fn normalise_mtl(text: &str) -> String {
+    let mut out = String::with_capacity(text.len() + 64);
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        match (words.next(), words.next(), words.next()) {
+            (Some(tag @ ("Ka" | "Kd" | "Ks" | "Ke")), Some(x), None) => {
+                out.push_str(&format!("{tag} {x} {x} {x}"));
+            }
+            _ => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// Checks an MTL file's size and its colour statements (`Ka`, `Kd`, `Ks`, `Ke`: one or
+/// three numbers), which tobj would otherwise panic on or reject without a line.
+fn scan_mtl(obj: &Path, obj_line: Option<usize>, file: &Path) -> Result<(), SceneError> {
+    let text = read_text(file, "the MTL file", MAX_TEXT_FILE_BYTES)
+        .map_err(|e| SceneError::new(obj, obj_line, "mtllib", e.message))?;
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let Some(tag @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() else {
+            continue;
+        };
+        let values: Vec<&str> = words.take(3).collect();
+        let bad = |msg: String| SceneError::new(file, Some(i + 1), tag, msg);
+        if values.len() != 1 && values.len() != 3 {
+            return Err(bad(format!(
+                "needs one number (grey) or three (r g b), got {}",
+                values.len()
+            )));
+        }
+        if let Some(v) = values.iter().find(|v| v.parse::<f32>().is_err()) {
+            return Err(bad(format!(
+                "'{v}' is not a number (spectral and xyz colours are not supported)"
+            )));
+        }
+    }
+    Ok(())
+}
+
+fn parse_obj_text(text: &str, path: &Path) -> Result<ObjScene, SceneError> {
+    crate::error::fault_point("obj");
     let dir = path.parent().unwrap_or(Path::new("")).to_owned();
-    prescan(path, &text, &dir)?;
+    prescan(path, text, &dir, true)?;
     // Every MTL file tobj asks for, with the materials it defined (in tobj's order).
     let loaded: RefCell<Vec<(PathBuf, Vec<String>)>> = RefCell::new(Vec::new());
     let opts = tobj::LoadOptions {
@@ -81,7 +143,11 @@ pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
     let (models, materials) =
         tobj::load_obj_buf(&mut std::io::Cursor::new(text.as_bytes()), &opts, |p| {
             let file = dir.join(p);
-            let r = tobj::load_mtl(&file);
+            // Checked by `prescan` (size and colour statements).
+            let r = match std::fs::read_to_string(&file) {
+                Ok(t) => tobj::load_mtl_buf(&mut std::io::Cursor::new(normalise_mtl(&t))),
+                Err(_) => Err(tobj::LoadError::OpenFileFailed),
+            };
             if let Ok((mats, _)) = &r {
                 loaded
                     .borrow_mut()
@@ -150,7 +216,7 @@ pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
 /// Checks what tobj would accept silently or report without a line: `mtllib` files that
 /// do not exist, vertices that are not finite, faces that refer to vertices not (yet)
 /// defined.
-fn prescan(path: &Path, text: &str, dir: &Path) -> Result<(), SceneError> {
+fn prescan(path: &Path, text: &str, dir: &Path, mtl: bool) -> Result<(), SceneError> {
     let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
     for (i, line) in text.lines().enumerate() {
         let ln = Some(i + 1);
@@ -158,7 +224,7 @@ fn prescan(path: &Path, text: &str, dir: &Path) -> Result<(), SceneError> {
         let mut words = line.split_whitespace();
         let Some(tag) = words.next() else { continue };
         match tag {
-            "mtllib" => {
+            "mtllib" if mtl => {
                 let name = line["mtllib".len()..].trim();
                 let file = dir.join(name);
                 if let Err(e) = std::fs::metadata(&file) {
@@ -169,6 +235,7 @@ fn prescan(path: &Path, text: &str, dir: &Path) -> Result<(), SceneError> {
                         format!("cannot read the MTL file '{}': {e}", file.display()),
                     ));
                 }
+                scan_mtl(path, ln, &file)?;
             }
             "v" | "vt" | "vn" => {
                 let count = if tag == "vt" { 2 } else { 3 };
@@ -774,15 +841,25 @@ fn metallic_roughness_texture(
 }
 
 /// Geometry only: every shape with `material`, MTL files not read.
+/// The same checks and limits as [`load_obj`].
 pub fn load_obj_meshes(path: &Path, material: u32) -> Result<Vec<Mesh>, SceneError> {
-    let opts = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ..Default::default()
-    };
-    let (models, _materials) = tobj::load_obj(path, &opts)
-        .map_err(|e| SceneError::new(path, None, "", format!("cannot load OBJ: {e}")))?;
-    meshes(path, models, |_| material)
+    guarded(path, || {
+        crate::error::fault_point("obj_meshes");
+        let text = read_text(path, "OBJ", MAX_TEXT_FILE_BYTES)?;
+        let dir = path.parent().unwrap_or(Path::new(""));
+        prescan(path, &text, dir, false)?;
+        let opts = tobj::LoadOptions {
+            triangulate: true,
+            single_index: true,
+            ..Default::default()
+        };
+        let (models, _materials) =
+            tobj::load_obj_buf(&mut std::io::Cursor::new(text.as_bytes()), &opts, |_| {
+                Err(tobj::LoadError::OpenFileFailed)
+            })
+            .map_err(|e| SceneError::new(path, None, "", format!("cannot load OBJ: {e}")))?;
+        meshes(path, models, |_| material)
+    })
 }
 
 /// tobj models to meshes, checked; `material` maps tobj's material id.

@@ -50,6 +50,29 @@ pub(crate) fn plant_params(
     let param_file = file
         .map(|f| {
             let path = cx.path(f);
+            let meta = std::fs::metadata(&path).ok();
+            if meta.as_ref().is_some_and(|m| !m.is_file()) {
+                return Err(cx.err(
+                    f.span(),
+                    format!("{p}.file"),
+                    format!(
+                        "plant parameter file '{}' is not a regular file",
+                        path.display()
+                    ),
+                ));
+            }
+            let len = meta.map_or(0, |m| m.len());
+            if len > lamina_plant::MAX_PARAM_FILE_BYTES {
+                return Err(cx.err(
+                    f.span(),
+                    format!("{p}.file"),
+                    format!(
+                        "plant parameter file '{}' is {len} bytes, more than the {} supported",
+                        path.display(),
+                        lamina_plant::MAX_PARAM_FILE_BYTES
+                    ),
+                ));
+            }
             let text = std::fs::read_to_string(&path).map_err(|e| {
                 cx.err(
                     f.span(),

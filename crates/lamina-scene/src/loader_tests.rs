@@ -1,0 +1,248 @@
+//! Tests of the loaders' last line of defence (a panic inside a loader becomes an error
+//! naming the file) and of the scene-wide budgets, with small budgets so that nothing big
+//! is built.
+
+use crate::error::FAULT;
+use crate::limits::Budgets;
+use std::path::{Path, PathBuf};
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lamina-guard-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Runs `f` with fault point `name` armed on this thread.
+fn with_fault<T>(name: &'static str, f: impl FnOnce() -> T) -> T {
+    FAULT.with(|c| c.set(Some(name)));
+    let r = f();
+    FAULT.with(|c| c.set(None));
+    r
+}
+
+fn assert_names(e: crate::SceneError, file: &str) {
+    let s = e.to_string();
+    assert!(
+        s.contains(file) && s.contains("injected fault") && s.contains("a bug"),
+        "{s}"
+    );
+}
+
+const SCENE: &str = "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n";
+
+/// A one-triangle .gltf with its buffer as a data URI.
+fn triangle_gltf() -> String {
+    let bytes: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut b64 = String::new();
+    for c in bytes.chunks(3) {
+        let n = (c[0] as u32) << 16 | (c[1] as u32) << 8 | c[2] as u32;
+        for i in 0..4 {
+            b64.push(T[(n >> (18 - 6 * i) & 63) as usize] as char);
+        }
+    }
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}],
+  "nodes": [{{"mesh": 0}}], "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+  "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}}],
+  "bufferViews": [{{"buffer": 0, "byteLength": 36}}],
+  "buffers": [{{"byteLength": 36, "uri": "data:application/octet-stream;base64,{b64}"}}]}}"#
+    )
+}
+
+#[test]
+fn every_loader_entry_point_turns_a_panic_into_an_error_naming_the_file() {
+    let d = scratch("entry");
+    let scene = d.join("s.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let gltf = d.join("t.gltf");
+    std::fs::write(&gltf, triangle_gltf()).unwrap();
+    let obj = d.join("t.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let cards = d.join("c.csv");
+    std::fs::write(
+        &cards,
+        "cx,cy,cz,nx,ny,nz,ux,uy,uz,width,height\n0,0,0,0,0,1,0,1,0,0.1,0.2\n",
+    )
+    .unwrap();
+    let placements = d.join("p.csv");
+    std::fs::write(&placements, "tx\n1\n").unwrap();
+    let xf = crate::transform::Transform::default();
+
+    // Without the fault, everything loads.
+    assert!(crate::load_scene(&scene).is_ok());
+    assert!(crate::gltf_import::load_gltf(&gltf, &xf).is_ok());
+    assert!(crate::obj::load_obj(&obj).is_ok());
+    assert!(crate::obj::load_obj_meshes(&obj, 0).is_ok());
+    assert!(crate::cards::read_card_file(&cards).is_ok());
+    assert!(crate::instances::read_instances_csv(&placements).is_ok());
+
+    assert_names(
+        with_fault("scene", || crate::load_scene(&scene)).unwrap_err(),
+        "s.toml",
+    );
+    assert_names(
+        with_fault("scene", || crate::parse_scene(SCENE, &scene)).unwrap_err(),
+        "s.toml",
+    );
+    assert_names(
+        with_fault("gltf", || crate::gltf_import::load_gltf(&gltf, &xf)).unwrap_err(),
+        "t.gltf",
+    );
+    let bytes = std::fs::read(&gltf).unwrap();
+    assert_names(
+        with_fault("gltf", || {
+            crate::gltf_import::parse_gltf(&bytes, &gltf, &xf)
+        })
+        .unwrap_err(),
+        "t.gltf",
+    );
+    assert_names(
+        with_fault("obj", || crate::obj::load_obj(&obj)).unwrap_err(),
+        "t.obj",
+    );
+    assert_names(
+        with_fault("obj_meshes", || crate::obj::load_obj_meshes(&obj, 0)).unwrap_err(),
+        "t.obj",
+    );
+    assert_names(
+        with_fault("cards", || crate::cards::read_card_file(&cards)).unwrap_err(),
+        "c.csv",
+    );
+    assert_names(
+        with_fault("instances", || {
+            crate::instances::read_instances_csv(&placements)
+        })
+        .unwrap_err(),
+        "p.csv",
+    );
+    // Inside a scene: the innermost guard names the file it was reading.
+    let text = format!("{SCENE}[[object]]\ntype = \"gltf\"\nfile = \"t.gltf\"\n");
+    assert_names(
+        with_fault("gltf", || crate::parse_scene(&text, &scene)).unwrap_err(),
+        "t.gltf",
+    );
+}
+
+fn parse_small(text: &str, path: &Path, budgets: Budgets) -> Result<crate::Scene, String> {
+    crate::load::parse_with(text, path, budgets).map_err(|e| e.to_string())
+}
+
+const QUAD: &str = "[[material]]\nname = \"m\"\ntype = \"diffuse\"\n";
+
+#[test]
+fn the_instance_limit_is_over_all_objects() {
+    let d = scratch("instances");
+    let obj = |n: usize| {
+        let placements = vec!["{ translate = [0, 0, 0] }"; n].join(", ");
+        format!(
+            "[[object]]\ntype = \"quad\"\nmaterial = \"m\"\ncorner = [0, 0, 0]\nedge_u = [1, 0, 0]\nedge_v = [0, 1, 0]\ninstances = [{placements}]\n"
+        )
+    };
+    let budgets = Budgets {
+        instances: 5,
+        ..Budgets::default()
+    };
+    let ok = format!("{SCENE}{QUAD}{}{}", obj(3), obj(2));
+    let s = parse_small(&ok, &d.join("s.toml"), budgets).unwrap();
+    assert_eq!(s.instances.len(), 5);
+    // Each object alone is within the limit; together they are not.
+    let bad = format!("{SCENE}{QUAD}{}{}", obj(3), obj(3));
+    let e = parse_small(&bad, &d.join("s.toml"), budgets).unwrap_err();
+    assert!(
+        e.contains("s.toml:14: object[1].instances")
+            && e.contains("3 instances here and 3 in the objects before")
+            && e.contains("more than the 5 supported in all"),
+        "{e}"
+    );
+    // The placements file stops reading at the limit.
+    std::fs::write(d.join("p.csv"), "tx\n1\n2\n3\n").unwrap();
+    let file = "[[object]]\ntype = \"quad\"\nmaterial = \"m\"\ncorner = [0, 0, 0]\nedge_u = [1, 0, 0]\nedge_v = [0, 1, 0]\ninstances_file = \"p.csv\"\n";
+    let bad = format!("{SCENE}{QUAD}{}{file}", obj(3));
+    let e = parse_small(&bad, &d.join("s.toml"), budgets).unwrap_err();
+    assert!(
+        e.contains("p.csv:4") && e.contains("more than 2 instances"),
+        "{e}"
+    );
+}
+
+#[test]
+fn the_leaf_and_leaf_map_limits_are_over_the_whole_scene() {
+    let d = scratch("leaves");
+    let budgets = Budgets {
+        leaves: 5,
+        leaf_texels: 100_000,
+        ..Budgets::default()
+    };
+    let card =
+        "{ center = [0, 0, 0], normal = [0, 0, 1], up = [0, 1, 0], width = 0.1, height = 0.1 }";
+    let cards = |n: usize| {
+        format!(
+            "[[object]]\ntype = \"leaf_cards\"\nmaterial = \"m\"\ncards = [{}]\n",
+            vec![card; n].join(", ")
+        )
+    };
+    let ok = format!("{SCENE}{QUAD}{}{}", cards(3), cards(2));
+    assert!(parse_small(&ok, &d.join("s.toml"), budgets).is_ok());
+    let bad = format!("{SCENE}{QUAD}{}{}", cards(3), cards(3));
+    let e = parse_small(&bad, &d.join("s.toml"), budgets).unwrap_err();
+    assert!(
+        e.contains("object[1].cards") && e.contains("more than the 5 supported in all"),
+        "{e}"
+    );
+    // A card file stops at what is left.
+    std::fs::write(
+        d.join("c.csv"),
+        "cx,cy,cz,nx,ny,nz,ux,uy,uz,width,height\n0,0,0,0,0,1,0,1,0,0.1,0.2\n0,0,0,0,0,1,0,1,0,0.1,0.2\n0,0,0,0,0,1,0,1,0,0.1,0.2\n",
+    )
+    .unwrap();
+    let file = "[[object]]\ntype = \"leaf_cards\"\nmaterial = \"m\"\nfile = \"c.csv\"\n";
+    let bad = format!("{SCENE}{QUAD}{}{file}", cards(3));
+    let e = parse_small(&bad, &d.join("s.toml"), budgets).unwrap_err();
+    assert!(
+        e.contains("c.csv:4") && e.contains("more than 2 leaf cards"),
+        "{e}"
+    );
+    // A plant's leaves count too, before it is grown.
+    let plant = "[[object]]\ntype = \"plant\"\n[object.plant]\nleaf_count = 60\nleaf_resolution = 16\nleaf_variants = 1\n";
+    let bad = format!("{SCENE}{plant}");
+    let e = parse_small(&bad, &d.join("s.toml"), budgets).unwrap_err();
+    assert!(
+        e.contains("object[0].plant.leaf_count") && e.contains("more than the 5 supported"),
+        "{e}"
+    );
+    // Procedural leaf maps: two species materials of 256 px (65536 texels each) exceed
+    // 100,000 texels; the second is rejected before it is generated.
+    let leaf = |i: usize| {
+        format!(
+            "[[material]]\nname = \"l{i}\"\ntype = \"leaf\"\nspecies = \"beech\"\nresolution = 256\n"
+        )
+    };
+    let bad = format!("{SCENE}{}{}", leaf(0), leaf(1));
+    let e = parse_small(&bad, &d.join("s.toml"), budgets).unwrap_err();
+    assert!(
+        e.contains("s.toml:13: material[1].resolution")
+            && e.contains("more than the 100000 supported in all"),
+        "{e}"
+    );
+}
+
+#[test]
+fn deeply_nested_input_is_an_error_not_a_stack_overflow() {
+    let d = scratch("nested");
+    let depth = 100_000;
+    let toml = format!("{SCENE}x = {}{}\n", "[".repeat(depth), "]".repeat(depth));
+    let e = crate::parse_scene(&toml, &d.join("s.toml"))
+        .map(|_| ())
+        .unwrap_err();
+    assert!(e.to_string().contains("s.toml"), "{e}");
+    let json = format!("{}{}", "[".repeat(depth), "]".repeat(depth));
+    let e = crate::cards::parse_json(&d.join("c.json"), &json)
+        .map(|_| ())
+        .unwrap_err();
+    assert!(e.to_string().contains("c.json"), "{e}");
+}

@@ -27,6 +27,29 @@ OUT=$ROOT/target/fuzz-campaign
 SEEDS=$OUT/seeds
 mkdir -p "$OUT"
 
+summary() {
+    local t=$1 log=$OUT/$1.log execs cov ft corpus crashes timeouts
+    execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | awk '{s+=$2} END {print s+0}')
+    cov=$(grep -oE '(INITED|DONE|pulse|NEW|REDUCE) +cov: [0-9]+' "$log" | awk '{print $3}' | sort -n | tail -1)
+    ft=$(grep -oE 'ft: [0-9]+' "$log" | awk '{print $2}' | sort -n | tail -1)
+    corpus=$(find "fuzz/corpus/$t" -type f | wc -l)
+    crashes=$(find "fuzz/artifacts/$t" -type f \( -name 'crash-*' -o -name 'oom-*' -o -name 'leak-*' \) | wc -l)
+    timeouts=$(find "fuzz/artifacts/$t" -type f -name 'timeout-*' | wc -l)
+    secs=$(grep -oE 'Done [0-9]+ runs in [0-9]+ second' "$log" | awk '{s+=$5} END {print s+0}')
+    echo "| $t | $secs | ${execs:-0} | ${cov:-?} | ${ft:-?} | $corpus | $crashes | $timeouts |"
+}
+
+print_summary() {
+    {
+        echo "| target | seconds fuzzed | executions | edges (cov) | features (ft) | corpus | crashes | timeouts |"
+        echo "|---|---|---|---|---|---|---|---|"
+        for t in $TARGETS; do summary "$t"; done
+    } | tee "$OUT/summary.md"
+}
+
+# FUZZ_SUMMARY_ONLY=1: print the table of the last campaign's logs and stop.
+if [ -n "${FUZZ_SUMMARY_ONLY:-}" ]; then print_summary; exit 0; fi
+
 command -v cargo-fuzz >/dev/null || { echo "cargo-fuzz is not installed: cargo install cargo-fuzz" >&2; exit 1; }
 
 # ---- seeds -------------------------------------------------------------------------------
@@ -116,23 +139,8 @@ run_target() {
     echo "runs: $runs" >>"$log"
 }
 
-summary() {
-    local t=$1 log=$OUT/$1.log execs cov ft corpus crashes timeouts
-    execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | awk '{s+=$2} END {print s+0}')
-    cov=$(grep -oE '(INITED|DONE|pulse|NEW|REDUCE) +cov: [0-9]+' "$log" | awk '{print $3}' | sort -n | tail -1)
-    ft=$(grep -oE 'ft: [0-9]+' "$log" | awk '{print $2}' | sort -n | tail -1)
-    corpus=$(find "fuzz/corpus/$t" -type f | wc -l)
-    crashes=$(find "fuzz/artifacts/$t" -type f \( -name 'crash-*' -o -name 'oom-*' -o -name 'leak-*' \) | wc -l)
-    timeouts=$(find "fuzz/artifacts/$t" -type f -name 'timeout-*' | wc -l)
-    echo "| $t | ${SECS} | ${execs:-0} | ${cov:-?} | ${ft:-?} | $corpus | $crashes | $timeouts |"
-}
-
 export -f run_target
 export SECS OUT SEEDS
 printf '%s\n' $TARGETS | xargs -P "$JOBS" -I{} bash -c 'run_target {}'
 
-{
-    echo "| target | seconds | executions | edges (cov) | features (ft) | corpus | crashes | timeouts |"
-    echo "|---|---|---|---|---|---|---|---|"
-    for t in $TARGETS; do summary "$t"; done
-} | tee "$OUT/summary.md"
+print_summary

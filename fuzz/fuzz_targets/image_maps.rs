@@ -4,7 +4,10 @@
 use lamina_leaf::texture::{Encoding, Texture};
 use libfuzzer_sys::fuzz_target;
 
-fuzz_target!(|data: &[u8]| {
+fuzz_target!(
+    // The loaders turn a dependency's panic into an error; here it must crash instead.
+    init: lamina_leaf::guard::propagate_panics(true),
+    |data: &[u8]| {
     let name = std::path::Path::new("map.png");
     for enc in [Encoding::Srgb, Encoding::Linear] {
         if let Ok(t) = Texture::decode(data, enc, name) {

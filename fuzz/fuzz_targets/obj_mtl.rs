@@ -7,7 +7,10 @@ use std::sync::OnceLock;
 
 static DIR: OnceLock<std::path::PathBuf> = OnceLock::new();
 
-fuzz_target!(|data: &[u8]| {
+fuzz_target!(
+    // The loaders turn a dependency's panic into an error; here it must crash instead.
+    init: lamina_leaf::guard::propagate_panics(true),
+    |data: &[u8]| {
     let dir = DIR.get_or_init(|| {
         let d = std::env::temp_dir().join(format!("lamina-fuzz-obj-{}", std::process::id()));
         std::fs::create_dir_all(&d).unwrap();

@@ -21,8 +21,9 @@ pub enum LeafCommand {
         /// Random seed (the same seed gives the same leaf).
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Pixels along the longer side of the card.
-        #[arg(short, long, default_value_t = 1024)]
+        /// Pixels along the longer side of the card, 16-8192 (8192 needs about 3.5 GB).
+        #[arg(short, long, default_value_t = 1024,
+              value_parser = clap::value_parser!(u32).range(16..=8192))]
         resolution: u32,
         /// Output leaf folder. An existing one is replaced (atomically) only if lamina wrote
         /// it and it holds nothing else; see --force.

@@ -158,10 +158,10 @@ struct Stored {
     float: bool,
 }
 
-fn load_stored(path: &Path) -> Result<Stored, LeafMapsError> {
-    // The size is checked from the header before decoding, and a decoder panic is an error
-    // (see `lamina_leaf::texture::open_image`).
-    let img = lamina_leaf::texture::open_image(path).map_err(|e| match e {
+/// Opens an image with its size checked from the header before decoding, a decoder panic
+/// made an error (see `lamina_leaf::texture::open_image`).
+pub(crate) fn open_checked(path: &Path) -> Result<image::DynamicImage, LeafMapsError> {
+    lamina_leaf::texture::open_image(path).map_err(|e| match e {
         lamina_leaf::TextureError::Read { path, source } => LeafMapsError::Read {
             path,
             cause: source,
@@ -170,7 +170,11 @@ fn load_stored(path: &Path) -> Result<Stored, LeafMapsError> {
             path: path.to_owned(),
             reason: other.to_string(),
         },
-    })?;
+    })
+}
+
+fn load_stored(path: &Path) -> Result<Stored, LeafMapsError> {
+    let img = open_checked(path)?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     if w == 0 || h == 0 {
         return Err(LeafMapsError::BadInput {

@@ -87,12 +87,7 @@ pub fn sheet_image(dir: &Path, opts: &SheetOptions) -> Result<RgbImage, LeafMaps
         let tile = match p {
             Some(p) => {
                 let path = dir.join(p);
-                let img = image::open(&path)
-                    .map_err(|source| LeafMapsError::Read {
-                        path: path.clone(),
-                        cause: source,
-                    })?
-                    .into_rgb32f();
+                let img = crate::prepare::open_checked(&path)?.into_rgb32f();
                 let (w, h) = (img.width() as usize, img.height() as usize);
                 if label == "ALPHA" || (label == "FRONT" && aspect == 1.0) {
                     aspect = w as f32 / h as f32;

@@ -10,6 +10,7 @@
 //!
 //! The scenes are sized so that each moment lasts seconds on a slow, shared 2-core machine,
 //! and each test asserts that the moment had not passed when the signal went out.
+#![cfg(unix)]
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -82,12 +83,12 @@ impl Running {
     }
 
     fn sigint(&self) {
-        let ok = Command::new("kill")
-            .args(["-INT", &self.child.id().to_string()])
-            .status()
-            .unwrap()
-            .success();
-        assert!(ok, "kill -INT failed");
+        // A real SIGINT, as a terminal's Ctrl-C sends it.
+        rustix::process::kill_process(
+            rustix::process::Pid::from_child(&self.child),
+            rustix::process::Signal::INT,
+        )
+        .expect("SIGINT");
     }
 
     /// Waits for the exit (killing the process after `timeout`); the status, the time it

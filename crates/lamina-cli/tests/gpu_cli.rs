@@ -1,6 +1,7 @@
 //! `lamina render --gpu` and `lamina view` from the command line. The GPU render needs a
 //! Vulkan adapter (lavapipe in CI); without one it is skipped with a note unless `CI` is set.
-//! No test here needs a display: `view` is only checked to fail cleanly without one.
+//! `view` is checked to fail cleanly without a display, and (where `xvfb-run` exists) to
+//! close on Ctrl-C without writing its screenshot.
 
 use std::path::Path;
 use std::process::Command;
@@ -70,4 +71,108 @@ fn view_rejects_an_unknown_builtin() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("demo:bush"), "{stderr}");
+}
+
+/// The pid of the descendant of `root` whose command name is `name` (from `/proc`).
+#[cfg(target_os = "linux")]
+fn descendant_named(root: u32, name: &str) -> Option<u32> {
+    let mut parent = std::collections::HashMap::new();
+    let mut comm = std::collections::HashMap::new();
+    for e in std::fs::read_dir("/proc").ok()?.flatten() {
+        let Ok(pid) = e.file_name().to_string_lossy().parse::<u32>() else {
+            continue;
+        };
+        let Ok(stat) = std::fs::read_to_string(e.path().join("stat")) else {
+            continue;
+        };
+        // "pid (comm) state ppid ...": comm may hold spaces, so split at the last ')'.
+        let (Some(open), Some(close)) = (stat.find('('), stat.rfind(')')) else {
+            continue;
+        };
+        let ppid = stat[close + 1..]
+            .split_whitespace()
+            .nth(1)?
+            .parse::<u32>()
+            .ok()?;
+        parent.insert(pid, ppid);
+        comm.insert(pid, stat[open + 1..close].to_string());
+    }
+    comm.iter()
+        .filter(|(_, c)| c.as_str() == name)
+        .map(|(p, _)| *p)
+        .find(|&p| {
+            let mut q = p;
+            while let Some(&pp) = parent.get(&q) {
+                if pp == root {
+                    return true;
+                }
+                if pp <= 1 {
+                    break;
+                }
+                q = pp;
+            }
+            false
+        })
+}
+
+/// Ctrl-C in `lamina view` (under Xvfb) closes the window at the next frame, writes no
+/// screenshot and exits with 130. Skipped with a note where `xvfb-run` is missing (`.ci/run`
+/// installs it).
+#[cfg(target_os = "linux")]
+#[test]
+fn ctrl_c_closes_the_view_without_a_screenshot() {
+    use std::io::BufRead;
+    if Command::new("xvfb-run").arg("--help").output().is_err() {
+        eprintln!("skipped: no xvfb-run (apt-get install xvfb xauth)");
+        return;
+    }
+    let d = tmp_dir("view-ctrl-c");
+    let _ = std::fs::remove_file(d.join("shot.png"));
+    let mut child = Command::new("xvfb-run")
+        .args(["-a", env!("CARGO_BIN_EXE_lamina"), "view", "demo:front"])
+        .args([
+            "--width",
+            "160",
+            "--height",
+            "120",
+            "--screenshot",
+            "shot.png",
+        ])
+        .current_dir(&d)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("xvfb-run");
+    let err = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut log = String::new();
+    let mut lines = err.lines().map_while(Result::ok);
+    for line in lines.by_ref() {
+        log.push_str(&line);
+        log.push('\n');
+        if line.starts_with("lamina view:") {
+            break;
+        }
+    }
+    if !log.contains("lamina view:") {
+        let _ = child.wait();
+        if std::env::var_os("CI").is_none() {
+            eprintln!("skipped: the view did not start (no Vulkan adapter?):\n{log}");
+            return;
+        }
+        panic!("the view did not start:\n{log}");
+    }
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let pid = descendant_named(child.id(), "lamina").expect("lamina under xvfb-run");
+    let ok = rustix::process::kill_process(
+        rustix::process::Pid::from_raw(pid as i32).expect("pid"),
+        rustix::process::Signal::INT,
+    );
+    ok.expect("SIGINT");
+    for line in lines {
+        log.push_str(&line);
+        log.push('\n');
+    }
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "{log}");
+    assert!(log.contains("no screenshot written"), "{log}");
+    assert!(!d.join("shot.png").exists(), "{log}");
 }

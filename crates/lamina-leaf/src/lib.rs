@@ -40,6 +40,8 @@ pub mod params;
 pub mod pbr;
 pub mod sampling;
 pub mod specular;
+#[doc(hidden)]
+pub mod testing;
 pub mod texture;
 
 pub use bsdf::{Bsdf, BsdfSample};

@@ -184,7 +184,7 @@ mod tests {
         assert!(e.contains("big.toml") && e.contains("1048576"), "{e}");
         // A huge map is rejected before it is decoded, naming the map and the file.
         let png = dir.join("huge.png");
-        std::fs::write(&png, crate::texture::tests::png_header_only(16384, 16384)).unwrap();
+        std::fs::write(&png, crate::testing::png_header_only(16384, 16384)).unwrap();
         let d: LeafDescription = toml::from_str("[maps]\nfront = \"huge.png\"\n").unwrap();
         let e = crate::LeafMaterial::load(&d, &dir).unwrap_err().to_string();
         assert!(

@@ -403,41 +403,6 @@ pub(crate) mod tests {
         assert!((srgb_to_linear(0.5) - 0.214).abs() < 1e-3);
     }
 
-    /// A PNG file whose header says `width` x `height` 8-bit grey, with a few bytes of
-    /// (truncated) pixel data: what a crafted file that asks for a huge buffer looks like.
-    pub(crate) fn png_header_only(width: u32, height: u32) -> Vec<u8> {
-        fn crc32(bytes: &[u8]) -> u32 {
-            let mut c = 0xFFFF_FFFFu32;
-            for &b in bytes {
-                c ^= b as u32;
-                for _ in 0..8 {
-                    c = if c & 1 != 0 {
-                        0xEDB8_8320 ^ (c >> 1)
-                    } else {
-                        c >> 1
-                    };
-                }
-            }
-            !c
-        }
-        let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
-        let mut chunk = |kind: &[u8; 4], data: &[u8]| {
-            out.extend((data.len() as u32).to_be_bytes());
-            let mut body = kind.to_vec();
-            body.extend(data);
-            out.extend(&body);
-            out.extend(crc32(&body).to_be_bytes());
-        };
-        let mut ihdr = Vec::new();
-        ihdr.extend(width.to_be_bytes());
-        ihdr.extend(height.to_be_bytes());
-        ihdr.extend([8, 0, 0, 0, 0]); // 8-bit grey, deflate, no filter, no interlace
-        chunk(b"IHDR", &ihdr);
-        chunk(b"IDAT", &[0x78, 0x9c, 0x63, 0x00, 0x00]);
-        chunk(b"IEND", &[]);
-        out
-    }
-
     #[test]
     fn huge_image_headers_are_rejected_before_decoding() {
         let dir = std::env::temp_dir().join(format!("lamina-texture-{}", std::process::id()));
@@ -445,19 +410,19 @@ pub(crate) mod tests {
         // 16384 x 16384 grey: 256 MiB as stored (within the image crate's own default
         // limit), 4 GiB as a texture.
         let p = dir.join("huge.png");
-        std::fs::write(&p, png_header_only(16384, 16384)).unwrap();
+        std::fs::write(&p, crate::testing::png_header_only(16384, 16384)).unwrap();
         let e = Texture::load(&p, Encoding::Linear).unwrap_err();
         assert!(matches!(e, TextureError::TooLarge { .. }), "{e}");
         let e = e.to_string();
         assert!(e.contains("huge.png") && e.contains("67108864"), "{e}");
         // One side too long.
         let p = dir.join("long.png");
-        std::fs::write(&p, png_header_only(40000, 1)).unwrap();
+        std::fs::write(&p, crate::testing::png_header_only(40000, 1)).unwrap();
         let e = Texture::load(&p, Encoding::Srgb).unwrap_err().to_string();
         assert!(e.contains("long.png") && e.contains("32768"), "{e}");
         // The same from memory.
         let e = Texture::decode(
-            &png_header_only(16384, 8192),
+            &crate::testing::png_header_only(16384, 8192),
             Encoding::Linear,
             Path::new("m.png"),
         )

@@ -266,46 +266,12 @@ fn bad_options_are_errors() {
     );
 }
 
-/// A PNG whose header says `w` x `h` 8-bit grey, with a few bytes of pixel data.
-fn png_header(w: u32, h: u32) -> Vec<u8> {
-    fn crc32(bytes: &[u8]) -> u32 {
-        let mut c = 0xFFFF_FFFFu32;
-        for &b in bytes {
-            c ^= b as u32;
-            for _ in 0..8 {
-                c = if c & 1 != 0 {
-                    0xEDB8_8320 ^ (c >> 1)
-                } else {
-                    c >> 1
-                };
-            }
-        }
-        !c
-    }
-    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
-    let mut chunk = |kind: &[u8; 4], data: &[u8]| {
-        out.extend((data.len() as u32).to_be_bytes());
-        let mut body = kind.to_vec();
-        body.extend(data);
-        out.extend(&body);
-        out.extend(crc32(&body).to_be_bytes());
-    };
-    let mut ihdr = Vec::new();
-    ihdr.extend(w.to_be_bytes());
-    ihdr.extend(h.to_be_bytes());
-    ihdr.extend([8, 0, 0, 0, 0]);
-    chunk(b"IHDR", &ihdr);
-    chunk(b"IDAT", &[0x78, 0x9c, 0x63, 0x00, 0x00]);
-    chunk(b"IEND", &[]);
-    out
-}
-
 #[test]
 fn a_huge_image_header_is_rejected_before_decoding() {
     let d = tmp("huge");
     // 16384 x 16384 grey: 256 MiB as stored, gigabytes once converted.
     let front = d.join("front.png");
-    std::fs::write(&front, png_header(16384, 16384)).unwrap();
+    std::fs::write(&front, lamina_leaf::testing::png_header_only(16384, 16384)).unwrap();
     let out = d.join("leaf");
     let e = prepare(&PrepareInput::new(&front, &out)).unwrap_err();
     assert!(matches!(e, LeafMapsError::BadInput { .. }), "{e}");

@@ -108,6 +108,34 @@ pub fn parse_gltf(bytes: &[u8], path: &Path, xf: &Transform) -> Result<GltfScene
 fn validate(doc: &gltf::Document) -> Result<(), String> {
     use gltf::json::validation::{Error, Validate};
     let root = doc.as_json();
+    // gltf-json's own validation indexes `accessors` with a primitive's POSITION index
+    // before checking that index (a panic found by fuzzing): check every accessor index a
+    // primitive names first.
+    let n = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let targets = prim.targets.iter().flatten().flat_map(|t| {
+                [&t.positions, &t.normals, &t.tangents]
+                    .into_iter()
+                    .flatten()
+                    .map(|i| ("targets", i.value()))
+            });
+            let named = prim
+                .attributes
+                .values()
+                .map(|i| ("attributes", i.value()))
+                .chain(prim.indices.iter().map(|i| ("indices", i.value())))
+                .chain(targets);
+            for (what, i) in named {
+                if i >= n {
+                    return Err(format!(
+                        "meshes[{m}].primitives[{p}].{what}: accessor {i} does not exist \
+                         (the file has {n})"
+                    ));
+                }
+            }
+        }
+    }
     let mut errors = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |path, error| {
         let path = path().to_string();

@@ -28,14 +28,14 @@ SEEDS=$OUT/seeds
 mkdir -p "$OUT"
 
 summary() {
-    local t=$1 log=$OUT/$1.log execs cov ft corpus crashes timeouts
-    execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | awk '{s+=$2} END {print s+0}')
-    cov=$(grep -oE '(INITED|DONE|pulse|NEW|REDUCE) +cov: [0-9]+' "$log" | awk '{print $3}' | sort -n | tail -1)
-    ft=$(grep -oE 'ft: [0-9]+' "$log" | awk '{print $2}' | sort -n | tail -1)
-    corpus=$(find "fuzz/corpus/$t" -type f | wc -l)
-    crashes=$(find "fuzz/artifacts/$t" -type f \( -name 'crash-*' -o -name 'oom-*' -o -name 'leak-*' \) | wc -l)
-    timeouts=$(find "fuzz/artifacts/$t" -type f -name 'timeout-*' | wc -l)
-    secs=$(grep -oE 'Done [0-9]+ runs in [0-9]+ second' "$log" | awk '{s+=$5} END {print s+0}')
+    local t=$1 log=$OUT/$1.log execs cov ft corpus crashes timeouts secs
+    execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | awk '{s+=$2} END {print s+0}' || true)
+    cov=$(grep -oE '(INITED|DONE|pulse|NEW|REDUCE) +cov: [0-9]+' "$log" | awk '{print $3}' | sort -n | tail -1 || true)
+    ft=$(grep -oE 'ft: [0-9]+' "$log" | awk '{print $2}' | sort -n | tail -1 || true)
+    corpus=$(find "fuzz/corpus/$t" -type f | wc -l || true)
+    crashes=$(find "fuzz/artifacts/$t" -type f \( -name 'crash-*' -o -name 'oom-*' -o -name 'leak-*' \) | wc -l || true)
+    timeouts=$(find "fuzz/artifacts/$t" -type f -name 'timeout-*' | wc -l || true)
+    secs=$(grep -oE 'Done [0-9]+ runs in [0-9]+ second' "$log" | awk '{s+=$5} END {print s+0}' || true)
     echo "| $t | $secs | ${execs:-0} | ${cov:-?} | ${ft:-?} | $corpus | $crashes | $timeouts |"
 }
 

@@ -524,3 +524,59 @@ fn instanced_plant_renders() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(d.join("out.png").exists());
 }
+
+/// The crafted files that crashed a loader on the old main (kept as the fuzz regression
+/// inputs of lamina-scene), each named by a scene given to the real binary: a clear error
+/// naming the file, exit 1, no panic, no output.
+#[test]
+fn crafted_files_that_crashed_loaders_are_errors() {
+    let regr = Path::new(env!("CARGO_MANIFEST_DIR")).join("../lamina-scene/tests/fuzz_regressions");
+    let cases = [
+        ("gltf/byte-stride-4.gltf", "gltf", "byteStride 4"),
+        ("gltf/glb-short-length.glb", "gltf", "glb-short-length.glb"),
+        (
+            "gltf/fuzz-position-accessor-missing.gltf",
+            "gltf",
+            "accessor 0 does not exist",
+        ),
+        ("obj_mtl/mtl-kd-one-number.obj", "obj", ""),
+    ];
+    for (i, (file, kind, words)) in cases.iter().enumerate() {
+        let d = scratch(&format!("crafted-{i}"));
+        let src = regr.join(file);
+        let name = src.file_name().unwrap().to_string_lossy().into_owned();
+        let bytes = std::fs::read(&src).unwrap();
+        if *kind == "obj" {
+            // The OBJ target's input carries its MTL after a `#MTL` line.
+            let text = String::from_utf8(bytes).unwrap();
+            let (obj, mtl) = text.split_once("#MTL\n").unwrap();
+            std::fs::write(d.join(&name), obj).unwrap();
+            std::fs::write(d.join("m.mtl"), mtl).unwrap();
+        } else {
+            std::fs::write(d.join(&name), bytes).unwrap();
+        }
+        let scene = write(
+            &d,
+            "s.toml",
+            &good_with(&format!(
+                "[[object]]\ntype = \"{kind}\"\nfile = \"{name}\"\n{}",
+                if *kind == "obj" {
+                    "material = \"m\"\n"
+                } else {
+                    ""
+                }
+            )),
+        );
+        let o = render(&d, &scene, &[]);
+        let err = stderr(&o);
+        assert!(!err.contains("panicked"), "{file}: panic:\n{err}");
+        if *kind == "obj" {
+            // `Kd 0.5` is valid MTL (grey): it now loads and renders.
+            assert!(o.status.success(), "{file}:\n{err}");
+            continue;
+        }
+        let mut inputs = vec!["s.toml", name.as_str()];
+        inputs.push("m.mtl");
+        assert_fails(&o, &[name.as_str(), words], &d, &inputs);
+    }
+}

@@ -82,7 +82,7 @@ pub fn load_gltf(path: &Path, xf: &Transform) -> Result<GltfScene, SceneError> {
 /// triangles (no prototypes), as when the whole file is itself one prototype.
 ///
 /// The file (and each external buffer) may have at most [`MAX_GLTF_FILE_BYTES`]; every
-/// accessor is checked before it is read (see [`crate::gltf_accessor`]); a panic inside the
+/// accessor is checked before it is read (by the crate's own checked accessor reader); a panic inside the
 /// gltf crate or an image decoder is an error naming the file.
 pub fn load_gltf_with(
     path: &Path,

@@ -2,6 +2,8 @@
 //! folders, contact sheets, screenshots and exports over folders and files a user already
 //! has.
 
+mod common;
+use common::names;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -10,23 +12,11 @@ fn lamina() -> Command {
 }
 
 fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lamina-outputs-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("outputs", name)
 }
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn names(d: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(d)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
 }
 
 fn run(args: &[&str], cwd: &Path) -> Output {

@@ -2,7 +2,7 @@
 //! procedural leaf lit from the front, the same leaf lit from behind, and a small bush lit
 //! by a low sun from behind.
 
-use crate::render_cmd::{RenderFlags, check_outputs, options, render_scene, write_result};
+use crate::render_cmd::{Outputs, RenderFlags, options, render_scene, write_result};
 use anyhow::{Context, Result};
 use glam::{Vec2, Vec3};
 use lamina_io::{FolderSpec, Replace};
@@ -27,9 +27,10 @@ pub struct DemoArgs {
     /// branches, alpha PNG) with diffuse-transmission leaves, for other renderers.
     #[arg(long, value_name = "DIR")]
     pub export_bush: Option<PathBuf>,
-    /// With --export-bush: also write into a folder that is not a bush export of lamina's,
-    /// replacing only the files the export writes and keeping every other file.
-    #[arg(long, requires = "export_bush")]
+    /// Replace an output image lamina did not write; with --export-bush, also write into a
+    /// folder that is not a bush export of lamina's, replacing only the files the export
+    /// writes and keeping every other file.
+    #[arg(long)]
     pub force: bool,
     #[command(flatten)]
     pub flags: RenderFlags,
@@ -81,14 +82,15 @@ pub fn run(args: DemoArgs) -> Result<()> {
     let leaf = demo_leaf(&args.species, 1)?;
     let spp = args.flags.spp.unwrap_or(64);
     if let Some(dir) = &args.export_bush {
-        let replace = if args.force {
-            Replace::Force
-        } else {
-            Replace::IfOurs
-        };
+        let replace = crate::output_file::replace_mode(args.force);
         return export_bush(dir, &leaf, args.size, spp, replace);
     }
-    check_outputs(&args.output)?;
+    let outputs = Outputs {
+        paths: args.output.clone(),
+        force: args.force,
+        inputs: Vec::new(),
+    };
+    outputs.check()?;
     let size = (args.size, args.size);
     let panels = [
         ("front-lit leaf", builtin::leaf_front_lit(&leaf, size, spp)),
@@ -107,7 +109,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
         image: side_by_side(&images),
         stats: outs.last().expect("three panels").stats,
     };
-    write_result(&args.output, &combined, &panels[0].1.film)
+    write_result(&outputs, &combined, &panels[0].1.film)
 }
 
 /// The files a bush export writes (and so may replace in a folder it wrote before).

@@ -3,11 +3,14 @@
 
 use anyhow::{Context, Result};
 use lamina_gpu::{ContextOptions, GpuContext, RenderSettings};
-use std::path::PathBuf;
 use std::time::Instant;
 
 /// Renders `scene` on the GPU and writes every output (already checked by the caller).
-pub fn render_gpu(scene: &lamina_scene::Scene, label: &str, outputs: &[PathBuf]) -> Result<()> {
+pub fn render_gpu(
+    scene: &lamina_scene::Scene,
+    label: &str,
+    outputs: &crate::render_cmd::Outputs,
+) -> Result<()> {
     let t = Instant::now();
     let ctx = GpuContext::headless(&ContextOptions::default())?;
     let (image, warnings) = lamina_gpu::render_scene(&ctx, scene, RenderSettings::default())

@@ -1,11 +1,11 @@
 //! `lamina leaf ...`: make leaf folders (the seven maps and `leaf.toml`) procedurally or from
 //! captures, and contact sheets of them. The work is done by `lamina-leafmaps`.
 
+use crate::output_file::{claim, files_in, replace_mode};
 use anyhow::Context;
 use lamina_leafmaps::sheet::SheetOptions;
 use lamina_leafmaps::{
-    FolderWrite, LeafSpec, PrepareInput, Replace, Species, check_leaf_folder, generate, prepare,
-    sheet,
+    FolderWrite, LeafSpec, PrepareInput, Species, check_leaf_folder, generate, prepare, sheet,
 };
 use std::path::PathBuf;
 use std::time::Instant;
@@ -90,9 +90,13 @@ pub enum LeafCommand {
     Sheet {
         /// The leaf folder (holding leaf.toml).
         dir: PathBuf,
-        /// Output image: .png or .jpg (written atomically).
+        /// Output image: .png or .jpg (written atomically). An existing file is replaced
+        /// only if lamina wrote it; see --force.
         #[arg(short, long)]
         out: PathBuf,
+        /// Replace an output file lamina did not write.
+        #[arg(long)]
+        force: bool,
         /// Tile size in pixels.
         #[arg(long, default_value_t = 256)]
         tile: u32,
@@ -106,25 +110,30 @@ fn parse_species(s: &str) -> Result<Species, String> {
     s.parse::<Species>().map_err(|e| e.to_string())
 }
 
-fn replace_mode(force: bool) -> Replace {
-    if force {
-        Replace::Force
-    } else {
-        Replace::IfOurs
-    }
-}
-
-/// A `--sheet` path must name an image type lamina writes: checked before the work.
-fn check_sheet(path: Option<&std::path::Path>) -> anyhow::Result<()> {
+/// A `--sheet` path must name an image type lamina writes and a file it may replace:
+/// checked before the work. `inputs` are the command's input files.
+fn check_sheet(
+    path: Option<&std::path::Path>,
+    force: bool,
+    inputs: &[PathBuf],
+) -> anyhow::Result<()> {
     if let Some(p) = path {
         lamina_io::image_out::format_for(p).context("--sheet")?;
+        claim(p, force, inputs).context("--sheet")?;
     }
     Ok(())
 }
 
-fn write_sheet(dir: &std::path::Path, out: &std::path::Path) -> anyhow::Result<()> {
-    sheet(dir, out, &SheetOptions::default())
-        .with_context(|| format!("contact sheet of '{}'", dir.display()))?;
+/// Writes the contact sheet of leaf folder `dir` to `out`, which may not be one of the
+/// folder's files and, unless `force`, must be absent or lamina's.
+fn write_sheet(
+    dir: &std::path::Path,
+    out: &std::path::Path,
+    options: &SheetOptions,
+    force: bool,
+) -> anyhow::Result<()> {
+    claim(out, force, &files_in(dir))?;
+    sheet(dir, out, options).with_context(|| format!("contact sheet of '{}'", dir.display()))?;
     eprintln!("wrote {}", out.display());
     Ok(())
 }
@@ -148,7 +157,7 @@ pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
             // Refuse before the work, not after it.
             check_leaf_folder(&out, &how)
                 .with_context(|| format!("writing leaf folder '{}'", out.display()))?;
-            check_sheet(sheet_png.as_deref())?;
+            check_sheet(sheet_png.as_deref(), force, &[])?;
             let leaf = generate(&LeafSpec::new(species, seed, resolution));
             let (w, h) = leaf.planes.size();
             leaf.write_folder_with(&out, &how)
@@ -161,7 +170,7 @@ pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
                 t.elapsed().as_secs_f64()
             );
             if let Some(p) = sheet_png {
-                write_sheet(&out, &p)?;
+                write_sheet(&out, &p, &SheetOptions::default(), force)?;
             }
         }
         LeafCommand::Prepare {
@@ -180,7 +189,6 @@ pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
             sheet: sheet_png,
         } => {
             let t = Instant::now();
-            check_sheet(sheet_png.as_deref())?;
             let mut input = PrepareInput::new(front, &out);
             input.back = back;
             input.translucency = translucency;
@@ -194,6 +202,7 @@ pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
             if let Some(s) = species {
                 input.params = s.params();
             }
+            check_sheet(sheet_png.as_deref(), force, &input.input_files())?;
             let r = prepare(&input).context("lamina leaf prepare")?;
             for w in &r.warnings {
                 eprintln!("warning: {w}");
@@ -208,25 +217,21 @@ pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
                 t.elapsed().as_secs_f64()
             );
             if let Some(p) = sheet_png {
-                write_sheet(&out, &p)?;
+                write_sheet(&out, &p, &SheetOptions::default(), force)?;
             }
         }
         LeafCommand::Sheet {
             dir,
             out,
+            force,
             tile,
             backlit_exposure,
         } => {
-            sheet(
-                &dir,
-                &out,
-                &SheetOptions {
-                    tile,
-                    backlit_exposure,
-                },
-            )
-            .with_context(|| format!("contact sheet of '{}'", dir.display()))?;
-            eprintln!("wrote {}", out.display());
+            let options = SheetOptions {
+                tile,
+                backlit_exposure,
+            };
+            write_sheet(&dir, &out, &options, force)?;
         }
     }
     Ok(())

@@ -12,6 +12,7 @@ mod demo;
 mod gpu_cmd;
 mod interrupted;
 mod leaf_cmd;
+mod output_file;
 mod plant_cmd;
 mod render_cmd;
 mod view_cmd;

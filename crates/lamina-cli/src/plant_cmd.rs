@@ -49,9 +49,13 @@ pub struct PlantGenerateArgs {
     /// How far leaf tips droop, 0-1.
     #[arg(long)]
     pub gravitropism: Option<f32>,
-    /// Output file (.glb), written atomically.
+    /// Output file (.glb), written atomically. An existing file is replaced only if lamina
+    /// wrote it; see --force.
     #[arg(short, long)]
     pub out: PathBuf,
+    /// Replace an output file lamina did not write.
+    #[arg(long)]
+    pub force: bool,
 }
 
 fn parse_kind(s: &str) -> Result<PlantKind, String> {
@@ -124,6 +128,8 @@ pub fn params_from_args(args: &PlantGenerateArgs) -> anyhow::Result<PlantParams>
 /// writes the GLB.
 pub fn run_generate(args: PlantGenerateArgs) -> anyhow::Result<()> {
     let params = params_from_args(&args)?;
+    // Refuse before the work (and again just before writing, below).
+    crate::output_file::claim(&args.out, args.force, &[])?;
     let plant = generate_plant(&params)?;
     let s = &plant.stats;
     eprintln!(
@@ -144,6 +150,7 @@ pub fn run_generate(args: PlantGenerateArgs) -> anyhow::Result<()> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create '{}'", dir.display()))?;
     }
+    crate::output_file::claim(&args.out, args.force, &[])?;
     write_glb(&plant, &args.out)?;
     eprintln!("wrote {}", args.out.display());
     Ok(())

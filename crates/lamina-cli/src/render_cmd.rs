@@ -45,12 +45,17 @@ pub struct RenderArgs {
     /// GPU) instead of the offline path tracer. Same film size, exposure and tone map.
     #[arg(long)]
     pub gpu: bool,
+    /// Replace an output file that lamina did not write (without it, such a file is kept
+    /// and the render refused; lamina's own earlier outputs are always replaced).
+    #[arg(long)]
+    pub force: bool,
     #[command(flatten)]
     pub flags: RenderFlags,
 }
 
-/// Checks output paths before any work: known extension, existing directory.
-pub fn check_outputs(outputs: &[PathBuf]) -> Result<()> {
+/// Checks output paths before any work: known extension, existing directory, and a file
+/// already there only when lamina wrote it or `force` ([`crate::output_file::claim`]).
+pub fn check_outputs(outputs: &[PathBuf], force: bool, inputs: &[PathBuf]) -> Result<()> {
     for out in outputs {
         let ext = out
             .extension()
@@ -77,6 +82,7 @@ pub fn check_outputs(outputs: &[PathBuf]) -> Result<()> {
         if out.is_dir() {
             bail!("output '{}' is a folder: name an image file", out.display());
         }
+        crate::output_file::claim(out, force, inputs)?;
     }
     Ok(())
 }
@@ -177,9 +183,29 @@ pub fn print_summary(label: &str, s: &RenderStats, width: u32, height: u32) {
     );
 }
 
-/// Writes `image` to every output.
-pub fn write_all(outputs: &[PathBuf], image: &Image, film: &Film) -> Result<()> {
-    for out in outputs {
+/// Where a render's image goes: the files, `--force`, and the command's inputs (which are
+/// never overwritten).
+#[derive(Clone, Debug, Default)]
+pub struct Outputs {
+    /// The image files (`.png`, `.exr`).
+    pub paths: Vec<PathBuf>,
+    /// `--force`: replace files lamina did not write.
+    pub force: bool,
+    /// The command's input files.
+    pub inputs: Vec<PathBuf>,
+}
+
+impl Outputs {
+    /// [`check_outputs`] of these outputs.
+    pub fn check(&self) -> Result<()> {
+        check_outputs(&self.paths, self.force, &self.inputs)
+    }
+}
+
+/// Writes `image` to every output, each checked again just before it is written.
+pub fn write_all(outputs: &Outputs, image: &Image, film: &Film) -> Result<()> {
+    for out in &outputs.paths {
+        crate::output_file::claim(out, outputs.force, &outputs.inputs)?;
         lamina_render::write_image(out, image, film)
             .with_context(|| format!("writing '{}'", out.display()))?;
         eprintln!("wrote {}", out.display());
@@ -189,7 +215,7 @@ pub fn write_all(outputs: &[PathBuf], image: &Image, film: &Film) -> Result<()> 
 
 /// After a render that Ctrl-C may have stopped: writes the image if it holds at least one
 /// completed pass, and returns [`Interrupted`] (exit code 130) if Ctrl-C was pressed.
-pub fn write_result(outputs: &[PathBuf], out: &RenderOutput, film: &Film) -> Result<()> {
+pub fn write_result(outputs: &Outputs, out: &RenderOutput, film: &Film) -> Result<()> {
     let s = &out.stats;
     if !interrupt::interrupted() {
         return write_all(outputs, &out.image, film);
@@ -207,7 +233,7 @@ pub fn write_result(outputs: &[PathBuf], out: &RenderOutput, film: &Film) -> Res
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
-    let outputs = if args.output.is_empty() {
+    let paths = if args.output.is_empty() {
         let stem = args
             .scene
             .file_stem()
@@ -217,7 +243,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
     } else {
         args.output.clone()
     };
-    check_outputs(&outputs)?;
+    let outputs = Outputs {
+        paths,
+        force: args.force,
+        inputs: vec![args.scene.clone()],
+    };
+    outputs.check()?;
     if !args.flags.quiet && !std::io::stderr().is_terminal() {
         eprintln!("loading {}", args.scene.display());
     }

@@ -42,6 +42,9 @@ pub struct ViewArgs {
     /// On exit, save the last frame (tone-mapped, with the overlay) as PNG.
     #[arg(long, value_name = "PNG")]
     pub screenshot: Option<PathBuf>,
+    /// Replace a --screenshot file lamina did not write.
+    #[arg(long, requires = "screenshot")]
+    pub force: bool,
     /// Orbit the sun around the plant at this many degrees per second from the start.
     #[arg(long, default_value_t = 0.0)]
     pub sun_speed: f32,
@@ -328,6 +331,7 @@ impl Viewer {
             .render_screenshot(&view, &s.film, Some(&overlay))?;
         let img =
             image::RgbaImage::from_raw(view.width, view.height, rgba).context("screenshot size")?;
+        crate::output_file::claim(path, self.args.force, &[]).context("--screenshot")?;
         lamina_io::save_image(path, &img)
             .with_context(|| format!("writing the screenshot '{}'", path.display()))?;
         eprintln!(
@@ -449,6 +453,7 @@ impl ApplicationHandler for Viewer {
 pub fn run(args: ViewArgs) -> Result<()> {
     if let Some(p) = &args.screenshot {
         lamina_io::image_out::format_for(p).context("--screenshot")?;
+        crate::output_file::claim(p, args.force, &[]).context("--screenshot")?;
     }
     let scene = load_view_scene(&args.scene, (args.width, args.height))?;
     let event_loop = EventLoop::new().map_err(|e| {

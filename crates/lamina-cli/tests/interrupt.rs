@@ -104,7 +104,18 @@ impl Running {
     }
 }
 
-const OLD_PNG: &[u8] = b"not really a png: the user's previous render";
+/// The user's previous render: an image lamina wrote (so a new render may replace it).
+fn old_png() -> Vec<u8> {
+    let pixels = vec![90u8; 4 * 4 * 3];
+    lamina_io::image_out::encode(
+        Path::new("old.png"),
+        &pixels,
+        4,
+        4,
+        image::ExtendedColorType::Rgb8,
+    )
+    .unwrap()
+}
 
 fn camera_and_sky(width: u32, height: u32, spp: u32, depth: u32) -> String {
     format!(
@@ -181,7 +192,7 @@ leaf_resolution = 64
 fn setup(name: &str, scene: &str) -> PathBuf {
     let d = scratch(name);
     std::fs::write(d.join("s.toml"), scene).unwrap();
-    std::fs::write(d.join("out.png"), OLD_PNG).unwrap();
+    std::fs::write(d.join("out.png"), old_png()).unwrap();
     d
 }
 
@@ -191,7 +202,7 @@ fn assert_interrupted_untouched(d: &Path, status: ExitStatus, log: &str) {
     assert!(log.contains("interrupted"), "{log}");
     assert_eq!(
         std::fs::read(d.join("out.png")).unwrap(),
-        OLD_PNG,
+        old_png(),
         "out.png changed:\n{log}"
     );
     assert_eq!(names(d), ["out.png", "s.toml"], "files left behind:\n{log}");
@@ -283,7 +294,7 @@ fn a_second_ctrl_c_quits_at_once() {
     // temporary file is left.
     let bytes = std::fs::read(d.join("out.png")).unwrap();
     assert!(
-        bytes == OLD_PNG || image::load_from_memory(&bytes).is_ok(),
+        bytes == old_png() || image::load_from_memory(&bytes).is_ok(),
         "{log}"
     );
     assert_eq!(names(&d), ["out.png", "s.toml"], "{log}");
@@ -305,7 +316,7 @@ fn ctrl_c_during_leaf_generate_leaves_no_folder() {
 #[test]
 fn ctrl_c_during_the_demo_first_panels_writes_nothing() {
     let d = scratch("demo");
-    std::fs::write(d.join("demo.png"), OLD_PNG).unwrap();
+    std::fs::write(d.join("demo.png"), old_png()).unwrap();
     let r = Running::start(&["demo", "--size", "96", "--spp", "1024"], &d);
     // The second panel: panel 1's handler problem of old would make this one unstoppable.
     r.wait_for("back-lit leaf: pass 2/", Duration::from_secs(120));
@@ -313,6 +324,6 @@ fn ctrl_c_during_the_demo_first_panels_writes_nothing() {
     let (status, took, log) = r.finish(Duration::from_secs(30));
     assert_eq!(status.code(), Some(130), "{log}");
     assert!(took < Duration::from_secs(2), "took {took:?}:\n{log}");
-    assert_eq!(std::fs::read(d.join("demo.png")).unwrap(), OLD_PNG);
+    assert_eq!(std::fs::read(d.join("demo.png")).unwrap(), old_png());
     assert_eq!(names(&d), ["demo.png"]);
 }

@@ -282,3 +282,212 @@ fn demo_export_refuses_a_foreign_folder_and_replaces_its_own() {
             .starts_with("# The lamina demo bush")
     );
 }
+
+/// A tiny scene that renders in a moment.
+fn tiny_scene(root: &Path) {
+    std::fs::write(
+        root.join("s.toml"),
+        "[camera]\nposition = [0, 0, 1]\nlook_at = [0, 0, 0]\n[film]\nwidth = 8\nheight = 8\nspp = 1\n\
+         [sky]\ntype = \"constant\"\nradiance = 0.5\n",
+    )
+    .unwrap();
+}
+
+fn is_lamina_file(p: &Path) -> bool {
+    lamina_io::file_state(p).unwrap() == lamina_io::FileState::Ours
+}
+
+#[test]
+fn render_replaces_its_own_images_but_not_a_users_file() {
+    let root = scratch("render-files");
+    tiny_scene(&root);
+    leaf_photo(&root.join("photo.png"));
+    let photo = std::fs::read(root.join("photo.png")).unwrap();
+    // Another program's EXR (the image crate writes no software attribute).
+    image::Rgb32FImage::new(4, 4)
+        .save(root.join("theirs.exr"))
+        .unwrap();
+    let theirs = std::fs::read(root.join("theirs.exr")).unwrap();
+
+    for (out, before) in [("photo.png", &photo), ("theirs.exr", &theirs)] {
+        let o = run(&["render", "s.toml", "-o", out, "-q"], &root);
+        assert_refused(&o, &[out, "not written by lamina", "--force"]);
+        assert_eq!(&std::fs::read(root.join(out)).unwrap(), before, "{out}");
+        // The GPU path checks before it looks for a GPU.
+        let o = run(&["render", "s.toml", "--gpu", "-o", out, "-q"], &root);
+        assert_refused(&o, &[out, "not written by lamina"]);
+        assert_eq!(&std::fs::read(root.join(out)).unwrap(), before, "{out}");
+    }
+    // Refused before the work: with two outputs, the good one is not written either.
+    let o = run(
+        &["render", "s.toml", "-o", "new.png", "-o", "photo.png", "-q"],
+        &root,
+    );
+    assert_refused(&o, &["photo.png"]);
+    assert_eq!(names(&root), ["photo.png", "s.toml", "theirs.exr"]);
+
+    // lamina's own images, PNG and EXR, carry the mark and are replaced without --force.
+    for _ in 0..2 {
+        let o = run(
+            &["render", "s.toml", "-o", "r.png", "-o", "r.exr", "-q"],
+            &root,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(is_lamina_file(&root.join("r.png")));
+        assert!(is_lamina_file(&root.join("r.exr")));
+    }
+    assert_eq!(image::open(root.join("r.exr")).unwrap().width(), 8);
+
+    // --force replaces the user's file, with a lamina image (which later runs may replace).
+    let o = run(
+        &["render", "s.toml", "-o", "photo.png", "--force", "-q"],
+        &root,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(image::open(root.join("photo.png")).unwrap().width(), 8);
+    assert!(is_lamina_file(&root.join("photo.png")));
+    let o = run(&["render", "s.toml", "-o", "photo.png", "-q"], &root);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        names(&root),
+        ["photo.png", "r.exr", "r.png", "s.toml", "theirs.exr"]
+    );
+}
+
+#[test]
+fn sheets_glb_screenshots_and_the_demo_refuse_a_users_file() {
+    let root = scratch("other-files");
+    leaf_photo(&root.join("photo.jpg"));
+    std::fs::write(
+        root.join("tree.glb"),
+        "not lamina's: a model from elsewhere",
+    )
+    .unwrap();
+    let o = run(&["leaf", "generate", "-r", "64", "-o", "leaf"], &root);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let kept = |name: &str, before: &[u8]| {
+        assert_eq!(std::fs::read(root.join(name)).unwrap(), before, "{name}");
+    };
+    let photo = std::fs::read(root.join("photo.jpg")).unwrap();
+    let model = std::fs::read(root.join("tree.glb")).unwrap();
+
+    // Contact sheets: -o, and --sheet of generate (checked before generating).
+    let o = run(&["leaf", "sheet", "leaf", "-o", "photo.jpg"], &root);
+    assert_refused(&o, &["photo.jpg", "not written by lamina"]);
+    let o = run(
+        &[
+            "leaf",
+            "generate",
+            "-r",
+            "64",
+            "-o",
+            "leaf2",
+            "--sheet",
+            "photo.jpg",
+        ],
+        &root,
+    );
+    assert_refused(&o, &["photo.jpg"]);
+    assert!(!root.join("leaf2").exists());
+    kept("photo.jpg", &photo);
+    // A leaf map is the sheet's input: never overwritten, not even with --force.
+    let front = std::fs::read(root.join("leaf/front.png")).unwrap();
+    let o = run(
+        &["leaf", "sheet", "leaf", "-o", "leaf/front.png", "--force"],
+        &root,
+    );
+    assert_refused(&o, &["leaf/front.png", "inputs"]);
+    kept("leaf/front.png", &front);
+    for _ in 0..2 {
+        let o = run(
+            &["leaf", "sheet", "leaf", "-o", "sheet.png", "--tile", "32"],
+            &root,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert!(is_lamina_file(&root.join("sheet.png")));
+
+    // Plants: refused before growing.
+    let plant = |out: &str, force: bool| {
+        let mut a = vec![
+            "plant",
+            "generate",
+            "-n",
+            "50",
+            "--variants",
+            "1",
+            "--leaf-resolution",
+            "32",
+            "-o",
+            out,
+        ];
+        if force {
+            a.push("--force");
+        }
+        run(&a, &root)
+    };
+    let o = plant("tree.glb", false);
+    assert_refused(&o, &["tree.glb", "not written by lamina"]);
+    assert!(!stderr(&o).contains("leaves in"), "grew the plant first");
+    kept("tree.glb", &model);
+    for _ in 0..2 {
+        let o = plant("bush.glb", false);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert!(is_lamina_file(&root.join("bush.glb")));
+
+    // Screenshots and the demo image: refused before a window or a render.
+    let o = run(
+        &[
+            "view",
+            "demo:front",
+            "--frames",
+            "1",
+            "--screenshot",
+            "photo.jpg",
+        ],
+        &root,
+    );
+    assert_refused(&o, &["photo.jpg", "not written by lamina"]);
+    kept("photo.jpg", &photo);
+    leaf_photo(&root.join("photo.png"));
+    let png = std::fs::read(root.join("photo.png")).unwrap();
+    let o = run(
+        &["demo", "--size", "16", "--spp", "1", "-o", "photo.png"],
+        &root,
+    );
+    assert_refused(&o, &["photo.png", "not written by lamina"]);
+    assert!(!stderr(&o).contains("spp"), "rendered first");
+    kept("photo.png", &png);
+
+    // --force replaces the user's file.
+    let o = plant("tree.glb", true);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(is_lamina_file(&root.join("tree.glb")));
+    let o = run(
+        &[
+            "leaf",
+            "sheet",
+            "leaf",
+            "-o",
+            "photo.jpg",
+            "--force",
+            "--tile",
+            "32",
+        ],
+        &root,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(is_lamina_file(&root.join("photo.jpg")));
+    assert_eq!(
+        names(&root),
+        [
+            "bush.glb",
+            "leaf",
+            "photo.jpg",
+            "photo.png",
+            "sheet.png",
+            "tree.glb"
+        ]
+    );
+}

@@ -6,7 +6,8 @@
 //! the chosen encoder cannot store (16-bit JPEG) or a failed encode is an error naming the
 //! file, with no file left behind and an existing file untouched.
 //!
-//! The types lamina writes: `.png`, `.jpg`/`.jpeg` and `.exr`.
+//! The types lamina writes: `.png`, `.jpg`/`.jpeg` and `.exr`, each with lamina's mark
+//! ([`crate::owned`]), so a later run knows it may replace the file.
 
 use crate::atomic::{WriteError, write_bytes};
 use image::{ExtendedColorType, ImageFormat};
@@ -55,7 +56,9 @@ pub fn format_for(path: &Path) -> Result<ImageFormat, ImageOutError> {
 }
 
 /// Encodes raw pixels (`color` says their layout, rows top first) in memory with the
-/// encoder of `path`'s type.
+/// encoder of `path`'s type, with lamina's mark ([`crate::owned`]): PNG and JPEG through
+/// the `image` encoders, OpenEXR (32-bit float RGB or RGBA) through `exr` so that the
+/// header can carry its `software` attribute.
 pub fn encode(
     path: &Path,
     pixels: &[u8],
@@ -64,17 +67,91 @@ pub fn encode(
     color: ExtendedColorType,
 ) -> Result<Vec<u8>, ImageOutError> {
     let format = format_for(path)?;
+    let encode_error = |source| ImageOutError::Encode {
+        path: path.to_owned(),
+        source,
+    };
+    if format == ImageFormat::OpenExr {
+        return encode_exr(pixels, width, height, color).map_err(encode_error);
+    }
     let mut bytes = Cursor::new(Vec::new());
-    image::write_buffer_with_format(&mut bytes, pixels, width, height, color, format).map_err(
-        |source| ImageOutError::Encode {
-            path: path.to_owned(),
-            source,
-        },
-    )?;
+    image::write_buffer_with_format(&mut bytes, pixels, width, height, color, format)
+        .map_err(encode_error)?;
+    Ok(crate::owned::mark_encoded(bytes.into_inner()))
+}
+
+/// OpenEXR bytes of float RGB(A) pixels, lossless (the `exr` crate's fast lossless
+/// compression), with `software` = [`crate::owned::GENERATOR`].
+fn encode_exr(
+    pixels: &[u8],
+    width: u32,
+    height: u32,
+    color: ExtendedColorType,
+) -> Result<Vec<u8>, image::ImageError> {
+    use exr::prelude::{
+        Encoding, Image, Layer, LayerAttributes, SpecificChannels, Vec2, WritableImage,
+    };
+    let channels = match color {
+        ExtendedColorType::Rgb32F => 3,
+        ExtendedColorType::Rgba32F => 4,
+        other => {
+            return Err(image::ImageError::Unsupported(
+                image::error::UnsupportedError::from_format_and_kind(
+                    ImageFormat::OpenExr.into(),
+                    image::error::UnsupportedErrorKind::Color(other),
+                ),
+            ));
+        }
+    };
+    let (w, h) = (width as usize, height as usize);
+    if pixels.len() != w * h * channels * 4 {
+        return Err(image::ImageError::Parameter(
+            image::error::ParameterError::from_kind(
+                image::error::ParameterErrorKind::DimensionMismatch,
+            ),
+        ));
+    }
+    let sample = |Vec2(x, y): Vec2<usize>, c: usize| {
+        let at = ((y * w + x) * channels + c) * 4;
+        f32::from_ne_bytes(pixels[at..at + 4].try_into().expect("4 bytes"))
+    };
+    let attributes = LayerAttributes {
+        software_name: Some(crate::owned::GENERATOR.into()),
+        ..LayerAttributes::default()
+    };
+    let to_image_error = |e: exr::error::Error| {
+        image::ImageError::Encoding(image::error::EncodingError::new(
+            ImageFormat::OpenExr.into(),
+            e,
+        ))
+    };
+    let mut bytes = Cursor::new(Vec::new());
+    if channels == 3 {
+        let rgb =
+            SpecificChannels::rgb(|p: Vec2<usize>| (sample(p, 0), sample(p, 1), sample(p, 2)));
+        Image::from_layer(Layer::new((w, h), attributes, Encoding::FAST_LOSSLESS, rgb))
+            .write()
+            .to_buffered(&mut bytes)
+            .map_err(to_image_error)?;
+    } else {
+        let rgba = SpecificChannels::rgba(|p: Vec2<usize>| {
+            (sample(p, 0), sample(p, 1), sample(p, 2), sample(p, 3))
+        });
+        Image::from_layer(Layer::new(
+            (w, h),
+            attributes,
+            Encoding::FAST_LOSSLESS,
+            rgba,
+        ))
+        .write()
+        .to_buffered(&mut bytes)
+        .map_err(to_image_error)?;
+    }
     Ok(bytes.into_inner())
 }
 
-/// Saves raw pixels to `path` (type from the extension), atomically; see the module docs.
+/// Saves raw pixels to `path` (type from the extension), atomically, with lamina's mark;
+/// see the module docs.
 pub fn save_pixels(
     path: &Path,
     pixels: &[u8],
@@ -87,7 +164,7 @@ pub fn save_pixels(
 }
 
 /// Saves an image buffer (e.g. `RgbImage`, `GrayImage`, a 16-bit grey buffer,
-/// `Rgb32FImage`) to `path`, atomically; see the module docs.
+/// `Rgb32FImage`) to `path`, atomically, with lamina's mark; see the module docs.
 pub fn save_image<P>(
     path: &Path,
     image: &image::ImageBuffer<P, Vec<P::Subpixel>>,
@@ -96,15 +173,14 @@ where
     P: image::PixelWithColorType,
     [P::Subpixel]: image::EncodableLayout,
 {
-    let format = format_for(path)?;
-    let mut bytes = Cursor::new(Vec::new());
-    image
-        .write_to(&mut bytes, format)
-        .map_err(|source| ImageOutError::Encode {
-            path: path.to_owned(),
-            source,
-        })?;
-    Ok(write_bytes(path, &bytes.into_inner())?)
+    use image::EncodableLayout;
+    save_pixels(
+        path,
+        image.as_raw().as_bytes(),
+        image.width(),
+        image.height(),
+        P::COLOR_TYPE,
+    )
 }
 
 #[cfg(test)]
@@ -165,5 +241,31 @@ mod tests {
         });
         save_image(&d.join("c.exr"), &f).unwrap();
         assert_eq!(image::open(d.join("c.exr")).unwrap().to_rgb32f(), f);
+        let fa = image::Rgba32FImage::from_fn(3, 2, |x, y| {
+            image::Rgba([x as f32 * 0.25, y as f32 + 0.5, 3.0, 0.5])
+        });
+        save_image(&d.join("d.exr"), &fa).unwrap();
+        assert_eq!(image::open(d.join("d.exr")).unwrap().to_rgba32f(), fa);
+        // Every one carries the mark; the EXR's is the header's `software` attribute, as
+        // another EXR reader sees it.
+        for name in ["a.PNG", "b.png", "c.exr", "d.exr"] {
+            assert_eq!(
+                crate::owned::file_state(&d.join(name)).unwrap(),
+                crate::owned::FileState::Ours,
+                "{name}"
+            );
+        }
+        let meta = exr::meta::MetaData::read_from_file(d.join("c.exr"), false).unwrap();
+        assert_eq!(
+            meta.headers[0].own_attributes.software_name,
+            Some(crate::owned::GENERATOR.into())
+        );
+        let jpg = d.join("e.jpg");
+        save_image(&jpg, &rgb).unwrap();
+        assert_eq!(image::open(&jpg).unwrap().to_rgb8().dimensions(), (3, 2));
+        assert_eq!(
+            crate::owned::file_state(&jpg).unwrap(),
+            crate::owned::FileState::Ours
+        );
     }
 }

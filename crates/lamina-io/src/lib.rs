@@ -8,6 +8,9 @@
 //! * [`folder`]: output folders (a leaf folder, an exported scene) are replaced only when
 //!   lamina wrote them and they hold nothing else, or with an explicit `--force` that keeps
 //!   the user's other files; an output never overwrites one of the command's inputs.
+//! * [`owned`]: every file lamina writes carries a mark (PNG `tEXt`, JPEG comment, EXR
+//!   `software`, GLB `asset.generator`); a named output file is replaced only when it has
+//!   the mark, or with `--force`, and never when it is one of the command's inputs.
 //! * [`interrupt`]: one Ctrl-C handler per process and one rule for what Ctrl-C means.
 //!
 //! The rules these implement are stated once, in ARCHITECTURE.md ("Output and
@@ -20,7 +23,9 @@ pub mod atomic;
 pub mod folder;
 pub mod image_out;
 pub mod interrupt;
+pub mod owned;
 
 pub use atomic::{WriteError, write_bytes, write_file};
 pub use folder::{FolderError, FolderSpec, FolderState, Replace, Staged, check_folder, stage};
 pub use image_out::{ImageOutError, save_image};
+pub use owned::{FileError, FileState, GENERATOR, check_file, file_state};

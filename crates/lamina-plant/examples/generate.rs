@@ -3,6 +3,9 @@
 
 use clap::Parser;
 
+#[path = "../../lamina-cli/src/output_file.rs"]
+#[allow(dead_code)]
+mod output_file;
 #[path = "../../lamina-cli/src/plant_cmd.rs"]
 mod plant_cmd;
 

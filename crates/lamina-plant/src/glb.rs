@@ -264,7 +264,7 @@ pub fn write_glb(plant: &Plant, path: &Path) -> Result<(), PlantError> {
         b.bin.push(0);
     }
     let doc = json!({
-        "asset": {"version": "2.0", "generator": "lamina-plant"},
+        "asset": {"version": "2.0", "generator": lamina_io::GENERATOR},
         "extensionsUsed": ["KHR_materials_diffuse_transmission"],
         "scene": 0,
         "scenes": [{"name": "plant", "nodes": (0..nodes.len()).collect::<Vec<_>>()}],

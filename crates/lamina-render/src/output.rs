@@ -10,7 +10,8 @@
 //!
 //!   then the sRGB transfer curve (IEC 61966-2-1) and rounding to 8 bits. NaNs become 0.
 //!
-//! Both are encoded in memory and then written atomically by [`lamina_io::write_bytes`]
+//! Both carry lamina's mark (PNG `tEXt Software`, EXR `software`; see `lamina_io::owned`),
+//! are encoded in memory and then written atomically by [`lamina_io::write_bytes`]
 //! (a temporary file in the target's folder, synced, renamed over the target): on any
 //! failure no output file appears and an existing one is untouched.
 
@@ -79,24 +80,30 @@ pub fn write_image(path: &Path, image: &Image, film: &Film) -> Result<(), Render
             height: h,
         });
     }
-    // Encode in memory first: a failed encode must leave no file behind.
-    let mut bytes = std::io::Cursor::new(Vec::new());
-    let encoded = match format {
-        image::ImageFormat::OpenExr => {
-            let data: Vec<f32> = image.pixels.iter().flat_map(|p| p.to_array()).collect();
-            image::Rgb32FImage::from_raw(w, h, data)
-                .expect("size checked above")
-                .write_to(&mut bytes, format)
-        }
-        _ => image::RgbImage::from_raw(w, h, to_srgb8(image, film))
-            .expect("size checked above")
-            .write_to(&mut bytes, format),
+    // Encode in memory first (with lamina's mark, so a later render may replace the file):
+    // a failed encode must leave no file behind.
+    let (pixels, color) = match format {
+        image::ImageFormat::OpenExr => (
+            image
+                .pixels
+                .iter()
+                .flat_map(|p| p.to_array())
+                .flat_map(f32::to_ne_bytes)
+                .collect(),
+            image::ExtendedColorType::Rgb32F,
+        ),
+        _ => (to_srgb8(image, film), image::ExtendedColorType::Rgb8),
     };
-    encoded.map_err(|source| RenderError::Encode {
-        path: path.to_owned(),
-        source,
+    let bytes = lamina_io::image_out::encode(path, &pixels, w, h, color).map_err(|e| match e {
+        lamina_io::ImageOutError::Encode { source, .. } => RenderError::Encode {
+            path: path.to_owned(),
+            source,
+        },
+        _ => RenderError::UnsupportedFormat {
+            path: path.to_owned(),
+        },
     })?;
-    lamina_io::write_bytes(path, &bytes.into_inner()).map_err(|e| RenderError::Io {
+    lamina_io::write_bytes(path, &bytes).map_err(|e| RenderError::Io {
         path: path.to_owned(),
         what: e.what,
         source: e.source,

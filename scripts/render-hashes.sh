@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Renders the example and gallery scenes, the demo and the GPU path at low sample counts and
-# prints one SHA-256 per image: run it before and after a change that must not change
-# behaviour (a refactor) and diff the two lists. The EXRs are the linear float film, so
-# equal hashes mean bit-identical renders.
+# prints one hash of each image's decoded pixels (and the SHA-256 of each file): run it
+# before and after a change that must not change behaviour (a refactor) and diff the two
+# lists. The EXRs are the linear float film, so equal pixel hashes mean bit-identical
+# renders.
 #   scripts/render-hashes.sh OUT_DIR > hashes.txt
 #   SKIP_GPU=1 scripts/render-hashes.sh OUT_DIR    without the GPU path (no Vulkan)
 set -euo pipefail
@@ -10,7 +11,8 @@ cd "$(dirname "$0")/.."
 out=${1:?usage: scripts/render-hashes.sh OUT_DIR}
 mkdir -p "$out"
 cargo build --release -q -p lamina-cli
-lamina=$PWD/target/release/lamina
+cargo build --release -q -p lamina-io --example pixel_hash
+lamina=${CARGO_TARGET_DIR:-$PWD/target}/release/lamina
 flags=(--spp 4 --threads 2 --quiet --force)
 for scene in examples/*.toml examples/gallery/*.toml; do
   name=$(basename "$scene" .toml)
@@ -24,4 +26,5 @@ if [[ -z ${SKIP_GPU:-} ]]; then
     "$lamina" render "$scene" --gpu -o "$out/gpu_$name.png" --quiet --force
   done
 fi
-(cd "$out" && sha256sum -- *.exr *.png)
+pixel_hash=${CARGO_TARGET_DIR:-$PWD/target}/release/examples/pixel_hash
+(cd "$out" && "$pixel_hash" *.exr *.png && sha256sum -- *.exr *.png)

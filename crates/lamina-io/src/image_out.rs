@@ -80,8 +80,8 @@ pub fn encode(
     Ok(crate::owned::mark_encoded(bytes.into_inner()))
 }
 
-/// OpenEXR bytes of float RGB(A) pixels, lossless (the `exr` crate's fast lossless
-/// compression), with `software` = [`crate::owned::GENERATOR`].
+/// OpenEXR bytes of float RGB(A) pixels, lossless (RLE in 64x64 tiles, written in
+/// increasing order so the bytes depend on the pixels only), with `software` = [`crate::owned::GENERATOR`].
 fn encode_exr(
     pixels: &[u8],
     width: u32,
@@ -89,7 +89,14 @@ fn encode_exr(
     color: ExtendedColorType,
 ) -> Result<Vec<u8>, image::ImageError> {
     use exr::prelude::{
-        Encoding, Image, Layer, LayerAttributes, SpecificChannels, Vec2, WritableImage,
+        Encoding, Image, Layer, LayerAttributes, LineOrder, SpecificChannels, Vec2, WritableImage,
+    };
+    // Blocks in increasing order: the encoder compresses them in parallel, and with an
+    // unspecified order it writes them as they finish, so the same image would give
+    // different bytes from run to run.
+    let encoding = Encoding {
+        line_order: LineOrder::Increasing,
+        ..Encoding::FAST_LOSSLESS
     };
     let channels = match color {
         ExtendedColorType::Rgb32F => 3,
@@ -129,7 +136,7 @@ fn encode_exr(
     if channels == 3 {
         let rgb =
             SpecificChannels::rgb(|p: Vec2<usize>| (sample(p, 0), sample(p, 1), sample(p, 2)));
-        Image::from_layer(Layer::new((w, h), attributes, Encoding::FAST_LOSSLESS, rgb))
+        Image::from_layer(Layer::new((w, h), attributes, encoding, rgb))
             .write()
             .to_buffered(&mut bytes)
             .map_err(to_image_error)?;
@@ -222,6 +229,33 @@ mod tests {
         assert!(matches!(e, ImageOutError::Encode { .. }), "{e}");
         assert_eq!(std::fs::read(&p).unwrap(), b"old");
         assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn the_same_image_gives_the_same_bytes() {
+        // Large enough for many tiles compressed in parallel.
+        let f = image::Rgb32FImage::from_fn(700, 500, |x, y| {
+            image::Rgb([(x * y % 97) as f32 * 0.01, (x % 13) as f32, y as f32 * 1e-3])
+        });
+        let bytes = |_| {
+            encode(
+                Path::new("a.exr"),
+                bytemuck_bytes(&f),
+                700,
+                500,
+                ExtendedColorType::Rgb32F,
+            )
+            .unwrap()
+        };
+        let first = bytes(0);
+        for i in 1..4 {
+            assert!(bytes(i) == first, "run {i} gave other bytes");
+        }
+    }
+
+    fn bytemuck_bytes(f: &image::Rgb32FImage) -> &[u8] {
+        use image::EncodableLayout;
+        f.as_raw().as_bytes()
     }
 
     #[test]

@@ -6,9 +6,9 @@
 //! free of texture generation.
 
 use crate::cards::{LeafCard, append_cards};
-use crate::file::CardRow;
 use crate::scene::*;
 use glam::{Vec2, Vec3};
+use lamina_core::cards::CardRow;
 use lamina_plant::{Plant, PlantParams};
 use std::sync::Arc;
 

@@ -3,20 +3,25 @@
 
 pub mod builtin;
 pub mod cards;
+mod dict;
 pub mod error;
-pub mod file;
 mod gltf_accessor;
 pub mod gltf_import;
 pub mod instances;
-mod leaf;
+mod light;
 pub mod limits;
-pub mod load;
+mod loader;
 #[cfg(test)]
 mod loader_tests;
+mod material;
 pub mod obj;
-mod plant_object;
+mod object;
+#[cfg(test)]
+mod reference;
+mod table;
 
 pub use error::SceneError;
 pub use lamina_core::{scene, transform};
-pub use load::{load_scene, parse_scene};
+pub use loader::{load_scene, parse_scene};
+pub use object::apply_transform;
 pub use scene::*;

@@ -39,7 +39,7 @@ pub const MAX_SCENE_LEAF_TEXELS: u64 = 1 << 25;
 /// Largest `resolution` of a `species` leaf material (pixels, the maps' longer side).
 pub const MAX_LEAF_RESOLUTION: i64 = 4096;
 
-/// The scene-wide budgets, as [`crate::load`] checks them (the constants above; tests use
+/// The scene-wide budgets, as the loader checks them (the constants above; tests use
 /// smaller ones).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Budgets {

@@ -129,7 +129,7 @@ fn every_loader_entry_point_turns_a_panic_into_an_error_naming_the_file() {
 }
 
 fn parse_small(text: &str, path: &Path, budgets: Budgets) -> Result<crate::Scene, String> {
-    crate::load::parse_with(text, path, budgets).map_err(|e| e.to_string())
+    crate::loader::parse_with(text, path, budgets).map_err(|e| e.to_string())
 }
 
 const QUAD: &str = "[[material]]\nname = \"m\"\ntype = \"diffuse\"\n";

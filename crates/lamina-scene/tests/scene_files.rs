@@ -277,3 +277,58 @@ fn procedural_species_leaf_material() {
     ));
     assert_eq!(e.key, "material[0].seed", "{e}");
 }
+
+#[test]
+fn a_misspelt_key_names_its_line_the_keys_the_type_takes_and_the_near_miss() {
+    for (snippet, key, line, near, takes) in [
+        (
+            "[film]\nwidht = 10\n",
+            "film.widht",
+            7,
+            "width",
+            "`tonemap`",
+        ),
+        (
+            "[[light]]\ntype = \"sun\"\ndirektion = [0, 1, 0]\nirradiance = 1\n",
+            "light[0].direktion",
+            8,
+            "direction",
+            "`angular_diameter`",
+        ),
+        (
+            "[[material]]\nname = \"m\"\ntype = \"pbr\"\nroughnes = 0.4\n",
+            "material[0].roughnes",
+            9,
+            "roughness",
+            "`normal_scale`",
+        ),
+        (
+            "[[material]]\nname = \"m\"\ntype = \"diffuse\"\n[[object]]\ntype = \"quad\"\nmaterial = \"m\"\ncorner = [0, 0, 0]\nedge_u = [1, 0, 0]\nedge_v = [0, 1, 0]\ntranslat = [0, 1, 0]\n",
+            "object[0].translat",
+            15,
+            "translate",
+            "`instances_file`",
+        ),
+    ] {
+        let e = err(&format!("{MINIMAL}\n{snippet}"));
+        let text = e.to_string();
+        assert_eq!(e.key, key, "{text}");
+        assert_eq!(e.line, Some(line), "{text}");
+        assert!(text.contains(&format!("did you mean `{near}`?")), "{text}");
+        assert!(text.contains(takes), "{text}");
+    }
+    // No near miss: no suggestion, still the list.
+    let e = err(&format!("{MINIMAL}\n[film]\nsamples = 4\n"));
+    assert!(!e.to_string().contains("did you mean"), "{e}");
+    assert!(e.to_string().contains("expected one of `width`"), "{e}");
+}
+
+#[test]
+fn a_key_of_a_nested_table_is_checked_too() {
+    // An inline transform and an inline card take only their own keys.
+    let e = err(&format!(
+        "{MINIMAL}\n[[material]]\nname = \"m\"\ntype = \"diffuse\"\n[[object]]\ntype = \"quad\"\nmaterial = \"m\"\ncorner = [0, 0, 0]\nedge_u = [1, 0, 0]\nedge_v = [0, 1, 0]\ninstances = [{{ translate = [0, 0, 0] }}, {{ rotate = 30 }}]\n"
+    ));
+    assert_eq!(e.key, "object[0].instances[1].rotate", "{e}");
+    assert!(e.to_string().contains("did you mean `rotate_x`?"), "{e}");
+}

@@ -1,6 +1,16 @@
-//! Leaf materials in scene files: from a leaf folder's `leaf.toml` (as written by
-//! `lamina leaf prepare` / `generate`), with optional inline overrides of maps and
-//! parameters, or entirely inline.
+//! `type = "leaf"`: the three-layer leaf model with its seven maps, from a leaf folder's
+//! `leaf.toml` (as written by `lamina leaf prepare` / `generate`) or a built-in procedural
+//! species, with optional inline overrides of maps and parameters.
+//!
+//! | key | unit, range | default | meaning |
+//! |---|---|---|---|
+//! | `name` | string | required | the name objects use |
+//! | `file` | path | none | a leaf folder's `leaf.toml`, as `lamina leaf prepare` or `lamina leaf generate` write it; its map paths are relative to its own folder |
+//! | `species` | `beech`, `maple`, `oak`, `birch`, `ivy`, `grass`, `willow` | none | a built-in procedural leaf instead of `file` |
+//! | `seed` | integer >= 0 | `1` | `species` only: the procedural leaf's seed |
+//! | `resolution` | pixels, 16-4096 | `512` | `species` only: the maps' longer side |
+//! | `maps` | table of paths | none | map paths overriding the file's: `front`, `back`, `translucency`, `alpha`, `thickness`, `extinction`, `bump` (relative to the scene file) |
+//! | `params` | table | none | leaf parameters overriding the file's; see the lamina-leaf crate docs for each parameter, its unit and range |
 //!
 //! ```toml
 //! [[material]]
@@ -11,11 +21,31 @@
 //! params = { thickness_mm = 0.25 }    # optional; overrides single parameters
 //! ```
 
+use crate::dict::{Dict, Keys, Kind, Value, table_to_toml};
 use crate::error::SceneError;
-use crate::file::{MaterialTable, S};
-use crate::load::Ctx;
+use crate::scene::Material;
 use lamina_leaf::{LeafDescription, LeafMaps, LeafMaterial};
 use std::path::Path;
+use std::sync::Arc;
+
+/// The keys of the table above.
+pub(crate) const KEYS: Keys = super::keys(&[
+    ("name", Kind::Str),
+    ("file", Kind::Str),
+    ("species", Kind::Str),
+    ("seed", Kind::Int),
+    ("resolution", Kind::Int),
+    ("maps", Kind::Table),
+    ("params", Kind::Table),
+]);
+
+/// Reads a leaf material.
+pub(crate) fn read(d: &Dict, name: String) -> Result<Material, SceneError> {
+    Ok(Material::Leaf {
+        name,
+        leaf: Arc::new(load_leaf_material(d)?),
+    })
+}
 
 /// Reads a `leaf.toml` into a TOML table whose map paths are made absolute.
 fn read_leaf_file(path: &Path) -> Result<toml::Table, SceneError> {
@@ -25,12 +55,12 @@ fn read_leaf_file(path: &Path) -> Result<toml::Table, SceneError> {
         lamina_leaf::maps::MAX_DESCRIPTION_BYTES,
     )?;
     let mut table: toml::Table =
-        toml::from_str(&text).map_err(|e| crate::load::toml_error(path, &text, &e))?;
+        toml::from_str(&text).map_err(|e| crate::loader::toml_error(path, &text, &e))?;
     let dir = path.parent().unwrap_or(Path::new(""));
     absolutise_maps(&mut table, dir);
     // Check the file on its own, so its errors name its own lines.
     let _: LeafDescription =
-        toml::from_str(&text).map_err(|e| crate::load::toml_error(path, &text, &e))?;
+        toml::from_str(&text).map_err(|e| crate::loader::toml_error(path, &text, &e))?;
     Ok(table)
 }
 
@@ -58,50 +88,44 @@ fn merge(base: &mut toml::Table, over: toml::Table) {
     }
 }
 
-pub(crate) fn load_leaf_material(
-    cx: &Ctx,
-    key: &str,
-    m: &MaterialTable,
-) -> Result<LeafMaterial, SceneError> {
-    if let (Some(_), Some(s)) = (&m.file, &m.species) {
-        return Err(cx.err(
+/// The leaf of material dictionary `d`: its base description (file, species or defaults)
+/// overlaid with the inline `maps` and `params`.
+fn load_leaf_material(d: &Dict) -> Result<LeafMaterial, SceneError> {
+    let cx = d.ld;
+    let file = d.string("file")?;
+    let species = d.string("species")?;
+    if let (Some(_), Some(s)) = (&file, &species) {
+        return Err(d.err(
             s.span(),
-            format!("{key}.species"),
+            "species",
             "give either 'file' or 'species', not both",
         ));
     }
-    for (v, name) in [(&m.seed, "seed"), (&m.resolution, "resolution")] {
-        if let (Some(v), None) = (v, &m.species) {
-            return Err(cx.err(
+    for name in ["seed", "resolution"] {
+        if let (Some(v), None) = (d.get(name), &species) {
+            return Err(d.err(
                 v.span(),
-                format!("{key}.{name}"),
+                name,
                 "only applies to a procedural leaf ('species')",
             ));
         }
     }
     // The base description: a leaf file, a procedural species, or the defaults.
     let mut generated = None;
-    let mut table = match (&m.file, &m.species) {
-        (Some(f), _) => read_leaf_file(&cx.path(f))?,
+    let mut table = match (&file, &species) {
+        (Some(f), _) => read_leaf_file(&cx.path(f.get_ref()))?,
         (None, Some(s)) => {
             let species: lamina_leafmaps::Species =
                 s.get_ref()
                     .parse()
                     .map_err(|e: lamina_leafmaps::UnknownSpecies| {
-                        cx.err(s.span(), format!("{key}.species"), e.to_string())
+                        d.err(s.span(), "species", e.to_string())
                     })?;
-            let seed = cx.opt_count(&m.seed, &format!("{key}.seed"), 0, u32::MAX as i64, 1)?;
-            let res_key = format!("{key}.resolution");
-            let res = cx.opt_count(
-                &m.resolution,
-                &res_key,
-                16,
-                crate::limits::MAX_LEAF_RESOLUTION,
-                512,
-            )?;
+            let seed = d.count("seed", 0, u32::MAX as i64, 1)?;
+            let res = d.count("resolution", 16, crate::limits::MAX_LEAF_RESOLUTION, 512)?;
             // The scene-wide budget of procedural leaf maps, before they are generated.
-            let span = m.resolution.as_ref().map_or(s.span(), |r| r.span());
-            cx.spend_leaf_texels(span, &res_key, (res as u64).pow(2))?;
+            let span = d.get("resolution").map_or(s.span(), |r| r.span());
+            cx.spend_leaf_texels(span, &d.key("resolution"), (res as u64).pow(2))?;
             let leaf = lamina_leafmaps::generate(&lamina_leafmaps::LeafSpec::new(
                 species,
                 seed as u64,
@@ -109,7 +133,7 @@ pub(crate) fn load_leaf_material(
             ));
             let mut t = toml::Table::new();
             let params = toml::Table::try_from(leaf.params)
-                .map_err(|e| cx.err(s.span(), key, e.to_string()))?;
+                .map_err(|e| cx.err(s.span(), d.at.clone(), e.to_string()))?;
             t.insert("params".into(), toml::Value::Table(params));
             generated = Some(leaf.maps);
             t
@@ -117,46 +141,49 @@ pub(crate) fn load_leaf_material(
         (None, None) => toml::Table::new(),
     };
     let mut over = toml::Table::new();
-    if let Some(maps) = &m.maps {
-        let mut t = maps.get_ref().clone();
-        for (name, v) in t.iter_mut() {
-            match v {
-                toml::Value::String(s) => {
+    let maps = d.table("maps")?;
+    if let Some(maps) = &maps {
+        let mut t = toml::Table::new();
+        for (name, v) in maps.get_ref().iter() {
+            match v.get_ref() {
+                Value::String(s) => {
                     let joined = cx.base.join(s.as_str()).to_string_lossy().into_owned();
-                    *s = joined;
+                    t.insert(name.get_ref().clone(), toml::Value::String(joined));
                 }
                 other => {
-                    let got = other.type_str();
                     return Err(cx.err(
                         maps.span(),
-                        format!("{key}.maps.{name}"),
-                        format!("must be a file path (string), got a {got}"),
+                        format!("{}.maps.{}", d.at, name.get_ref()),
+                        format!("must be a file path (string), got {}", other.type_name()),
                     ));
                 }
             }
         }
         over.insert("maps".into(), toml::Value::Table(t));
     }
-    if let Some(params) = &m.params {
+    let params = d.table("params")?;
+    if let Some(params) = &params {
         over.insert(
             "params".into(),
-            toml::Value::Table(params.get_ref().clone()),
+            toml::Value::Table(table_to_toml(params.get_ref())),
         );
     }
     merge(&mut table, over);
-    let span_of = |s: &Option<S<toml::Table>>| s.as_ref().map(|s| s.span());
-    let anchor = span_of(&m.params)
-        .or(span_of(&m.maps))
-        .or(m.file.as_ref().map(|f| f.span()))
-        .or(m.species.as_ref().map(|f| f.span()))
-        .unwrap_or(m.name.span());
+    let anchor = params
+        .as_ref()
+        .map(|s| s.span())
+        .or(maps.as_ref().map(|s| s.span()))
+        .or(file.as_ref().map(|f| f.span()))
+        .or(species.as_ref().map(|f| f.span()))
+        .unwrap_or(d.get("name").map_or(d.span.clone(), |n| n.span()));
+    let key = d.at.clone();
     let desc: LeafDescription =
         toml::Value::Table(table)
             .try_into()
             .map_err(|e: toml::de::Error| {
-                cx.err(anchor.clone(), key, e.message().trim().to_string())
+                cx.err(anchor.clone(), key.clone(), e.message().trim().to_string())
             })?;
-    let fail = |e: lamina_leaf::LeafError| cx.err(anchor.clone(), key, e.to_string());
+    let fail = |e: lamina_leaf::LeafError| cx.err(anchor.clone(), key.clone(), e.to_string());
     match generated {
         None => LeafMaterial::load(&desc, Path::new("")).map_err(fail),
         Some(g) => {

@@ -1,0 +1,96 @@
+//! `[[light]]` (any number): one module per light type, each with its parameter table.
+
+use crate::dict::{Dict, Key, Keys, S, Table, type_of};
+use crate::error::SceneError;
+use crate::loader::Loader;
+use crate::scene::Light;
+
+mod point;
+mod quad;
+mod sphere;
+mod sun;
+
+/// Every key of every light type.
+const FAMILY: &[&str] = &[
+    "direction",
+    "irradiance",
+    "angular_diameter",
+    "position",
+    "intensity",
+    "corner",
+    "edge_u",
+    "edge_v",
+    "radiance",
+    "two_sided",
+    "center",
+    "radius",
+];
+
+/// The keys of a light type that takes `own`.
+const fn keys(own: &'static [Key]) -> Keys {
+    Keys {
+        own,
+        common: &[],
+        family: FAMILY,
+        typed: true,
+    }
+}
+
+/// A light type's reader.
+type Reader = fn(&Dict) -> Result<Light, SceneError>;
+
+/// Every light type: its name, keys and reader.
+pub(crate) const TYPES: &[(&str, Keys, Reader)] = &[
+    ("sun", sun::KEYS, sun::read),
+    ("point", point::KEYS, point::read),
+    ("quad", quad::KEYS, quad::read),
+    ("sphere", sphere::KEYS, sphere::read),
+];
+
+/// Checks the keys and their types of `[[light]]` number `i` (before any table is read).
+pub(crate) fn check(ld: &Loader, i: usize, t: &S<Table>) -> Result<(), SceneError> {
+    let at = format!("light[{i}]");
+    let kind = type_of(ld, &at, t)?;
+    match TYPES.iter().find(|(name, ..)| name == kind.get_ref()) {
+        Some((_, keys, _)) => {
+            Dict::open(ld, at, Some(*kind.get_ref()), t.span(), t.get_ref(), *keys).map(drop)
+        }
+        None => Ok(()),
+    }
+}
+
+/// Reads `[[light]]` number `i`.
+pub(crate) fn read(ld: &Loader, i: usize, t: &S<Table>) -> Result<Light, SceneError> {
+    let at = format!("light[{i}]");
+    let kind = type_of(ld, &at, t)?;
+    let Some((_, keys, read)) = TYPES.iter().find(|(name, ..)| name == kind.get_ref()) else {
+        return Err(ld.err(
+            kind.span(),
+            format!("{at}.type"),
+            format!(
+                "unknown light type '{}' (sun, point, quad, sphere)",
+                kind.get_ref()
+            ),
+        ));
+    };
+    let d = Dict::open(ld, at, Some(*kind.get_ref()), t.span(), t.get_ref(), *keys)?;
+    let light = read(&d)?;
+    d.finish()?;
+    Ok(light)
+}
+
+/// The required `corner`, `edge_u`, `edge_v` of a parallelogram, with edges that span a
+/// non-zero area (quad lights and quad objects).
+pub(crate) fn parallelogram(d: &Dict) -> Result<(glam::Vec3, glam::Vec3, glam::Vec3), SceneError> {
+    let c = d.req_vec3("corner")?;
+    let u = d.req_vec3_spanned("edge_u")?;
+    let v = d.req_vec3("edge_v")?;
+    if u.get_ref().cross(v).length_squared() < 1e-16 {
+        return Err(d.err(
+            u.span(),
+            "edge_u",
+            "edge_u and edge_v must span a non-zero area",
+        ));
+    }
+    Ok((c, u.into_inner(), v))
+}

@@ -1,0 +1,339 @@
+//! Scene files (TOML) to [`Scene`]: the [`Loader`] that every table reader shares (the
+//! scene file, its lines and folder, the scene-wide budgets) and the order in which the
+//! tables are read. Each table type is read by its own module (`camera`, `film`, `light`,
+//! `material`, `object`, ...) from a [`crate::dict::Dict`]; paths are relative to the scene
+//! file.
+
+use crate::dict::{S, Table};
+use crate::error::{LineIndex, SceneError, guarded, read_text};
+use crate::limits::Budgets;
+use crate::scene::*;
+use crate::transform::Transform;
+use glam::Vec3;
+use lamina_leaf::{Encoding, Texture};
+use serde::Deserialize;
+use std::cell::Cell;
+use std::collections::HashMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// Loads a scene file (at most [`crate::limits::MAX_SCENE_FILE_BYTES`]) and everything it
+/// refers to. Every limit of [`crate::limits`] is checked before the allocation it bounds;
+/// a panic inside a dependency is an error naming the file being loaded.
+pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    guarded(path, || {
+        let text = read_text(path, "scene file", crate::limits::MAX_SCENE_FILE_BYTES)?;
+        parse_with(&text, path, Budgets::default())
+    })
+}
+
+/// Parses scene-file text; `path` names the file in errors and anchors relative paths.
+/// The entry point for fuzzing (files it refers to are read relative to `path`).
+pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    guarded(path, || parse_with(text, path, Budgets::default()))
+}
+
+/// The tables of a scene file, each kept whole (keys and values spanned) for its reader.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    camera: S<Table>,
+    film: Option<S<Table>>,
+    integrator: Option<S<Table>>,
+    sky: Option<S<Table>>,
+    #[serde(default)]
+    light: Vec<S<Table>>,
+    #[serde(default)]
+    material: Vec<S<Table>>,
+    #[serde(default)]
+    object: Vec<S<Table>>,
+}
+
+/// [`parse_scene`] with the scene-wide budgets `budgets` (tests use small ones).
+pub(crate) fn parse_with(text: &str, path: &Path, budgets: Budgets) -> Result<Scene, SceneError> {
+    crate::error::fault_point("scene");
+    let ld = Loader {
+        file: path.to_owned(),
+        lines: LineIndex::new(text),
+        base: path.parent().map(Path::to_owned).unwrap_or_default(),
+        budgets,
+        instances: Cell::new(0),
+        leaves: Cell::new(0),
+        leaf_texels: Cell::new(0),
+    };
+    let doc: SceneFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+    ld.build(doc)
+}
+
+/// Converts a TOML error into ours, with the line of its span.
+pub(crate) fn toml_error(file: &Path, text: &str, e: &toml::de::Error) -> SceneError {
+    let line = e.span().map(|s| LineIndex::new(text).line(s.start));
+    let key = line.map(|l| key_at_line(text, l)).unwrap_or_default();
+    SceneError::new(file, line, key, e.message().trim().to_string())
+}
+
+/// The dotted key assigned on 1-based `line` (`film.width`, `light[1].direction`), from
+/// the nearest table header above it, for syntax and type errors that toml reports by
+/// position only. Empty when the line assigns nothing.
+fn key_at_line(text: &str, line: usize) -> String {
+    let lines: Vec<&str> = text.lines().collect();
+    let Some(this) = lines.get(line.wrapping_sub(1)) else {
+        return String::new();
+    };
+    let Some((lhs, _)) = this.split_once('=') else {
+        return String::new();
+    };
+    let name = lhs.trim();
+    let plain = |c: char| c.is_ascii_alphanumeric() || "_-.".contains(c);
+    if name.is_empty() || !name.chars().all(plain) {
+        return String::new();
+    }
+    // Nearest header above, and how many times an array-of-tables header occurred.
+    for (i, l) in lines[..line - 1].iter().enumerate().rev() {
+        let l = l.trim();
+        if let Some(h) = l
+            .strip_prefix("[[")
+            .and_then(|r| r.split_once("]]"))
+            .map(|(h, _)| h.trim())
+        {
+            let index = lines[..=i]
+                .iter()
+                .filter(|x| {
+                    x.trim()
+                        .strip_prefix("[[")
+                        .is_some_and(|r| r.trim_start().starts_with(h))
+                })
+                .count()
+                - 1;
+            return format!("{h}[{index}].{name}");
+        }
+        if let Some(h) = l
+            .strip_prefix('[')
+            .and_then(|r| r.split_once(']'))
+            .map(|(h, _)| h.trim())
+        {
+            return format!("{h}.{name}");
+        }
+    }
+    name.to_string()
+}
+
+/// What every table reader shares while one scene file is loaded: where errors point, the
+/// folder relative paths start from, and the scene-wide budgets spent so far.
+pub(crate) struct Loader {
+    /// The scene file.
+    pub(crate) file: PathBuf,
+    lines: LineIndex,
+    /// The scene file's folder: relative paths start here.
+    pub(crate) base: PathBuf,
+    /// The scene-wide limits.
+    pub(crate) budgets: Budgets,
+    /// Instances of the objects built so far.
+    pub(crate) instances: Cell<usize>,
+    /// Leaves (cards, plant leaves) generated so far.
+    leaves: Cell<u64>,
+    /// Texels of procedural leaf maps generated so far.
+    leaf_texels: Cell<u64>,
+}
+
+impl Loader {
+    /// An error in the scene file at `span`, about `key`.
+    pub(crate) fn err(
+        &self,
+        span: Range<usize>,
+        key: impl Into<String>,
+        msg: impl Into<String>,
+    ) -> SceneError {
+        SceneError::new(&self.file, Some(self.lines.line(span.start)), key, msg)
+    }
+
+    /// A path from the scene file, relative to its folder.
+    pub(crate) fn path(&self, p: &str) -> PathBuf {
+        self.base.join(p)
+    }
+
+    /// Loads the image at `p` (relative to the scene file) as a texture; errors name `key`.
+    pub(crate) fn texture(
+        &self,
+        p: &S<&str>,
+        key: &str,
+        enc: Encoding,
+    ) -> Result<Texture, SceneError> {
+        let path = self.path(p.get_ref());
+        Texture::load(&path, enc).map_err(|e| self.err(p.span(), key, e.to_string()))
+    }
+
+    /// Leaves the scene may still generate ([`crate::limits::MAX_SCENE_LEAVES`] in all).
+    pub(crate) fn leaves_left(&self) -> u64 {
+        self.budgets.leaves.saturating_sub(self.leaves.get())
+    }
+
+    /// Counts `n` more leaves for `key` (at `span`), or says that the scene would have more
+    /// than [`crate::limits::MAX_SCENE_LEAVES`].
+    pub(crate) fn spend_leaves(
+        &self,
+        span: Range<usize>,
+        key: &str,
+        n: u64,
+    ) -> Result<(), SceneError> {
+        let total = self.leaves.get().saturating_add(n);
+        if total > self.budgets.leaves {
+            return Err(self.err(
+                span,
+                key,
+                format!(
+                    "{n} leaves here make {total} leaves (leaf cards and plant leaves) in the scene, more than the {} supported in all",
+                    self.budgets.leaves
+                ),
+            ));
+        }
+        self.leaves.set(total);
+        Ok(())
+    }
+
+    /// Counts `n` more texels of procedural leaf maps for `key`, or says that the scene
+    /// would have more than [`crate::limits::MAX_SCENE_LEAF_TEXELS`].
+    pub(crate) fn spend_leaf_texels(
+        &self,
+        span: Range<usize>,
+        key: &str,
+        n: u64,
+    ) -> Result<(), SceneError> {
+        let total = self.leaf_texels.get().saturating_add(n);
+        if total > self.budgets.leaf_texels {
+            return Err(self.err(
+                span,
+                key,
+                format!(
+                    "{n} texels of procedural leaf maps here make {total} in the scene, more than the {} supported in all (lower the resolution or the number of leaf variants)",
+                    self.budgets.leaf_texels
+                ),
+            ));
+        }
+        self.leaf_texels.set(total);
+        Ok(())
+    }
+
+    /// Checks that `n` more instances for `key` keep the scene within
+    /// [`crate::limits::MAX_INSTANCES`] in all (does not count them).
+    pub(crate) fn check_instances(
+        &self,
+        span: Range<usize>,
+        key: &str,
+        n: usize,
+    ) -> Result<(), SceneError> {
+        let before = self.instances.get();
+        let total = before.saturating_add(n);
+        if total > self.budgets.instances {
+            return Err(self.err(
+                span,
+                key,
+                format!(
+                    "{n} instances here and {before} in the objects before make {total} instances, more than the {} supported in all",
+                    self.budgets.instances
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// A transform from parts, validated (see [`crate::instances::checked_transform`]);
+    /// errors at `span`, key `key.scale` / `key.translate` / `key.rotate`.
+    pub(crate) fn transform_parts(
+        &self,
+        scale: Vec3,
+        rot: Vec3,
+        tr: Vec3,
+        span: Range<usize>,
+        key: &str,
+    ) -> Result<Transform, SceneError> {
+        crate::instances::checked_transform(scale, rot, tr)
+            .map_err(|(k, m)| self.err(span, format!("{key}.{k}"), m))
+    }
+
+    /// Checks every key of the file and its TOML type before any table is read, so that a
+    /// misspelt or mistyped key is reported first, wherever it is.
+    fn check_types(&self, doc: &SceneFile) -> Result<(), SceneError> {
+        crate::table::camera::check(self, &doc.camera)?;
+        if let Some(f) = &doc.film {
+            crate::table::film::check(self, f)?;
+        }
+        if let Some(s) = &doc.sky {
+            crate::table::sky::check(self, s)?;
+        }
+        for (i, l) in doc.light.iter().enumerate() {
+            crate::light::check(self, i, l)?;
+        }
+        for (i, m) in doc.material.iter().enumerate() {
+            crate::material::check(self, i, m)?;
+        }
+        for (i, o) in doc.object.iter().enumerate() {
+            crate::object::check(self, i, o)?;
+        }
+        Ok(())
+    }
+
+    /// Reads the tables in order: camera, film, integrator, sky, lights, materials (names
+    /// unique), objects (which may add the materials of the files they import).
+    fn build(&self, doc: SceneFile) -> Result<Scene, SceneError> {
+        self.check_types(&doc)?;
+        let camera = crate::table::camera::read(self, &doc.camera)?;
+        let film = crate::table::film::read(self, doc.film.as_ref())?;
+        let integrator = crate::table::integrator::read(self, doc.integrator.as_ref())?;
+        let sky = doc
+            .sky
+            .as_ref()
+            .map(|s| crate::table::sky::read(self, s))
+            .transpose()?;
+        let lights = doc
+            .light
+            .iter()
+            .enumerate()
+            .map(|(i, l)| crate::light::read(self, i, l))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut materials = Vec::new();
+        let mut by_name = HashMap::new();
+        for (i, m) in doc.material.iter().enumerate() {
+            let name = crate::material::name(self, i, m)?;
+            if by_name
+                .insert(name.get_ref().to_string(), materials.len() as u32)
+                .is_some()
+            {
+                return Err(self.err(
+                    name.span(),
+                    format!("material[{i}].name"),
+                    format!("'{}' is defined twice", name.get_ref()),
+                ));
+            }
+            materials.push(crate::material::read(self, i, m)?);
+        }
+        let mut meshes = Vec::new();
+        let mut prototypes = Vec::new();
+        let mut instances = Vec::new();
+        for (i, o) in doc.object.iter().enumerate() {
+            let g = crate::object::read(self, i, o, &by_name, &mut materials)?;
+            // Instances the object brought without placements (glTF meshes used by several
+            // nodes, curved leaves); placed objects were checked before their allocation.
+            self.check_instances(o.span(), &format!("object[{i}]"), g.instances.len())?;
+            self.instances.set(self.instances.get() + g.instances.len());
+            let first = prototypes.len() as u32;
+            meshes.extend(g.meshes);
+            prototypes.extend(g.prototypes);
+            instances.extend(g.instances.into_iter().map(|mut inst| {
+                inst.prototype += first;
+                inst
+            }));
+        }
+        Ok(Scene {
+            camera,
+            film,
+            integrator,
+            lights,
+            sky,
+            materials,
+            meshes,
+            prototypes,
+            instances,
+        })
+    }
+}

@@ -1,0 +1,81 @@
+//! `[integrator]`: which light transport, and its depth.
+//!
+//! | key | unit | default | meaning |
+//! |---|---|---|---|
+//! | `type` | `path`, `paper` | `path` | `path`: unidirectional path tracer with next-event estimation, MIS and Russian roulette; light passes leaf to leaf. `paper`: the paper's renderer: direct light only, per-light front/back/through-light shading, multiple scattering as an ambient term |
+//! | `max_depth` | scattering events, >= 1 | `8` | `path` only |
+//! | `rr_depth` | >= 1 | `3` | `path` only: depth from which Russian roulette may end a path |
+//! | `ambient` | colour (radiance) | the sky's mean radiance | `paper` only: ambient radiance that stands in for multiple scattering |
+
+use crate::dict::{Dict, Keys, Kind, S, Table, Value};
+use crate::error::SceneError;
+use crate::loader::Loader;
+use crate::scene::Integrator;
+
+pub(crate) const FAMILY: &[&str] = &["max_depth", "rr_depth", "ambient"];
+
+/// The keys of `type = "path"`.
+pub(crate) const PATH: Keys = Keys {
+    own: &[("max_depth", Kind::Int), ("rr_depth", Kind::Int)],
+    common: &[],
+    family: FAMILY,
+    typed: true,
+};
+
+/// The keys of `type = "paper"`.
+pub(crate) const PAPER: Keys = Keys {
+    own: &[("ambient", Kind::Color)],
+    common: &[],
+    family: FAMILY,
+    typed: true,
+};
+
+/// Reads `[integrator]` (absent: `path`, depth 8, Russian roulette from depth 3).
+pub(crate) fn read(ld: &Loader, t: Option<&S<Table>>) -> Result<Integrator, SceneError> {
+    let Some(t) = t else {
+        return Ok(Integrator::Path {
+            max_depth: 8,
+            rr_depth: 3,
+        });
+    };
+    let kind_value = t.get_ref().iter().find(|(k, _)| k.get_ref() == "type");
+    let kind = match kind_value.map(|(_, v)| (v.get_ref(), v.span())) {
+        None => "path",
+        Some((Value::String(s), _)) => s.as_str(),
+        Some((other, span)) => {
+            return Err(ld.err(
+                span,
+                "integrator.type",
+                format!("must be a string, got {}", other.type_name()),
+            ));
+        }
+    };
+    let open = |keys| Dict::open(ld, "integrator", Some(kind), t.span(), t.get_ref(), keys);
+    let integrator = match kind {
+        "path" => {
+            let d = open(PATH)?;
+            let max_depth = d.count("max_depth", 1, 1024, 8)?;
+            let rr_depth = d.count("rr_depth", 1, 1024, 3)?;
+            d.finish()?;
+            Integrator::Path {
+                max_depth,
+                rr_depth,
+            }
+        }
+        "paper" => {
+            let d = open(PAPER)?;
+            let ambient = d.color_opt("ambient", None)?;
+            d.finish()?;
+            Integrator::Paper { ambient }
+        }
+        other => {
+            let span = kind_value.map_or(t.span(), |(_, v)| v.span());
+            return Err(ld.err(
+                span,
+                "integrator.type",
+                format!("unknown integrator '{other}' (path, paper)"),
+            ));
+        }
+    };
+    Ok(integrator)
+}

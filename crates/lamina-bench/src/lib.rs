@@ -2,6 +2,7 @@
 //! (flat leaf cards in world space, and instanced curved leaves), and the measurements the
 //! `scale` binary reports.
 
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 use glam::Vec3;

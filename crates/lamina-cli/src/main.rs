@@ -5,6 +5,8 @@
 //! (see [`lamina_io::interrupt`] for what Ctrl-C does when). Nothing here panics on bad
 //! input.
 
+#![forbid(unsafe_code)]
+
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 

@@ -5,6 +5,8 @@
 //! Loading lives in `lamina-scene`, which re-exports these modules, so
 //! `lamina_scene::Scene` and `lamina_core::Scene` are the same type.
 
+#![forbid(unsafe_code)]
+
 pub mod cards;
 pub mod scene;
 pub mod transform;

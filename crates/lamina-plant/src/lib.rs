@@ -10,6 +10,7 @@
 //!
 //! Units: metres, `+y` up, the plant standing on `y = 0` around the origin.
 
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod branches;

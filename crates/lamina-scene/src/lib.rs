@@ -1,5 +1,10 @@
-//! Scene description for lamina: the in-memory [`Scene`], TOML scene files, leaf-card
-//! files, OBJ meshes and the built-in scenes.
+//! Scene loading for lamina: TOML scene files (one reader per table type, each with its
+//! parameter table; the reference is docs/scene-format.md), the files they refer to (OBJ +
+//! MTL, glTF, leaf-card and placement files, leaf folders, plant parameters) and the
+//! built-in scenes, into the in-memory [`Scene`] of lamina-core. Every error names the
+//! file, line and key. The module map and the invariants are in ARCHITECTURE.md.
+
+#![forbid(unsafe_code)]
 
 pub mod builtin;
 pub mod cards;

@@ -1,6 +1,8 @@
 //! Scale benchmarks for lamina: scenes of whole procedural trees in two representations
 //! (flat leaf cards in world space, and instanced curved leaves), and the measurements the
 //! `scale` binary reports.
+//!
+//! Where this crate sits among the others, and the invariants it keeps: ARCHITECTURE.md.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]

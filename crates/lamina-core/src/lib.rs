@@ -4,6 +4,8 @@
 //!
 //! Loading lives in `lamina-scene`, which re-exports these modules, so
 //! `lamina_scene::Scene` and `lamina_core::Scene` are the same type.
+//!
+//! Where this crate sits among the others, and the invariants it keeps: ARCHITECTURE.md.
 
 #![forbid(unsafe_code)]
 

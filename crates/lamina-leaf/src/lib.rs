@@ -12,14 +12,19 @@
 //! (`lamina-render`) and the GPU path call into this crate; it calls into nothing of theirs.
 //!
 //! # Conventions
-//! * **Local frame**: directions are unit vectors in the frame of the surface at the shaded
-//!   point: `z` is the *geometric* normal, `x` the tangent along increasing texture `u`,
-//!   `y = z × x`. For a leaf, `+z` is the adaxial (upper, front) side.
+//! * **Local frame**: directions are unit vectors in the frame the caller evaluates in: `z`
+//!   the surface normal on the leaf's adaxial (upper, front) side, `x` the tangent along
+//!   increasing texture `u`, `y = z × x`. The renderer passes its *shading* frame (the
+//!   interpolated vertex normal, or the geometric normal where there is none); which side
+//!   is adaxial is always decided by the geometric normal. The rule is stated once, in
+//!   ARCHITECTURE.md (*Invariants*, the shading frame).
 //! * **Directions point away from the surface**: `wo` toward the viewer, `wi` toward the light.
 //! * **Colours** are linear Rec.709 / sRGB-primaries RGB, stored in [`glam::Vec3`].
 //! * [`Bsdf::eval`] returns the BSDF *times the cosine foreshortening* `f(wo, wi) |cos θi|`,
-//!   as Mitsuba 3 does, so that bump-mapped shading normals stay an internal affair of each
-//!   model and the integrator never needs them.
+//!   as Mitsuba 3 does, so that a leaf's bump-mapped normal stays internal to the leaf BSDF:
+//!   the integrator never sees it (its own shading normals come in through the frame).
+//!
+//! Where this crate sits among the others, and the invariants it keeps: ARCHITECTURE.md.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]

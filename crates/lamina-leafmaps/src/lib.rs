@@ -25,6 +25,8 @@
 //! images; the abaxial (back) map is stored in the same texel layout (not mirrored), so the
 //! back colour of texel `uv` is the underside of the same point. Bump heights are along the
 //! adaxial normal (`+z`).
+//!
+//! Where this crate sits among the others, and the invariants it keeps: ARCHITECTURE.md.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]

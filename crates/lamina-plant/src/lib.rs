@@ -9,6 +9,8 @@
 //! for a [`lamina_core::Scene`]; [`write_glb`] exports it as binary glTF 2.0.
 //!
 //! Units: metres, `+y` up, the plant standing on `y = 0` around the origin.
+//!
+//! Where this crate sits among the others, and the invariants it keeps: ARCHITECTURE.md.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]

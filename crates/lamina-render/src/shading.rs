@@ -1,4 +1,6 @@
 //! The local frame BSDFs are evaluated in at a hit, with shading normals (pbrt-v4 style).
+//! This module implements the shading-frame invariant of ARCHITECTURE.md (*Invariants*);
+//! the details:
 //!
 //! * **Frame**: `z` = the interpolated vertex normal ([`crate::Accel::shading_normal`])
 //!   flipped to the side of the geometric normal, `x` = `dP/du` projected onto the plane

@@ -19,6 +19,7 @@ mod loader;
 #[cfg(test)]
 mod loader_tests;
 mod material;
+mod mtl;
 pub mod obj;
 mod object;
 #[cfg(test)]

@@ -43,6 +43,4 @@ pub use output::write_image;
 pub use render::{Image, Progress, RenderOptions, RenderOutput, RenderStats, render};
 
 #[cfg(test)]
-mod normal_map_tests;
-#[cfg(test)]
 mod tests;

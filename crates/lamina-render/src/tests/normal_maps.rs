@@ -2,9 +2,9 @@
 //! mirroring instances) and the rendered result against the same tilt given as vertex
 //! normals.
 
+use super::scenes::{camera_at, card, film, opts, sun};
 use crate::accel::{Accel, HitKind, Ray};
 use crate::shading::shading_normal;
-use crate::tests::{camera_at, card, film, opts, sun};
 use crate::{Image, render};
 use glam::{Affine3A, Vec3, Vec4};
 use lamina_core::{

@@ -1,0 +1,304 @@
+//! Acceleration-structure queries on instanced, flattened and smooth geometry: closest hit,
+//! any hit, the surface frames and the continuation of hit rays.
+
+use super::scenes::*;
+use crate::accel::{Accel, HitKind, Ray};
+use glam::{Affine3A, Vec3, Vec4};
+use lamina_core::{AlphaMask, ColorInput, Instance, Material, Mesh, Prototype};
+use lamina_leaf::{Texture, Wrap};
+
+/// Directions with negative zeros (`-Vec3::Z` is `(-0, -0, -1)`) hit what the same
+/// direction with positive zeros hits: obvhs derives the octant and the inverse direction
+/// differently for `-0`, which made such rays miss half of a sphere.
+#[test]
+fn negative_zero_directions_hit() {
+    let scene = sphere_scene(uv_sphere(Vec3::ZERO, 1.0, 12, 24, true, 0), vec![], None);
+    let a = Accel::build(&scene).unwrap();
+    for x in [-0.9f32, -0.5, 0.0, 0.5] {
+        for (o, d, plus) in [
+            (Vec3::new(x, 0.13, 5.0), -Vec3::Z, Vec3::new(0.0, 0.0, -1.0)),
+            (Vec3::new(5.0, 0.13, x), -Vec3::X, Vec3::new(-1.0, 0.0, 0.0)),
+        ] {
+            let ray = |dir| Ray {
+                origin: o,
+                dir,
+                tmax: f32::INFINITY,
+            };
+            let (h, h_plus) = (a.intersect(&ray(d)), a.intersect(&ray(plus)));
+            assert!(h_plus.is_some());
+            assert_eq!(h, h_plus, "{o} {d}");
+            assert!(a.occluded(&ray(d)));
+        }
+    }
+}
+
+/// Instanced geometry answers every query like the same geometry flattened into world
+/// space: closest hit (distance, position, adaxial normal, dP/du, uv, material) and any-hit,
+/// through rotations, non-uniform scale and a mirror. Rays that graze an edge may differ by
+/// rounding, so a few disagreements (< 1 %) are allowed, never a wrong frame.
+#[test]
+fn instanced_queries_match_flattened_geometry() {
+    let (inst, flat) = instanced_and_flat(&test_transforms());
+    let (a, b) = (Accel::build(&inst).unwrap(), Accel::build(&flat).unwrap());
+    assert_eq!(a.instance_count(), 3);
+    let (mut n, mut hits, mut disagree) = (0, 0, 0);
+    for i in 0..4000u32 {
+        let s = crate::sampler::sobol_2d(i, 3);
+        let q = crate::sampler::sobol_2d(i, 4);
+        let origin = Vec3::new(s.x * 4.0 - 2.0, s.y * 4.0 - 2.0, 3.0);
+        let target = Vec3::new(q.x * 3.0 - 1.5, q.y * 3.0 - 1.5, (q.x - q.y) * 2.0 - 1.0);
+        let ray = Ray {
+            origin,
+            dir: (target - origin).normalize(),
+            tmax: f32::INFINITY,
+        };
+        n += 1;
+        let (ha, hb) = (a.intersect(&ray), b.intersect(&ray));
+        assert_eq!(a.occluded(&ray), ha.is_some());
+        match (ha, hb) {
+            (None, None) => {}
+            (Some(ha), Some(hb)) if (ha.t - hb.t).abs() < 1e-4 * hb.t => {
+                hits += 1;
+                let (
+                    HitKind::Triangle { prim: pa, bary: ba },
+                    HitKind::Triangle { prim: pb, bary: bb },
+                ) = (ha.kind, hb.kind)
+                else {
+                    assert_eq!(ha.kind, hb.kind, "both hit the same sphere light");
+                    continue;
+                };
+                let (xa, ia) = a.surface(pa, ba);
+                let (xb, ib) = b.surface(pb, bb);
+                assert!((xa - xb).length() < 1e-4, "position {xa} vs {xb}");
+                assert!(ia.n.dot(ib.n) > 0.9999, "normal {} vs {}", ia.n, ib.n);
+                assert!(ia.s.dot(ib.s) > 0.999, "dP/du {} vs {}", ia.s, ib.s);
+                assert!(ia.s.dot(ia.n).abs() < 1e-4);
+                assert!((ia.uv_at(ba) - ib.uv_at(bb)).length() < 1e-4);
+                // Material (and alpha flag); a mirrored card may be stored as a
+                // parallelogram on one side and as two triangles on the other.
+                // The UV-mirror flag is relative to each BLAS's own winding: compare the
+                // normal-map frames it gives instead.
+                let q = crate::accel::FLAG_QUAD | crate::accel::FLAG_UV_MIRRORED;
+                assert_eq!(ia.flags & !q, ib.flags & !q);
+                let (ta, sa) = a.uv_tangent(pa, ba);
+                let (tb, sb) = b.uv_tangent(pb, bb);
+                let (ta, tb) = (ta.normalize(), tb.normalize());
+                assert!(ta.dot(tb) > 0.999, "tangent {ta} vs {tb}");
+                let (ba_, bb_) = (ia.n.cross(ta) * sa, ib.n.cross(tb) * sb);
+                assert!(ba_.dot(bb_) > 0.999, "bitangent {ba_} vs {bb_}");
+            }
+            _ => disagree += 1,
+        }
+    }
+    assert!(hits > n / 4, "{hits} of {n} rays hit");
+    assert!(disagree * 100 < n, "{disagree} of {n} rays disagree");
+}
+
+/// Bad instances are errors, not panics; memory is counted per level.
+#[test]
+fn instance_errors_and_memory() {
+    let (mut inst, _) = instanced_and_flat(&test_transforms());
+    let mem = Accel::build(&inst).unwrap().memory();
+    assert_eq!(mem.instance_count, 3);
+    assert!(mem.prototypes > 0 && mem.world > 0 && mem.instances >= 3 * 52);
+    assert!(mem.bytes_per_instance() >= 52.0);
+    inst.instances[1].transform = Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0));
+    assert!(Accel::build(&inst).is_err(), "singular transform");
+    inst.instances[1].transform = Affine3A::IDENTITY;
+    inst.instances[2].prototype = 5;
+    assert!(Accel::build(&inst).is_err(), "prototype out of range");
+}
+
+/// Instances carry vertex normals through the inverse transpose: the shading normal of an
+/// instanced smooth sphere equals that of the same sphere flattened into world space with
+/// its normals transformed, through rotation, non-uniform scale and a mirror.
+#[test]
+fn instanced_shading_normals_match_flattened() {
+    let sphere = uv_sphere(Vec3::ZERO, 0.5, 8, 16, true, 0);
+    let transforms = test_transforms();
+    let mut inst = sphere_scene(sphere.clone(), vec![], None);
+    inst.meshes = Vec::new();
+    inst.prototypes = vec![Prototype {
+        name: "sphere".into(),
+        meshes: vec![sphere.clone()],
+    }];
+    inst.instances = transforms
+        .iter()
+        .map(|&transform| Instance {
+            prototype: 0,
+            transform,
+        })
+        .collect();
+    let mut flat = inst.clone();
+    flat.prototypes = Vec::new();
+    flat.instances = Vec::new();
+    flat.meshes = transforms
+        .iter()
+        .map(|&m| {
+            let mut out = flatten(&sphere, m);
+            let it = m.matrix3.inverse().transpose();
+            for n in &mut out.normals {
+                *n = (it * glam::Vec3A::from(*n)).into();
+            }
+            out
+        })
+        .collect();
+    let (a, b) = (Accel::build(&inst).unwrap(), Accel::build(&flat).unwrap());
+    let mut hits = 0;
+    for i in 0..2000u32 {
+        let s = crate::sampler::sobol_2d(i, 5);
+        let origin = Vec3::new(s.x * 4.0 - 2.0, s.y * 4.0 - 2.0, 3.0);
+        let ray = Ray {
+            origin,
+            dir: (Vec3::new(s.y - 0.5, s.x - 0.5, 0.0) - origin).normalize(),
+            tmax: f32::INFINITY,
+        };
+        let (Some(ha), Some(hb)) = (a.intersect(&ray), b.intersect(&ray)) else {
+            continue;
+        };
+        let (HitKind::Triangle { prim: pa, bary: ba }, HitKind::Triangle { prim: pb, bary: bb }) =
+            (ha.kind, hb.kind)
+        else {
+            continue;
+        };
+        if (ha.t - hb.t).abs() > 1e-4 * hb.t {
+            continue; // grazing an edge: different triangles
+        }
+        let (na, nb) = (
+            a.shading_normal(pa, ba).unwrap(),
+            b.shading_normal(pb, bb).unwrap(),
+        );
+        assert!(na.dot(nb) > 0.9999, "shading normal {na} vs {nb}");
+        // And it is the smooth one: on the outside of the (mirrored or not) sphere.
+        let (_, info) = a.surface(pa, ba);
+        assert!(na.dot(info.n) > 0.5, "{na} vs geometric {}", info.n);
+        hits += 1;
+    }
+    assert!(hits > 200, "{hits} hits");
+}
+
+/// Tiny prototypes (at most `SMALL_BLAS` primitives, tested without a BVH) answer like
+/// the flattened geometry: three crossing cards (two with a half-transparent matte) and
+/// one triangle, placed rotated, non-uniformly scaled and mirrored. Closest hit, any hit,
+/// and the continuation of every hit ray from its exact hit point skipping the primitive it
+/// left (which must find the next surface, never the same one).
+#[test]
+fn tiny_instanced_prototypes_match_flattened_geometry() {
+    let matte = Texture::from_texels(2, 1, vec![Vec4::ZERO, Vec4::ONE], Wrap::Clamp);
+    let base = small_canopy_scene();
+    let mut meshes: Vec<Mesh> = base.meshes[..3].to_vec();
+    meshes[0].material = 2;
+    meshes[2].material = 2;
+    meshes.push(Mesh {
+        positions: vec![
+            Vec3::new(-0.5, -0.4, 0.1),
+            Vec3::new(0.6, -0.2, -0.1),
+            Vec3::new(0.0, 0.7, 0.2),
+        ],
+        indices: vec![[0, 1, 2]],
+        material: 1,
+        ..Default::default()
+    });
+    let mut inst = base.clone();
+    inst.materials.push(Material::Diffuse {
+        name: "matte".into(),
+        reflectance: ColorInput::Constant(Vec3::splat(0.5)),
+        alpha: Some(AlphaMask {
+            map: matte,
+            use_alpha_channel: false,
+            cutoff: 0.5,
+        }),
+    });
+    inst.prototypes = vec![Prototype {
+        name: "tiny".into(),
+        meshes: meshes.clone(),
+    }];
+    inst.meshes = Vec::new();
+    let transforms = test_transforms();
+    inst.instances = transforms
+        .iter()
+        .map(|&transform| Instance {
+            prototype: 0,
+            transform,
+        })
+        .collect();
+    let mut flat = inst.clone();
+    flat.prototypes = Vec::new();
+    flat.instances = Vec::new();
+    flat.meshes = transforms
+        .iter()
+        .flat_map(|&m| meshes.iter().map(move |mesh| flatten(mesh, m)))
+        .collect();
+    let (a, b) = (Accel::build(&inst).unwrap(), Accel::build(&flat).unwrap());
+    assert_eq!(a.instance_count(), 3);
+    assert_eq!(
+        a.primitive_count(),
+        4 + 1,
+        "3 cards + 1 triangle + the quad light"
+    );
+    let prim = |h: &crate::Hit| match h.kind {
+        HitKind::Triangle { prim, .. } => prim,
+        HitKind::Sphere { .. } => crate::accel::PrimRef::NONE,
+    };
+    let (mut n, mut hits, mut second, mut disagree) = (0, 0, 0, 0);
+    for i in 0..4000u32 {
+        let s = crate::sampler::sobol_2d(i, 5);
+        let q = crate::sampler::sobol_2d(i, 6);
+        let origin = Vec3::new(s.x * 4.0 - 2.0, s.y * 4.0 - 2.0, 3.0 - 6.0 * (i % 2) as f32);
+        let target = Vec3::new(q.x * 3.0 - 1.5, q.y * 3.0 - 1.5, (q.x - q.y) * 2.0 - 1.0);
+        let ray = Ray {
+            origin,
+            dir: (target - origin).normalize(),
+            tmax: f32::INFINITY,
+        };
+        n += 1;
+        let (ha, hb) = (a.intersect(&ray), b.intersect(&ray));
+        assert_eq!(a.occluded(&ray), ha.is_some());
+        let (Some(ha), Some(hb)) = (ha, hb) else {
+            disagree += (ha.is_some() != hb.is_some()) as u32;
+            continue;
+        };
+        if (ha.t - hb.t).abs() >= 1e-4 * hb.t {
+            disagree += 1;
+            continue;
+        }
+        hits += 1;
+        let (pa, pb) = (prim(&ha), prim(&hb));
+        if pa == crate::accel::PrimRef::NONE {
+            continue;
+        }
+        let HitKind::Triangle { bary, .. } = ha.kind else {
+            unreachable!()
+        };
+        let (xa, ia) = a.surface(pa, bary);
+        let HitKind::Triangle { bary: bb, .. } = hb.kind else {
+            unreachable!()
+        };
+        let (xb, ib) = b.surface(pb, bb);
+        assert!((xa - xb).length() < 1e-4, "position {xa} vs {xb}");
+        assert!(ia.n.dot(ib.n) > 0.9999, "normal {} vs {}", ia.n, ib.n);
+        // Continue from the exact hit point, skipping the primitive just hit.
+        let next = |p: Vec3| Ray {
+            origin: p,
+            dir: ray.dir,
+            tmax: 100.0,
+        };
+        let (na, nb) = (
+            a.intersect_skip(&next(xa), pa),
+            b.intersect_skip(&next(xb), pb),
+        );
+        assert_eq!(a.occluded_skip(&next(xa), pa), na.is_some());
+        if let Some(h) = na {
+            assert_ne!(prim(&h), pa, "the skipped primitive was hit again");
+        }
+        match (na, nb) {
+            (None, None) => {}
+            (Some(na), Some(nb)) if (na.t - nb.t).abs() < 1e-4 * nb.t.max(1e-2) => second += 1,
+            _ => disagree += 1,
+        }
+    }
+    eprintln!("{hits} hits, {second} second hits, {disagree} disagree of {n}");
+    assert!(hits > n / 8, "{hits} of {n} rays hit");
+    assert!(second > n / 40, "{second} of {n} rays hit twice");
+    assert!(disagree * 100 < n, "{disagree} of {n} rays disagree");
+}

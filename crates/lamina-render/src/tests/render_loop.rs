@@ -1,0 +1,83 @@
+//! The render loop: determinism across thread counts, time limits and cancellation, and
+//! option errors.
+
+use super::scenes::*;
+use crate::{RenderOptions, render};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+/// (d) Same seed → bit-identical image with 1 and 2 threads; another seed differs.
+#[test]
+fn deterministic_across_thread_counts() {
+    let scene = small_canopy_scene();
+    let a = render(&scene, &opts(8, 1)).unwrap();
+    let b = render(&scene, &opts(8, 2)).unwrap();
+    assert!(a.image.pixels.iter().all(|p| p.is_finite()));
+    assert_eq!(a.image, b.image);
+    assert_eq!(a.stats.rays, b.stats.rays);
+    let c = render(
+        &scene,
+        &RenderOptions {
+            seed: 8,
+            ..opts(8, 2)
+        },
+    )
+    .unwrap();
+    assert_ne!(a.image, c.image);
+    assert!(a.image.mean().max_element() > 0.0);
+}
+
+/// (e) A time limit or the cancel flag returns a valid image of the completed passes.
+#[test]
+fn time_limit_and_cancel_return_valid_images() {
+    let scene = small_canopy_scene();
+    let out = render(
+        &scene,
+        &RenderOptions {
+            time_limit: Some(Duration::from_millis(300)),
+            ..opts(1_000_000, 2)
+        },
+    )
+    .unwrap();
+    assert!(out.stats.stopped_early);
+    assert!(out.stats.spp_done >= 1 && out.stats.spp_done < 1_000_000);
+    assert!(out.stats.elapsed < Duration::from_secs(5));
+    assert!(out.image.pixels.iter().all(|p| p.is_finite()));
+    assert!(out.image.mean().max_element() > 0.0);
+
+    let cancel = Arc::new(AtomicBool::new(false));
+    let flag = cancel.clone();
+    let out = render(
+        &scene,
+        &RenderOptions {
+            cancel: Some(cancel),
+            progress: Some(Arc::new(move |p| {
+                if p.passes_done == 2 {
+                    flag.store(true, Ordering::Relaxed);
+                }
+            })),
+            ..opts(64, 2)
+        },
+    )
+    .unwrap();
+    assert!(out.stats.stopped_early);
+    assert_eq!(out.stats.spp_done, 2);
+    assert!(out.image.pixels.iter().all(|p| p.is_finite()));
+    // The two-pass image equals a plain 2-spp render.
+    assert_eq!(out.image, render(&scene, &opts(2, 2)).unwrap().image);
+}
+
+/// Bad options fail cleanly.
+#[test]
+fn bad_options_are_errors() {
+    let scene = small_canopy_scene();
+    assert!(render(&scene, &opts(0, 2)).is_err());
+    assert!(render(&scene, &opts(1, 0)).is_err());
+    let mut bad = scene.clone();
+    bad.camera.look_at = bad.camera.position;
+    assert!(render(&bad, &opts(1, 1)).is_err());
+    let mut bad = scene;
+    bad.meshes[0].material = 99;
+    assert!(render(&bad, &opts(1, 1)).is_err());
+}

@@ -12,9 +12,9 @@
 //! * [`normal_maps`]: tangent frames and normal-mapped renders.
 //! * [`render_loop`]: determinism, time limits, cancellation, option errors.
 //! * [`output`]: EXR / PNG files.
-//! * [`accel_queries`]: acceleration-structure queries.
+//!
+//! The acceleration structure's suite is `crate::accel::tests`.
 
-mod accel_queries;
 mod alpha;
 mod instancing;
 mod integrators;

@@ -1,11 +1,92 @@
-//! Acceleration-structure queries on instanced, flattened and smooth geometry: closest hit,
-//! any hit, the surface frames and the continuation of hit rays.
+//! Tests of [`Accel`]'s own API beyond the [`super::Backend`] trait, each kept as it was
+//! written: card merging, the matte's cell table, negative-zero directions, instanced
+//! against flattened geometry (closest hit, any hit, surface frames, shading normals, UV
+//! tangents, continuation rays) and build errors and memory.
 
-use super::scenes::*;
+use super::super::alpha::{AlphaTest, CELL_MIXED, MaskCells};
+use super::super::prims::parallelogram;
 use crate::accel::{Accel, HitKind, Ray};
-use glam::{Affine3A, Vec3, Vec4};
+use crate::tests::scenes::*;
+use glam::{Affine3A, Vec2, Vec3, Vec4};
 use lamina_core::{AlphaMask, ColorInput, Instance, Material, Mesh, Prototype};
 use lamina_leaf::{Texture, Wrap};
+
+#[test]
+fn cards_become_parallelograms() {
+    let p = [
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(1.0, 2.0, 0.0),
+        Vec3::new(0.0, 2.0, 0.0),
+        Vec3::new(1.5, 2.0, 0.0), // makes a trapezoid with 0, 1, 2
+    ];
+    let uv = [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y, Vec2::ONE];
+    let pos = |i: u32| p[i as usize];
+    let tex = |i: u32| uv[i as usize];
+    // Diagonal 0-2, both rotations of the second triangle.
+    assert_eq!(
+        parallelogram([0, 1, 2], [0, 2, 3], &pos, &tex),
+        Some([0, 1, 3])
+    );
+    assert_eq!(
+        parallelogram([0, 1, 2], [2, 3, 0], &pos, &tex),
+        Some([0, 1, 3])
+    );
+    // Diagonal 1-3.
+    assert_eq!(
+        parallelogram([0, 1, 3], [1, 2, 3], &pos, &tex),
+        Some([0, 1, 3])
+    );
+    // Not a parallelogram, opposite winding, unrelated triangles.
+    assert_eq!(parallelogram([0, 1, 4], [0, 4, 3], &pos, &tex), None);
+    assert_eq!(parallelogram([0, 1, 2], [0, 3, 2], &pos, &tex), None);
+    assert_eq!(parallelogram([0, 1, 2], [1, 2, 4], &pos, &tex), None);
+    // Non-affine texture coordinates.
+    let bent = |i: u32| {
+        if i == 3 {
+            Vec2::new(0.2, 1.0)
+        } else {
+            uv[i as usize]
+        }
+    };
+    assert_eq!(parallelogram([0, 1, 2], [0, 2, 3], &pos, &bent), None);
+}
+
+/// The cell table agrees with the filtered lookup everywhere, for both wrap modes,
+/// both channels, inside and outside `[0, 1]`.
+#[test]
+fn mask_cells_agree_with_filtered_lookup() {
+    let (w, h) = (7u32, 5u32);
+    let texels: Vec<Vec4> = (0..w * h)
+        .map(|i| {
+            let v = ((i * 37 + 11) % 10) as f32 / 9.0;
+            Vec4::new(v, 0.0, 0.0, 1.0 - v)
+        })
+        .collect();
+    for wrap in [Wrap::Repeat, Wrap::Clamp] {
+        for use_alpha_channel in [false, true] {
+            let mask = AlphaMask {
+                map: Texture::from_texels(w, h, texels.clone(), wrap),
+                use_alpha_channel,
+                cutoff: 0.5,
+            };
+            let cells = MaskCells::new(&mask).unwrap();
+            let test = AlphaTest::Mask(mask.clone(), Some(cells));
+            let mut decided = 0;
+            for i in 0..4000 {
+                let uv = Vec2::new(
+                    i as f32 / 4000.0 * 1.6 - 0.3,
+                    ((i * 7919) % 4000) as f32 / 4000.0 * 1.6 - 0.3,
+                );
+                assert_eq!(test.opaque(uv), mask.opaque(uv), "{wrap:?} {uv}");
+                if let AlphaTest::Mask(_, Some(c)) = &test {
+                    decided += (c.classify(uv) != CELL_MIXED) as u32;
+                }
+            }
+            assert!(decided > 0);
+        }
+    }
+}
 
 /// Directions with negative zeros (`-Vec3::Z` is `(-0, -0, -1)`) hit what the same
 /// direction with positive zeros hits: obvhs derives the octant and the inverse direction

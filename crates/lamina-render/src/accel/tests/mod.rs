@@ -1,0 +1,3 @@
+//! The acceleration-structure suite.
+
+mod accel_api;

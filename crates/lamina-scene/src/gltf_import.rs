@@ -26,15 +26,12 @@
 use crate::error::{SceneError, guarded, read_bytes};
 use crate::gltf_accessor::{self as acc, check_accessor, read_f32};
 use crate::limits::{MAX_GLTF_ELEMENTS, MAX_GLTF_FILE_BYTES, MAX_GLTF_NODES};
-use crate::scene::{
-    AlphaMask, ColorInput, Instance, Material, Mesh, NormalMap, PbrMaterial, Prototype,
-};
+use crate::scene::{ColorInput, Instance, Material, Mesh, Prototype};
 use crate::transform::Transform;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
-use lamina_leaf::{Encoding, Texture, Wrap};
+use lamina_leaf::Texture;
 use std::collections::HashMap;
 use std::path::Path;
-use std::sync::Arc;
 
 /// Extensions whose absence changes nothing we render, so a file may require them.
 const UNDERSTOOD: &[&str] = &[
@@ -152,7 +149,7 @@ fn validate(doc: &gltf::Document) -> Result<(), String> {
 
 /// A relative URI's path: percent-decoded, and valid UTF-8 (the gltf crate panics on one
 /// that is not).
-fn uri_path(uri: &str) -> Result<String, String> {
+pub(crate) fn uri_path(uri: &str) -> Result<String, String> {
     let b = uri.as_bytes();
     let hex = |c: u8| (c as char).to_digit(16).map(|d| d as u8);
     let mut out = Vec::with_capacity(b.len());
@@ -210,70 +207,11 @@ fn parse_gltf_with(
     }
     let base = path.parent().unwrap_or(Path::new(""));
     let doc = gltf.document;
-    // Name the missing buffer file (the gltf crate only says "No such file"), and check
-    // each file's size before the crate reads it whole.
-    for b in doc.buffers() {
-        let key = format!("buffers[{}]", b.index());
-        if b.length() as u64 > MAX_GLTF_FILE_BYTES {
-            return Err(fail(
-                &key,
-                format!(
-                    "byteLength {} is more than the {MAX_GLTF_FILE_BYTES} supported",
-                    b.length()
-                ),
-            ));
-        }
-        if let gltf::buffer::Source::Uri(uri) = b.source() {
-            let Some(file) = buffer_file(base, uri).map_err(|e| fail(&key, e))? else {
-                continue;
-            };
-            match std::fs::metadata(&file) {
-                Err(e) => {
-                    return Err(fail(
-                        &key,
-                        format!("cannot read buffer '{uri}' ({}): {e}", file.display()),
-                    ));
-                }
-                Ok(m) if !m.is_file() => {
-                    return Err(fail(
-                        &key,
-                        format!("buffer '{uri}' ({}) is not a regular file", file.display()),
-                    ));
-                }
-                Ok(m) if m.len() > MAX_GLTF_FILE_BYTES => {
-                    return Err(fail(
-                        &key,
-                        format!(
-                            "buffer '{uri}' ({}) is {} bytes, more than the {MAX_GLTF_FILE_BYTES} supported",
-                            file.display(),
-                            m.len()
-                        ),
-                    ));
-                }
-                Ok(_) => {}
-            }
-        }
-    }
+    check_buffer_files(&doc, base, &fail)?;
     let buffers = gltf::import_buffers(&doc, Some(base), gltf.blob)
         .map_err(|e| fail("buffers", format!("cannot load buffers: {e}")))?;
     let mut out = GltfScene::default();
-    let mut images: HashMap<(usize, bool), Texture> = HashMap::new();
-    for (i, m) in doc.materials().enumerate() {
-        let name = m
-            .name()
-            .map_or_else(|| format!("material{i}"), str::to_owned);
-        let mat = convert_material(
-            path,
-            &doc,
-            &buffers,
-            &m,
-            &name,
-            &mut images,
-            &mut out.warnings,
-        )?;
-        out.materials.push(mat);
-        out.material_names.push(name);
-    }
+    read_materials(path, &doc, &buffers, &mut out)?;
     let default_material = out.materials.len() as u32;
     out.materials.push(Material::Diffuse {
         name: "default".into(),
@@ -285,6 +223,107 @@ fn parse_gltf_with(
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| fail("scenes", "the file has no scene".into()))?;
+    let uses = mesh_uses(&doc, &scene, xf, &fail)?;
+    let meshes = MeshReader {
+        path,
+        buffers: &buffers,
+        default_material,
+    };
+    place_meshes(&meshes, &uses, instance_repeated, &mut out)?;
+    if out.meshes.is_empty() && out.prototypes.is_empty() {
+        return Err(fail("meshes", "the file has no triangles to render".into()));
+    }
+    Ok(out)
+}
+
+/// Names a missing buffer file (the gltf crate only says "No such file"), and checks each
+/// file's size before the crate reads it whole.
+fn check_buffer_files(
+    doc: &gltf::Document,
+    base: &Path,
+    fail: &dyn Fn(&str, String) -> SceneError,
+) -> Result<(), SceneError> {
+    for b in doc.buffers() {
+        let key = format!("buffers[{}]", b.index());
+        if b.length() as u64 > MAX_GLTF_FILE_BYTES {
+            return Err(fail(
+                &key,
+                format!(
+                    "byteLength {} is more than the {MAX_GLTF_FILE_BYTES} supported",
+                    b.length()
+                ),
+            ));
+        }
+        let gltf::buffer::Source::Uri(uri) = b.source() else {
+            continue;
+        };
+        let Some(file) = buffer_file(base, uri).map_err(|e| fail(&key, e))? else {
+            continue;
+        };
+        match std::fs::metadata(&file) {
+            Err(e) => {
+                return Err(fail(
+                    &key,
+                    format!("cannot read buffer '{uri}' ({}): {e}", file.display()),
+                ));
+            }
+            Ok(m) if !m.is_file() => {
+                return Err(fail(
+                    &key,
+                    format!("buffer '{uri}' ({}) is not a regular file", file.display()),
+                ));
+            }
+            Ok(m) if m.len() > MAX_GLTF_FILE_BYTES => {
+                return Err(fail(
+                    &key,
+                    format!(
+                        "buffer '{uri}' ({}) is {} bytes, more than the {MAX_GLTF_FILE_BYTES} supported",
+                        file.display(),
+                        m.len()
+                    ),
+                ));
+            }
+            Ok(_) => {}
+        }
+    }
+    Ok(())
+}
+
+/// Every glTF material as a lamina material, in file order (images decoded once).
+fn read_materials(
+    path: &Path,
+    doc: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+    out: &mut GltfScene,
+) -> Result<(), SceneError> {
+    let mut images: HashMap<(usize, bool), Texture> = HashMap::new();
+    for (i, m) in doc.materials().enumerate() {
+        let name = m
+            .name()
+            .map_or_else(|| format!("material{i}"), str::to_owned);
+        let mat = crate::gltf_material::convert_material(
+            path,
+            doc,
+            buffers,
+            &m,
+            &name,
+            &mut images,
+            &mut out.warnings,
+        )?;
+        out.materials.push(mat);
+        out.material_names.push(name);
+    }
+    Ok(())
+}
+
+/// (mesh, world transform) for every node of `scene` with a mesh, in traversal order;
+/// the node hierarchy must be a tree of at most [`MAX_GLTF_NODES`] visits.
+fn mesh_uses<'a>(
+    doc: &gltf::Document,
+    scene: &gltf::Scene<'a>,
+    xf: &Transform,
+    fail: &dyn Fn(&str, String) -> SceneError,
+) -> Result<Vec<(gltf::Mesh<'a>, Mat4)>, SceneError> {
     let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, xf.m)).collect();
     // Nodes put on the stack so far: a node hierarchy that is not a tree (a cycle, a node
     // with several parents) could otherwise grow it without bound.
@@ -303,8 +342,7 @@ fn parse_gltf_with(
     // glTF node hierarchies are trees: a node reached twice (a cycle, or a node with two
     // parents) would be visited without end, or once per path to it.
     let mut reached = vec![false; doc.nodes().len()];
-    // (mesh, world transform) for every node with a mesh, in traversal order.
-    let mut uses: Vec<(gltf::Mesh, Mat4)> = Vec::new();
+    let mut uses = Vec::new();
     while let Some((node, parent)) = stack.pop() {
         match reached.get_mut(node.index()) {
             Some(r) if !*r => *r = true,
@@ -332,22 +370,40 @@ fn parse_gltf_with(
         }
         stack.extend(node.children().map(|c| (c, world)));
     }
+    Ok(uses)
+}
+
+/// What reading a glTF mesh needs besides the mesh.
+struct MeshReader<'a> {
+    path: &'a Path,
+    buffers: &'a [gltf::buffer::Data],
+    default_material: u32,
+}
+
+/// Puts every mesh use into `out`: in world space, or (with `instance_repeated`, for a
+/// mesh used by several nodes) as one prototype with an instance per node.
+fn place_meshes(
+    r: &MeshReader,
+    uses: &[(gltf::Mesh, Mat4)],
+    instance_repeated: bool,
+    out: &mut GltfScene,
+) -> Result<(), SceneError> {
     let mut budget = Budget::default();
     let mut count: HashMap<usize, usize> = HashMap::new();
-    for (m, _) in &uses {
+    for (m, _) in uses {
         *count.entry(m.index()).or_default() += 1;
     }
     // glTF mesh index -> prototype index.
     let mut proto_of: HashMap<usize, u32> = HashMap::new();
-    for (mesh, world) in &uses {
+    for (mesh, world) in uses {
         let repeated = instance_repeated && count[&mesh.index()] > 1;
         if !repeated {
             let meshes = read_mesh(
-                path,
+                r.path,
                 mesh,
-                &buffers,
+                r.buffers,
                 Transform::from_matrix(*world),
-                default_material,
+                r.default_material,
                 &mut out.warnings,
                 &mut budget,
             )?;
@@ -365,11 +421,11 @@ fn parse_gltf_with(
             Some(&p) => p,
             None => {
                 let meshes = read_mesh(
-                    path,
+                    r.path,
                     mesh,
-                    &buffers,
+                    r.buffers,
                     Transform::default(),
-                    default_material,
+                    r.default_material,
                     &mut out.warnings,
                     &mut budget,
                 )?;
@@ -392,10 +448,7 @@ fn parse_gltf_with(
             transform: glam::Affine3A::from_mat4(*world),
         });
     }
-    if out.meshes.is_empty() && out.prototypes.is_empty() {
-        return Err(fail("meshes", "the file has no triangles to render".into()));
-    }
-    Ok(out)
+    Ok(())
 }
 
 /// The triangle primitives of `mesh` transformed by `xf`, one [`Mesh`] each.
@@ -603,294 +656,4 @@ fn read_primitive(
         indices,
         material,
     }))
-}
-
-/// Decodes glTF image `index` to a texture (sRGB-decoded when `srgb`), cached.
-fn image(
-    path: &Path,
-    doc: &gltf::Document,
-    buffers: &[gltf::buffer::Data],
-    tex: gltf::Texture,
-    srgb: bool,
-    cache: &mut HashMap<(usize, bool), Texture>,
-) -> Result<Texture, SceneError> {
-    let img = tex.source();
-    let key = (img.index(), srgb);
-    if let Some(t) = cache.get(&key) {
-        return Ok(t.clone());
-    }
-    let fail = |msg: String| SceneError::new(path, None, format!("images[{}]", img.index()), msg);
-    let encoding = if srgb {
-        Encoding::Srgb
-    } else {
-        Encoding::Linear
-    };
-    // Decoded with the size checked from the header first (lamina_leaf::texture).
-    let mut t = match img.source() {
-        gltf::image::Source::View { view, .. } => {
-            let data = buffers
-                .get(view.buffer().index())
-                .ok_or_else(|| fail("its buffer is missing".into()))?;
-            let (start, len) = (view.offset(), view.length());
-            let bytes = start
-                .checked_add(len)
-                .and_then(|end| data.0.get(start..end))
-                .ok_or_else(|| {
-                    fail(format!(
-                        "bufferView {} (byteOffset {start}, byteLength {len}) is beyond its buffer ({} bytes)",
-                        view.index(),
-                        data.0.len()
-                    ))
-                })?;
-            Texture::decode(bytes, encoding, path).map_err(|e| fail(e.to_string()))?
-        }
-        gltf::image::Source::Uri { uri, .. } => {
-            if uri.starts_with("data:") {
-                return Err(fail(
-                    "data-URI images are not supported; use a .glb or an image file".into(),
-                ));
-            }
-            let file = path
-                .parent()
-                .unwrap_or(Path::new(""))
-                .join(uri_path(uri).map_err(fail)?);
-            Texture::load(&file, encoding).map_err(|e| fail(e.to_string()))?
-        }
-    };
-    t.wrap = match tex.sampler().wrap_s() {
-        gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
-        _ => Wrap::Repeat,
-    };
-    let _ = doc;
-    cache.insert(key, t.clone());
-    Ok(t)
-}
-
-fn ext_f32(v: Option<&serde_json::Value>, name: &str, default: f32) -> f32 {
-    v.and_then(|v| v.get(name))
-        .and_then(|x| x.as_f64())
-        .map_or(default, |x| x as f32)
-}
-
-/// The texture that a `KHR_materials_diffuse_transmission` texture-info object refers to.
-fn ext_texture<'a>(
-    path: &Path,
-    doc: &'a gltf::Document,
-    info: Option<&serde_json::Value>,
-    key: &str,
-) -> Result<Option<gltf::Texture<'a>>, SceneError> {
-    let Some(info) = info else { return Ok(None) };
-    let index = info.get("index").and_then(|i| i.as_u64());
-    let tex = index.and_then(|i| doc.textures().nth(i as usize));
-    match tex {
-        Some(t) => Ok(Some(t)),
-        None => Err(SceneError::new(
-            path,
-            None,
-            key,
-            format!("texture index {index:?} does not exist"),
-        )),
-    }
-}
-
-/// `(texCoord, KHR_texture_transform)` of a texture reference, for checking that all of a
-/// material's maps read the coordinates the mesh carries.
-fn tex_coord_and_transform(t: &gltf::texture::Info) -> (u32, Option<[f32; 5]>) {
-    let xf = t.texture_transform().map(|x| {
-        let [ox, oy] = x.offset();
-        let [sx, sy] = x.scale();
-        [ox, oy, sx, sy, x.rotation()]
-    });
-    (t.tex_coord(), xf)
-}
-
-#[allow(clippy::too_many_arguments)]
-fn convert_material(
-    path: &Path,
-    doc: &gltf::Document,
-    buffers: &[gltf::buffer::Data],
-    m: &gltf::Material,
-    name: &str,
-    cache: &mut HashMap<(usize, bool), Texture>,
-    warnings: &mut Vec<String>,
-) -> Result<Material, SceneError> {
-    let pbr = m.pbr_metallic_roughness();
-    let factor = Vec4::from(pbr.base_color_factor());
-    let base_tex = pbr
-        .base_color_texture()
-        .map(|t| image(path, doc, buffers, t.texture(), true, cache))
-        .transpose()?;
-    // Every map is read with the mesh's first UV set after the base colour's transform
-    // (see `read_mesh`): say so where a map asks for something else.
-    let base_coords = pbr
-        .base_color_texture()
-        .map(|t| tex_coord_and_transform(&t));
-    let mut check_coords = |what: &str, coords: (u32, Option<[f32; 5]>)| {
-        let expected = base_coords.unwrap_or((0, coords.1));
-        if coords.0 != 0 || coords != expected {
-            warnings.push(format!(
-                "material '{name}': the {what} map uses other texture coordinates or another \
-                 KHR_texture_transform than the base colour; it is read with the base colour's"
-            ));
-        }
-    };
-    let mr_tex = match pbr.metallic_roughness_texture() {
-        Some(t) => {
-            check_coords("metallic-roughness", tex_coord_and_transform(&t));
-            Some(image(path, doc, buffers, t.texture(), false, cache)?)
-        }
-        None => None,
-    };
-    let normal_map = match m.normal_texture() {
-        Some(t) => {
-            // (the gltf crate does not expose a normal texture's KHR_texture_transform)
-            check_coords("normal", (t.tex_coord(), base_coords.and_then(|b| b.1)));
-            let scale = t.scale();
-            if !scale.is_finite() || scale.abs() > 100.0 {
-                return Err(SceneError::new(
-                    path,
-                    None,
-                    format!("materials[{}].normalTexture.scale", m.index().unwrap_or(0)),
-                    format!("must be finite and within ±100, got {scale}"),
-                ));
-            }
-            Some(NormalMap {
-                map: image(path, doc, buffers, t.texture(), false, cache)?,
-                scale,
-            })
-        }
-        None => None,
-    };
-    let alpha = match m.alpha_mode() {
-        gltf::material::AlphaMode::Opaque => None,
-        mode => {
-            let cutoff = if mode == gltf::material::AlphaMode::Mask {
-                m.alpha_cutoff().unwrap_or(0.5)
-            } else {
-                0.5
-            };
-            if mode == gltf::material::AlphaMode::Blend {
-                warnings.push(format!(
-                    "material '{name}': alphaMode BLEND rendered as a cut-out at 0.5"
-                ));
-            }
-            match &base_tex {
-                // The cut-out compares texture alpha times the factor's alpha with the cutoff.
-                Some(t) => Some(AlphaMask {
-                    map: t.clone(),
-                    use_alpha_channel: true,
-                    cutoff: (cutoff / factor.w.max(1e-6)).min(1.0),
-                }),
-                None if factor.w < cutoff => Some(AlphaMask {
-                    map: Texture::constant(Vec4::ZERO),
-                    use_alpha_channel: true,
-                    cutoff: 0.5,
-                }),
-                None => None,
-            }
-        }
-    };
-    let base = match &base_tex {
-        Some(t) => ColorInput::Texture {
-            map: t.clone(),
-            factor: factor.truncate(),
-        },
-        None => ColorInput::Constant(factor.truncate()),
-    };
-    let ext = m.extensions();
-    let dt = ext.and_then(|e| e.get("KHR_materials_diffuse_transmission"));
-    let volume = ext.and_then(|e| e.get("KHR_materials_volume"));
-    if ext.is_some_and(|e| e.contains_key("KHR_materials_translucency")) {
-        warnings.push(format!(
-            "material '{name}': KHR_materials_translucency (not a ratified extension) ignored"
-        ));
-    }
-    let mut out = PbrMaterial {
-        name: name.into(),
-        base_color: base,
-        metallic: pbr.metallic_factor().clamp(0.0, 1.0),
-        roughness: pbr.roughness_factor().clamp(0.0, 1.0),
-        metallic_roughness: mr_tex,
-        ior: 1.5,
-        transmission: 0.0,
-        transmission_map: None,
-        transmission_color: ColorInput::Constant(Vec3::ONE),
-        normal_map,
-        alpha,
-    };
-    if let Some(ior) = ext.and_then(|e| e.get("KHR_materials_ior")) {
-        let v = ext_f32(Some(ior), "ior", 1.5);
-        if (1.0..=3.0).contains(&v) {
-            out.ior = v;
-        } else {
-            warnings.push(format!(
-                "material '{name}': KHR_materials_ior {v} outside [1, 3]; 1.5 used"
-            ));
-        }
-    }
-    let Some(dt) = dt else {
-        return Ok(Material::Pbr(Box::new(out)));
-    };
-    let key = |k: &str| {
-        format!(
-            "materials[{}].extensions.KHR_materials_diffuse_transmission.{k}",
-            m.index().unwrap_or(0)
-        )
-    };
-    out.transmission = ext_f32(Some(dt), "diffuseTransmissionFactor", 0.0).clamp(0.0, 1.0);
-    let c = dt
-        .get("diffuseTransmissionColorFactor")
-        .and_then(|v| serde_json::from_value::<[f32; 3]>(v.clone()).ok())
-        .map_or(Vec3::ONE, Vec3::from)
-        .clamp(Vec3::ZERO, Vec3::ONE);
-    let t_tex = ext_texture(
-        path,
-        doc,
-        dt.get("diffuseTransmissionTexture"),
-        &key("diffuseTransmissionTexture"),
-    )?;
-    let c_tex = ext_texture(
-        path,
-        doc,
-        dt.get("diffuseTransmissionColorTexture"),
-        &key("diffuseTransmissionColorTexture"),
-    )?;
-    out.transmission_map = t_tex
-        .map(|t| image(path, doc, buffers, t, false, cache))
-        .transpose()?;
-    out.transmission_color = match c_tex {
-        Some(t) => ColorInput::Texture {
-            map: image(path, doc, buffers, t, true, cache)?,
-            factor: c,
-        },
-        None => ColorInput::Constant(c),
-    };
-    if let Some(v) = volume {
-        let thickness_m = ext_f32(Some(v), "thicknessFactor", 0.0);
-        if thickness_m > 0.0 {
-            let params = lamina_leaf::LeafParams {
-                thickness_mm: (thickness_m * 1000.0).clamp(0.01, 5.0),
-                ..Default::default()
-            };
-            let maps = lamina_leaf::LeafMaps {
-                front: base_tex.clone(),
-                alpha: out.alpha.as_ref().map(|a| a.map.clone()),
-                ..Default::default()
-            };
-            if out.normal_map.is_some() {
-                warnings.push(format!(
-                    "material '{name}': rendered as a lamina leaf, whose relief comes from a \
-                     bump (height) map; the normal map is ignored"
-                ));
-            }
-            let leaf = lamina_leaf::LeafMaterial::new(maps, params).map_err(|e| {
-                SceneError::new(path, None, format!("material '{name}'"), e.to_string())
-            })?;
-            return Ok(Material::Leaf {
-                name: name.into(),
-                leaf: Arc::new(leaf),
-            });
-        }
-    }
-    Ok(Material::Pbr(Box::new(out)))
 }

@@ -12,6 +12,7 @@ mod dict;
 pub mod error;
 mod gltf_accessor;
 pub mod gltf_import;
+mod gltf_material;
 pub mod instances;
 mod light;
 pub mod limits;

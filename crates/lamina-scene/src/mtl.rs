@@ -326,9 +326,7 @@ impl Converter<'_> {
 
     /// `Kd`, `map_Kd` and the alpha matte (`map_d`, `map_Kd`'s alpha, or `d`/`Tr` without a
     /// map).
-    fn albedo_and_alpha(
-        &mut self,
-    ) -> Result<AlbedoAlpha, SceneError> {
+    fn albedo_and_alpha(&mut self) -> Result<AlbedoAlpha, SceneError> {
         let m = self.m;
         let kd = m.diffuse.map(|d| self.finite3("Kd", d)).transpose()?;
         let map_kd = match m.diffuse_texture.as_deref() {

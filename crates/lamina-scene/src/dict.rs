@@ -682,6 +682,50 @@ pub(crate) fn type_of<'a>(
     }
 }
 
+/// A family of typed tables (`[[light]]`, `[[material]]`, `[[object]]`): each type's
+/// name, keys and reader.
+pub(crate) type Types<R> = [(&'static str, Keys, R)];
+
+/// The `type` of table `at` of `family` and its entry in `types`, or an error listing the
+/// family's types.
+pub(crate) fn type_entry<'a, 't, R>(
+    ld: &Loader,
+    family: &str,
+    at: &str,
+    t: &'a S<Table>,
+    types: &'t Types<R>,
+) -> Result<(S<&'a str>, Keys, &'t R), SceneError> {
+    let kind = type_of(ld, at, t)?;
+    match types.iter().find(|(name, ..)| name == kind.get_ref()) {
+        Some((_, keys, reader)) => Ok((kind, *keys, reader)),
+        None => {
+            let names: Vec<&str> = types.iter().map(|(n, ..)| *n).collect();
+            Err(ld.err(
+                kind.span(),
+                format!("{at}.type"),
+                format!(
+                    "unknown {family} type '{}' ({})",
+                    kind.get_ref(),
+                    names.join(", ")
+                ),
+            ))
+        }
+    }
+}
+
+/// Opens table `at` of `family` with the keys of its type; also returns the type's reader.
+pub(crate) fn open_typed<'a, 't, R>(
+    ld: &'a Loader,
+    family: &str,
+    at: String,
+    t: &'a S<Table>,
+    types: &'t Types<R>,
+) -> Result<(Dict<'a>, &'t R), SceneError> {
+    let (kind, keys, reader) = type_entry(ld, family, &at, t, types)?;
+    let d = Dict::open(ld, at, Some(kind.into_inner()), t.span(), t.get_ref(), keys)?;
+    Ok((d, reader))
+}
+
 /// `[a, b, c]` of numbers.
 fn three_numbers(v: &Value) -> Option<[f32; 3]> {
     let Value::Array(a) = v else { return None };

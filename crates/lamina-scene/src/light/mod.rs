@@ -1,6 +1,6 @@
 //! `[[light]]` (any number): one module per light type, each with its parameter table.
 
-use crate::dict::{Dict, Key, Keys, S, Table, type_of};
+use crate::dict::{Dict, Key, Keys, S, Table, open_typed};
 use crate::error::SceneError;
 use crate::loader::Loader;
 use crate::scene::Light;
@@ -49,31 +49,12 @@ pub(crate) const TYPES: &[(&str, Keys, Reader)] = &[
 
 /// Checks the keys and their types of `[[light]]` number `i` (before any table is read).
 pub(crate) fn check(ld: &Loader, i: usize, t: &S<Table>) -> Result<(), SceneError> {
-    let at = format!("light[{i}]");
-    let kind = type_of(ld, &at, t)?;
-    match TYPES.iter().find(|(name, ..)| name == kind.get_ref()) {
-        Some((_, keys, _)) => {
-            Dict::open(ld, at, Some(*kind.get_ref()), t.span(), t.get_ref(), *keys).map(drop)
-        }
-        None => Ok(()),
-    }
+    open_typed(ld, "light", format!("light[{i}]"), t, TYPES).map(drop)
 }
 
 /// Reads `[[light]]` number `i`.
 pub(crate) fn read(ld: &Loader, i: usize, t: &S<Table>) -> Result<Light, SceneError> {
-    let at = format!("light[{i}]");
-    let kind = type_of(ld, &at, t)?;
-    let Some((_, keys, read)) = TYPES.iter().find(|(name, ..)| name == kind.get_ref()) else {
-        return Err(ld.err(
-            kind.span(),
-            format!("{at}.type"),
-            format!(
-                "unknown light type '{}' (sun, point, quad, sphere)",
-                kind.get_ref()
-            ),
-        ));
-    };
-    let d = Dict::open(ld, at, Some(*kind.get_ref()), t.span(), t.get_ref(), *keys)?;
+    let (d, read) = open_typed(ld, "light", format!("light[{i}]"), t, TYPES)?;
     let light = read(&d)?;
     d.finish()?;
     Ok(light)

@@ -2,7 +2,7 @@
 //! material type, each with its parameter table, and the inputs they share (colours with
 //! optional maps, alpha mattes).
 
-use crate::dict::{Dict, Key, Keys, S, Table, Value, type_of};
+use crate::dict::{Dict, Key, Keys, S, Table, Value, open_typed};
 use crate::error::SceneError;
 use crate::loader::Loader;
 use crate::scene::{AlphaMask, ColorInput, Material};
@@ -88,32 +88,13 @@ pub(crate) fn name<'a>(ld: &Loader, i: usize, t: &'a S<Table>) -> Result<S<&'a s
 
 /// Checks the keys and their types of `[[material]]` number `i` (before any table is read).
 pub(crate) fn check(ld: &Loader, i: usize, t: &S<Table>) -> Result<(), SceneError> {
-    let at = format!("material[{i}]");
-    let kind = type_of(ld, &at, t)?;
-    match TYPES.iter().find(|(n, ..)| n == kind.get_ref()) {
-        Some((_, keys, _)) => {
-            Dict::open(ld, at, Some(*kind.get_ref()), t.span(), t.get_ref(), *keys).map(drop)
-        }
-        None => Ok(()),
-    }
+    open_typed(ld, "material", format!("material[{i}]"), t, TYPES).map(drop)
 }
 
 /// Reads `[[material]]` number `i`.
 pub(crate) fn read(ld: &Loader, i: usize, t: &S<Table>) -> Result<Material, SceneError> {
-    let at = format!("material[{i}]");
     let name = name(ld, i, t)?.get_ref().to_string();
-    let kind = type_of(ld, &at, t)?;
-    let Some((_, keys, read)) = TYPES.iter().find(|(n, ..)| n == kind.get_ref()) else {
-        return Err(ld.err(
-            kind.span(),
-            format!("{at}.type"),
-            format!(
-                "unknown material type '{}' (diffuse, diffuse_transmission, leaf, pbr)",
-                kind.get_ref()
-            ),
-        ));
-    };
-    let d = Dict::open(ld, at, Some(*kind.get_ref()), t.span(), t.get_ref(), *keys)?;
+    let (d, read) = open_typed(ld, "material", format!("material[{i}]"), t, TYPES)?;
     d.get("name");
     let material = read(&d, name)?;
     d.finish()?;

@@ -11,7 +11,7 @@
 //! | `instances` | array of transform tables | none | the object becomes a prototype placed once per entry, each after the object's own transform |
 //! | `instances_file` | path | none | a CSV file of placements (see *Instancing* below), with or instead of `instances` |
 
-use crate::dict::{Dict, Key, Keys, Kind, S, Table, type_of};
+use crate::dict::{Dict, Key, Keys, Kind, S, Table, open_typed, type_entry};
 use crate::error::SceneError;
 use crate::loader::Loader;
 use crate::scene::{Instance, Material, Mesh, Prototype};
@@ -130,18 +130,27 @@ pub(crate) const TYPES: &[(&str, Keys, Reader)] = &[
 /// Checks the keys and their types of `[[object]]` number `i` (before any table is read).
 pub(crate) fn check(ld: &Loader, i: usize, t: &S<Table>) -> Result<(), SceneError> {
     let at = format!("object[{i}]");
-    let kind = type_of(ld, &at, t)?;
-    match TYPES.iter().find(|(n, ..)| n == kind.get_ref()) {
-        Some((_, Keys { typed: true, .. }, Reader::Simple(_)))
-            if t.get_ref().iter().any(|(k, _)| k.get_ref() == "materials") =>
-        {
-            Ok(())
-        }
-        Some((_, keys, _)) => {
-            Dict::open(ld, at, Some(*kind.get_ref()), t.span(), t.get_ref(), *keys).map(drop)
-        }
-        None => Ok(()),
+    let (kind, keys, reader) = type_entry(ld, "object", &at, t, TYPES)?;
+    if let Some(e) = materials_on_simple(ld, &at, t, reader) {
+        return Err(e);
     }
+    Dict::open(ld, at, Some(kind.into_inner()), t.span(), t.get_ref(), keys).map(drop)
+}
+
+/// The error for `materials` on an object type that takes one scene material.
+fn materials_on_simple(ld: &Loader, at: &str, t: &S<Table>, reader: &Reader) -> Option<SceneError> {
+    if !matches!(reader, Reader::Simple(_)) {
+        return None;
+    }
+    let (_, m) = t
+        .get_ref()
+        .iter()
+        .find(|(k, _)| k.get_ref() == "materials")?;
+    Some(ld.err(
+        m.span(),
+        format!("{at}.materials"),
+        "only gltf, obj and plant objects take 'materials'; use 'material'",
+    ))
 }
 
 /// Reads `[[object]]` number `i`; imported materials are appended to `scene_materials`.
@@ -152,28 +161,7 @@ pub(crate) fn read(
     materials: &HashMap<String, u32>,
     scene_materials: &mut Vec<Material>,
 ) -> Result<Geometry, SceneError> {
-    let at = format!("object[{i}]");
-    let kind = type_of(ld, &at, t)?;
-    let Some((_, keys, reader)) = TYPES.iter().find(|(n, ..)| n == kind.get_ref()) else {
-        return Err(ld.err(
-            kind.span(),
-            format!("{at}.type"),
-            format!(
-                "unknown object type '{}' (quad, leaf_cards, obj, gltf, plant)",
-                kind.get_ref()
-            ),
-        ));
-    };
-    if matches!(reader, Reader::Simple(_))
-        && let Some((_, m)) = t.get_ref().iter().find(|(k, _)| k.get_ref() == "materials")
-    {
-        return Err(ld.err(
-            m.span(),
-            format!("{at}.materials"),
-            "only gltf, obj and plant objects take 'materials'; use 'material'",
-        ));
-    }
-    let d = Dict::open(ld, at, Some(*kind.get_ref()), t.span(), t.get_ref(), *keys)?;
+    let (d, reader) = open_typed(ld, "object", format!("object[{i}]"), t, TYPES)?;
     let transform = placement::object_transform(&d)?;
     let placements = placement::placements(&d)?;
     let geometry = read_geometry(&d, reader, &transform, materials, scene_materials)?;

@@ -59,3 +59,25 @@ pub enum RenderError {
         source: image::ImageError,
     },
 }
+
+impl From<lamina_image::ImageWriteError> for RenderError {
+    fn from(e: lamina_image::ImageWriteError) -> Self {
+        use lamina_image::ImageWriteError as W;
+        match e {
+            W::UnsupportedFormat { path } => RenderError::UnsupportedFormat { path },
+            W::BadImage {
+                path,
+                len,
+                width,
+                height,
+            } => RenderError::BadImage {
+                path,
+                len,
+                width,
+                height,
+            },
+            W::Io { path, what, source } => RenderError::Io { path, what, source },
+            W::Encode { path, source } => RenderError::Encode { path, source },
+        }
+    }
+}

@@ -15,7 +15,7 @@
 //!   the geometric normal).
 //! * [`integrators`]: `path` (unidirectional, NEE + MIS + Russian roulette) and `paper`.
 //! * [`film`]: pixel filters (importance-sampled) and the sample accumulator.
-//! * [`output`]: EXR / PNG writing with tone maps, atomically.
+//! * [`output`]: EXR / PNG writing with tone maps, atomically (lamina-image's writer).
 //! * [`render`](mod@render): tiles, passes, threads, time limit and cancellation.
 
 // `!(x > 0.0)` is used on purpose throughout: it is also true for NaN, which must be

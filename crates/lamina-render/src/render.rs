@@ -66,31 +66,9 @@ pub struct Progress {
     pub elapsed: Duration,
 }
 
-/// An image of linear Rec.709 RGB radiance (W m⁻² sr⁻¹), before exposure and tone mapping.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Image {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// Row-major pixels, top row first, `width * height` of them.
-    pub pixels: Vec<Vec3>,
-}
-
-impl Image {
-    /// Mean linear RGB radiance over all pixels (zero for an empty image).
-    pub fn mean(&self) -> Vec3 {
-        if self.pixels.is_empty() {
-            return Vec3::ZERO;
-        }
-        self.pixels.iter().copied().sum::<Vec3>() / self.pixels.len() as f32
-    }
-
-    /// The pixel at column `x`, row `y` (0 = top).
-    pub fn at(&self, x: u32, y: u32) -> Vec3 {
-        self.pixels[(y * self.width + x) as usize]
-    }
-}
+/// The image a render returns (linear Rec.709 radiance); defined in lamina-image, shared
+/// with the GPU renderer.
+pub use lamina_image::Image;
 
 /// Counters of a finished render.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

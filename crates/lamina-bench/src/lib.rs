@@ -1,11 +1,15 @@
 //! Scale benchmarks for lamina: scenes of whole procedural trees in two representations
 //! (flat leaf cards in world space, and instanced curved leaves), and the measurements the
-//! `scale` binary reports.
+//! `scale` binary reports; and ([`frame`]) the tree the GPU path's frame time is measured on.
 //!
 //! Where this crate sits among the others, and the invariants it keeps: ARCHITECTURE.md.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+
+pub mod frame;
+
+pub use frame::frame_tree_scene;
 
 use glam::Vec3;
 use lamina_core::{Camera, ColorInput, Film, Integrator, Light, Material, Mesh, Scene, Sky};

@@ -71,7 +71,7 @@ pub fn load_view_scene(spec: &str, size: (u32, u32)) -> Result<Scene> {
         let n: u32 = n
             .parse()
             .map_err(|_| anyhow!("'tree:{n}': the leaf count must be a whole number"))?;
-        return Ok(lamina_gpu::scenes::tree_scene(n, size)?);
+        return Ok(lamina_bench::frame_tree_scene(n, size)?);
     }
     Ok(lamina_scene::load_scene(std::path::Path::new(spec))?)
 }

@@ -27,7 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "leaves", "triangles", "load s", "frame ms", "min ms", "fps"
     );
     for n in counts {
-        let scene = lamina_gpu::scenes::tree_scene(n, (w, h))?;
+        let scene = lamina_bench::frame_tree_scene(n, (w, h))?;
         let t = Instant::now();
         let mut r = Renderer::new(
             &ctx,

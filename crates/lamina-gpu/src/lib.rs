@@ -17,7 +17,6 @@
 //!   tone map), headless image readback and window frames.
 //! * [`metrics`]: mean absolute error and SSIM for comparing with the offline renderer.
 //! * [`overlay`]: a tiny bitmap font for the frame-time overlay.
-//! * [`scenes`]: the benchmark tree (lamina-plant) as a scene.
 //! * [`context`]: adapter/device creation and the error-scoped shader compile path.
 //!
 //! Known approximations (see the crate README section in the notes): sky light and point
@@ -37,7 +36,6 @@ pub mod error;
 pub mod metrics;
 pub mod overlay;
 pub mod renderer;
-pub mod scenes;
 pub mod sky;
 
 pub use context::{ContextOptions, GpuContext, context_for_tests};
@@ -50,7 +48,7 @@ pub fn render_scene(
     ctx: &GpuContext,
     scene: &lamina_scene::Scene,
     settings: RenderSettings,
-) -> Result<(lamina_render::Image, Vec<String>), GpuError> {
+) -> Result<(lamina_image::Image, Vec<String>), GpuError> {
     let mut r = Renderer::new(ctx, scene, settings)?;
     let img = r.render_image()?;
     Ok((img, r.warnings().to_vec()))

@@ -1,7 +1,7 @@
 //! Image comparison for the GPU-versus-offline agreement: mean absolute error and SSIM.
 //!
 //! Both compare the images **as displayed**: 8-bit sRGB after the film's exposure and tone
-//! map (`lamina_render::output::to_srgb8`), scaled to `[0, 1]`, so the numbers mean what a
+//! map (`lamina_image::to_srgb8`), scaled to `[0, 1]`, so the numbers mean what a
 //! viewer sees and match the PNGs side by side.
 //!
 //! SSIM is Wang et al. (2004) on luma (Rec.709 weights of the sRGB-encoded values), with

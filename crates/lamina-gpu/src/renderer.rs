@@ -23,7 +23,7 @@ use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::sky;
 use glam::{Affine3A, Mat4, Vec3};
-use lamina_render::Image;
+use lamina_image::Image;
 use lamina_scene::{Camera, Light, Mesh, Scene, Sky};
 use wgpu::util::DeviceExt;
 

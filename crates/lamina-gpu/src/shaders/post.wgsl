@@ -26,7 +26,7 @@ fn vs_full(@builtin(vertex_index) i: u32) -> FsIn {
     return o;
 }
 
-// The same operators as lamina_render::output::tonemap.
+// The same operators as lamina_image::output::tonemap.
 fn tonemap(x: f32) -> f32 {
     let v = max(x, 0.0);
     let op = u32(post.params.y);

@@ -1,0 +1,180 @@
+//! Lights and sky as the shader sees them: the per-frame uniform block (camera and light
+//! matrices, the shadowed sun, up to [`MAX_LIGHTS`] unshadowed point and directional
+//! lights, the sky's SH irradiance) and how scene lights become those.
+//!
+//! The first sun is the shadowed one (its direction may be overridden per frame); further
+//! suns become unshadowed directional lights. Area lights (quads, spheres) become point
+//! lights at their centre with the same power toward the scene.
+
+use super::FrameView;
+use super::bounds::SceneBounds;
+use super::projection::{camera_matrix, light_matrix};
+use crate::sky;
+use glam::{Mat4, Vec3};
+use lamina_scene::{Light, Scene, Sky};
+
+/// Most point and extra directional lights in the uniform block.
+const MAX_LIGHTS: usize = 8;
+
+/// One light in the uniform block (see `Light` in scene.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct GpuLight {
+    pos: [f32; 4],
+    color: [f32; 4],
+}
+
+/// Per-frame uniforms (see `Globals` in scene.wgsl for the meaning and units).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub(super) struct Globals {
+    view_proj: [[f32; 4]; 4],
+    /// World-to-clip of the light view being rendered or sampled.
+    pub light_view_proj: [[f32; 4]; 4],
+    camera_pos: [f32; 4],
+    /// Direction toward the sun, `w` = 1 when there is a sun.
+    pub sun_dir: [f32; 4],
+    sun_irr: [f32; 4],
+    shadow: [f32; 4],
+    sky: [[f32; 4]; 9],
+    lights: [GpuLight; MAX_LIGHTS],
+    counts: [u32; 4],
+}
+
+/// The scene's lights and sky, kept for building every frame's [`Globals`].
+#[derive(Clone, Debug)]
+pub(super) struct Lighting {
+    /// The scene's lights, in order.
+    pub lights: Vec<Light>,
+    /// Sky irradiance as 9 SH coefficients (W m⁻², [`sky::sky_irradiance_sh`]).
+    sky_sh: [Vec3; 9],
+    /// Radiance seen where no geometry is (the clear colour), linear RGB W m⁻² sr⁻¹.
+    pub background: Vec3,
+}
+
+impl Lighting {
+    /// The lights and sky of `scene`.
+    pub fn of(scene: &Scene) -> Self {
+        let sky_sh = sky::sky_irradiance_sh(scene.sky.as_ref());
+        let background = match &scene.sky {
+            None => Vec3::ZERO,
+            Some(Sky::Constant(c)) => *c,
+            // The mean radiance: SH band 0 is E = pi * mean.
+            Some(Sky::Image { .. }) => sky_sh[0] * 0.282_095 / std::f32::consts::PI,
+        };
+        Lighting {
+            lights: scene.lights.clone(),
+            sky_sh,
+            background,
+        }
+    }
+
+    /// The uniforms of a frame seen by `view`: depth range from the scene's `bounds`, the
+    /// sun's light matrix around the casters, its maps of side `shadow_size` texels.
+    pub fn globals(&self, view: &FrameView, bounds: &SceneBounds, shadow_size: u32) -> Globals {
+        let (c, r) = bounds.all;
+        let dist = (view.camera.position - c).length();
+        let far = (dist + r) * 1.01;
+        let near = (dist - r).max(far * 1e-4).max(1e-4);
+        let view_proj = camera_matrix(&view.camera, view.width, view.height, near, far);
+        let (lights, n, sun) = self.gpu_lights(view.sun_dir);
+        let (sc, sr) = bounds.casters;
+        let (sun_dir, sun_irr, light_view_proj) = match sun {
+            Some((d, e)) => (d.extend(1.0), e.extend(0.0), light_matrix(d, sc, sr)),
+            None => (Vec3::Y.extend(0.0), Vec3::ZERO.extend(0.0), Mat4::IDENTITY),
+        };
+        let mut sky = [[0.0; 4]; 9];
+        for (s, v) in sky.iter_mut().zip(self.sky_sh) {
+            *s = v.extend(0.0).to_array();
+        }
+        let size = shadow_size;
+        Globals {
+            view_proj: view_proj.to_cols_array_2d(),
+            light_view_proj: light_view_proj.to_cols_array_2d(),
+            camera_pos: view.camera.position.extend(1.0).to_array(),
+            sun_dir: sun_dir.to_array(),
+            sun_irr: sun_irr.to_array(),
+            shadow: [size as f32, 2.0 * sr / size as f32, 2.0 * sr, 0.0],
+            sky,
+            lights,
+            counts: [n as u32, 0, 0, 0],
+        }
+    }
+
+    /// The unshadowed lights (the first [`MAX_LIGHTS`]), their count, and the shadowed sun
+    /// (unit direction toward it, `sun_dir` if given, and irradiance W m⁻²).
+    fn gpu_lights(
+        &self,
+        sun_dir: Option<Vec3>,
+    ) -> ([GpuLight; MAX_LIGHTS], usize, Option<(Vec3, Vec3)>) {
+        let mut lights = [GpuLight::default(); MAX_LIGHTS];
+        let mut n = 0usize;
+        let mut sun: Option<(Vec3, Vec3)> = None;
+        for l in &self.lights {
+            if let Light::Sun {
+                direction,
+                irradiance,
+                ..
+            } = l
+                && sun.is_none()
+            {
+                let d = sun_dir.unwrap_or(*direction).normalize_or(Vec3::Y);
+                sun = Some((d, *irradiance));
+                continue;
+            }
+            if n < MAX_LIGHTS {
+                lights[n] = gpu_light(l);
+                n += 1;
+            }
+        }
+        (lights, n, sun)
+    }
+}
+
+/// A scene light as an unshadowed uniform-block light: `pos.w` 0 = directional (toward
+/// the light, irradiance W m⁻²), 1 = point (position m, intensity W sr⁻¹).
+fn gpu_light(l: &Light) -> GpuLight {
+    match l {
+        Light::Sun {
+            direction,
+            irradiance,
+            ..
+        } => GpuLight {
+            pos: [direction.x, direction.y, direction.z, 0.0],
+            color: irradiance.extend(0.0).to_array(),
+        },
+        Light::Point {
+            position,
+            intensity,
+        } => GpuLight {
+            pos: position.extend(1.0).to_array(),
+            color: intensity.extend(0.0).to_array(),
+        },
+        // A one-sided quad of radiance L and area A emits intensity L A cos toward
+        // its normal; as a point light we use L A (the on-axis value).
+        Light::Quad {
+            corner,
+            edge_u,
+            edge_v,
+            radiance,
+            ..
+        } => GpuLight {
+            pos: (*corner + 0.5 * (*edge_u + *edge_v)).extend(1.0).to_array(),
+            color: (*radiance * edge_u.cross(*edge_v).length())
+                .extend(0.0)
+                .to_array(),
+        },
+        // A sphere of radius R and radiance L has intensity L pi R^2 in every
+        // direction.
+        Light::Sphere {
+            center,
+            radius,
+            radiance,
+        } => GpuLight {
+            pos: center.extend(1.0).to_array(),
+            color: (*radiance * std::f32::consts::PI * radius * radius)
+                .extend(0.0)
+                .to_array(),
+        },
+    }
+}

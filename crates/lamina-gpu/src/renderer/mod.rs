@@ -1,0 +1,357 @@
+//! The renderer: uploads a [`Scene`] once, then draws frames. Per frame, three passes
+//! (plus the optional tone-map pass for windows and screenshots):
+//!
+//! 1. **Light view, layer 1** (`fs_shadow_first`): the sun's orthographic view of every
+//!    alpha-tested surface: depth `d1` of the nearest and its diffuse transmittance `c1`.
+//! 2. **Light view, layer 2** (`fs_shadow_peel`): depth peeling: the nearest surface behind
+//!    layer 1, `d2` and `c2`. Together a two-layer translucent shadow map: sunlight reaches
+//!    a point unattenuated, through one leaf (`c1`), or through two (`c1 c2`), each leaf's
+//!    share scaled by the form factor `a² / (a² + d²)` of its card (radius `a`) seen from
+//!    `d` behind it, since a leaf passes light on diffusely.
+//! 3. **Camera** (`fs_main`): every mesh and instance with the alpha test, shaded with the
+//!    baked leaf model ([`crate::bake`]), the sun through the transmittance map, unshadowed
+//!    point and extra directional lights, and the SH sky ([`crate::sky`]) scaled by the
+//!    sky visibility baked at load. Output: linear radiance in an RGBA16F target.
+//!
+//! Area lights (quads, spheres) become point lights at their centre with the same power
+//! toward the scene (an approximation that holds away from the light). Only the first sun
+//! casts shadows. Determinism: the same scene and view give the same image on the same
+//! device and driver (no randomness, fixed draw order).
+//!
+//! The rooms, in the order [`Renderer::new`] fills them:
+//! * `materials`: baked materials uploaded as group 1 of every pass;
+//! * `geometry`: vertex, index and instance buffers; the draw calls;
+//! * `pipelines`: the scene shader's three pipelines and their group-0 layouts;
+//! * `sun`: the sun's two-layer maps, redrawn every frame;
+//! * `sky_visibility`: the sky's two-layer maps per direction, baked once;
+//! * `camera`: the globals buffer, the camera pass and its HDR/depth targets;
+//! * `post`: tone map and overlay;
+//! * `lights`: scene lights and sky as the per-frame uniforms;
+//! * `bounds`, `projection`: bounding spheres and matrices; `layout`: formats and binding
+//!   shorthand; `readback`, `half`: reading frames back.
+
+mod bounds;
+mod camera;
+mod geometry;
+mod half;
+mod layout;
+mod lights;
+mod materials;
+mod pipelines;
+mod post;
+mod projection;
+mod readback;
+mod sky_visibility;
+mod sun;
+
+pub use post::OVERLAY_SIZE;
+pub use projection::{camera_matrix, sphere_directions};
+pub use sky_visibility::MAX_SKY_DIRS;
+
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use bounds::SceneBounds;
+use camera::CameraPass;
+use geometry::Geometry;
+use glam::Vec3;
+use lamina_image::Image;
+use lamina_scene::{Camera, Film, Light, Scene};
+use lights::{Globals, Lighting};
+use materials::Materials;
+use pipelines::ScenePipelines;
+use post::PostProcess;
+use sky_visibility::SkyVisibility;
+use sun::SunShadow;
+
+/// The scene shader (light-view and camera passes).
+pub const SCENE_WGSL: &str = include_str!("../shaders/scene.wgsl");
+/// The tone-map and overlay shader.
+pub const POST_WGSL: &str = include_str!("../shaders/post.wgsl");
+
+/// Quality settings.
+#[derive(Clone, Copy, Debug)]
+pub struct RenderSettings {
+    /// Side of the sun's shadow and transmittance maps, in texels.
+    pub shadow_map_size: u32,
+    /// Supersampling factor per axis for [`Renderer::render_image`] (box-filtered down).
+    pub supersample: u32,
+    /// Directions (0-16) of the sky-visibility maps baked at load time: how much of the
+    /// sky each surface sees, and through how many leaves. 0 leaves sky light unshadowed.
+    pub sky_directions: u32,
+    /// Side of each sky-visibility map, in texels.
+    pub sky_map_size: u32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            shadow_map_size: 2048,
+            supersample: 2,
+            sky_directions: 16,
+            sky_map_size: 512,
+        }
+    }
+}
+
+/// What changes from frame to frame: the camera, the sun and the image size.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameView {
+    /// The camera (horizontal field of view, as in the scene file).
+    pub camera: Camera,
+    /// Direction toward the shadowed sun; `None` keeps the scene's first sun.
+    pub sun_dir: Option<Vec3>,
+    /// Target width in pixels.
+    pub width: u32,
+    /// Target height in pixels.
+    pub height: u32,
+}
+
+/// A scene on the GPU, ready to draw frames.
+pub struct Renderer {
+    ctx: GpuContext,
+    settings: RenderSettings,
+    materials: Materials,
+    geometry: Geometry,
+    pipelines: ScenePipelines,
+    sun: SunShadow,
+    sky_visibility: SkyVisibility,
+    camera: CameraPass,
+    post: PostProcess,
+    lighting: Lighting,
+    bounds: SceneBounds,
+    /// The scene's own camera and film (what [`Renderer::render_image`] renders).
+    scene_camera: Camera,
+    scene_film: Film,
+    warnings: Vec<String>,
+}
+
+impl Renderer {
+    /// Uploads `scene` (bakes its materials, see [`crate::bake`]), builds the pipelines
+    /// and bakes the sky-visibility maps.
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &Scene,
+        settings: RenderSettings,
+    ) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        let scene_module = ctx.compile_wgsl("scene.wgsl", SCENE_WGSL)?;
+        let post_module = ctx.compile_wgsl("post.wgsl", POST_WGSL)?;
+        let (materials, warnings) = Materials::upload(ctx, scene)?;
+        let geometry = Geometry::upload(device, scene)?;
+        let pipelines = ScenePipelines::new(ctx, &scene_module, &materials.layout)?;
+        let globals = camera::globals_buffer(device);
+        let shadow_size = settings.shadow_map_size.clamp(16, ctx.max_texture_dim);
+        let sun = SunShadow::new(device, shadow_size, &pipelines, &globals);
+        let sky_visibility = SkyVisibility::new(
+            device,
+            settings.sky_map_size.clamp(16, ctx.max_texture_dim),
+            settings.sky_directions.clamp(1, MAX_SKY_DIRS as u32),
+        );
+        let camera = CameraPass::new(device, &pipelines, globals, &sun, &sky_visibility);
+        let renderer = Renderer {
+            ctx: ctx.clone(),
+            settings,
+            materials,
+            geometry,
+            pipelines,
+            sun,
+            sky_visibility,
+            camera,
+            post: PostProcess::new(device, post_module),
+            lighting: Lighting::of(scene),
+            bounds: SceneBounds::of(scene),
+            scene_camera: scene.camera,
+            scene_film: scene.film,
+            warnings,
+        };
+        renderer.bake_sky_visibility()?;
+        Ok(renderer)
+    }
+
+    /// Renders the sky-visibility maps (once: geometry and sky are static) for
+    /// [`RenderSettings::sky_directions`] directions.
+    fn bake_sky_visibility(&self) -> Result<(), GpuError> {
+        let base = self.globals(&FrameView {
+            camera: self.scene_camera,
+            sun_dir: None,
+            width: 1,
+            height: 1,
+        });
+        self.sky_visibility.bake(
+            &self.ctx,
+            self.settings.sky_directions as usize,
+            self.bounds.casters,
+            base,
+            (&self.pipelines, &self.geometry, &self.materials.groups),
+        )
+    }
+
+    /// Messages about the upload (downscaled maps); empty when all went as asked.
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// Triangles drawn per camera pass (instances counted).
+    pub fn triangles(&self) -> u64 {
+        self.geometry.triangles
+    }
+
+    /// Scene bounding sphere (centre, radius in m).
+    pub fn bounds(&self) -> (Vec3, f32) {
+        self.bounds.all
+    }
+
+    /// The scene's camera, film and first sun direction (toward the sun), for viewers.
+    pub fn scene_view(&self) -> (Camera, Film, Option<Vec3>) {
+        let sun = self.lighting.lights.iter().find_map(|l| match l {
+            Light::Sun { direction, .. } => Some(*direction),
+            _ => None,
+        });
+        (self.scene_camera, self.scene_film, sun)
+    }
+
+    /// The GPU context.
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    fn globals(&self, view: &FrameView) -> Globals {
+        self.lighting.globals(view, &self.bounds, self.sun.size)
+    }
+
+    /// Records the three scene passes for `view` into `encoder`, rendering into the
+    /// internal HDR target (resized to the view).
+    pub fn encode_scene(&mut self, encoder: &mut wgpu::CommandEncoder, view: &FrameView) {
+        self.camera
+            .ensure_targets(&self.ctx.device, view.width, view.height);
+        let globals = self.globals(view);
+        self.ctx
+            .queue
+            .write_buffer(&self.camera.globals, 0, bytemuck::bytes_of(&globals));
+        let has_sun = globals.sun_dir[3] > 0.5;
+        let (pipelines, geometry) = (&self.pipelines, &self.geometry);
+        let materials = &self.materials.groups;
+        self.sun
+            .encode(encoder, pipelines, geometry, materials, has_sun);
+        self.camera.encode(
+            encoder,
+            self.lighting.background,
+            pipelines,
+            geometry,
+            materials,
+        );
+    }
+
+    /// Renders the scene's own camera at the film size (supersampled, see
+    /// [`RenderSettings::supersample`]) and reads back linear radiance.
+    pub fn render_image(&mut self) -> Result<Image, GpuError> {
+        let film = self.scene_film;
+        let view = FrameView {
+            camera: self.scene_camera,
+            sun_dir: None,
+            width: film.width,
+            height: film.height,
+        };
+        self.render_view_image(&view)
+    }
+
+    /// Renders `view` (supersampled) and reads back linear radiance at `view`'s size.
+    pub fn render_view_image(&mut self, view: &FrameView) -> Result<Image, GpuError> {
+        let ss = self.settings.supersample.max(1);
+        let max = self.ctx.max_texture_dim;
+        let (w, h) = (view.width * ss, view.height * ss);
+        if w > max || h > max {
+            return Err(GpuError::Scene(format!(
+                "the image ({w}x{h} with {ss}x supersampling) is larger than the GPU's texture \
+                 limit of {max}; lower the film size"
+            )));
+        }
+        let big = FrameView {
+            width: w,
+            height: h,
+            ..*view
+        };
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        self.encode_scene(&mut encoder, &big);
+        let hdr = &self
+            .camera
+            .targets
+            .as_ref()
+            .expect("made by encode_scene")
+            .hdr;
+        let raw = readback::read_texture(&self.ctx, encoder, hdr, w, h, 8)?;
+        Ok(Image {
+            width: view.width,
+            height: view.height,
+            pixels: readback::box_downsample(&raw, ss, view.width, view.height),
+        })
+    }
+
+    /// Records the tone-map pass (exposure and operator of `film`, identical to the PNG
+    /// output of the offline renderer) from the HDR target into `target` (an sRGB format
+    /// so the store applies the sRGB curve), with `overlay` (R8, [`OVERLAY_SIZE`], 1 =
+    /// text) in the top-left corner when given.
+    pub fn encode_post(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        format: wgpu::TextureFormat,
+        film: &Film,
+        overlay: Option<&[u8]>,
+    ) -> Result<(), GpuError> {
+        self.post.ensure_pipeline(&self.ctx, format)?;
+        let t = self
+            .camera
+            .targets
+            .as_ref()
+            .ok_or_else(|| GpuError::Validation {
+                what: "tone mapping".into(),
+                message: "no frame was rendered yet".into(),
+            })?;
+        self.post.write_inputs(&self.ctx, film, overlay);
+        self.post
+            .encode(&self.ctx.device, encoder, &t.hdr_view, target);
+        Ok(())
+    }
+
+    /// Renders `view` at 1x, tone-maps it with `film` and the overlay, and returns sRGB
+    /// RGBA8 rows (for window screenshots).
+    pub fn render_screenshot(
+        &mut self,
+        view: &FrameView,
+        film: &Film,
+        overlay: Option<&[u8]>,
+    ) -> Result<Vec<u8>, GpuError> {
+        let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+        let tex = layout::texture_2d(
+            &self.ctx.device,
+            "screenshot",
+            (view.width, view.height, 1),
+            format,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        self.encode_scene(&mut encoder, view);
+        self.encode_post(
+            &mut encoder,
+            &tex.create_view(&Default::default()),
+            format,
+            film,
+            overlay,
+        )?;
+        readback::read_texture(&self.ctx, encoder, &tex, view.width, view.height, 4)
+    }
+
+    /// Renders `view` without reading it back and waits for the GPU: one frame's work,
+    /// for timing.
+    pub fn render_and_wait(&mut self, view: &FrameView) -> Result<(), GpuError> {
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        self.encode_scene(&mut encoder, view);
+        self.ctx.queue.submit([encoder.finish()]);
+        self.ctx
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        Ok(())
+    }
+}

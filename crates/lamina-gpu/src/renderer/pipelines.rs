@@ -1,0 +1,144 @@
+//! The scene shader's three render pipelines (sun/sky light view layer 1 and layer 2, the
+//! camera) and the layouts of their group 0 (group 1 is the material,
+//! [`super::materials`]).
+
+use super::geometry::vertex_layouts;
+use super::layout::{
+    D2, D2_ARRAY, DEPTH, DEPTH_FORMAT, HDR_FORMAT, SHADOW_COLOR_FORMAT, UNFILTERED, tex_entry,
+    uniform_entry,
+};
+use crate::context::GpuContext;
+use crate::error::GpuError;
+
+/// Pipelines and group-0 layouts of `scene.wgsl`.
+pub(super) struct ScenePipelines {
+    /// Group 0 of the light-view passes: the globals and the depth map to peel behind.
+    pub shadow_layout: wgpu::BindGroupLayout,
+    /// Group 0 of the camera pass: the globals, the sun's maps, the sky-visibility maps.
+    pub camera_layout: wgpu::BindGroupLayout,
+    /// Light view, layer 1 (`fs_shadow_first`): nearest occluder.
+    pub shadow_first: wgpu::RenderPipeline,
+    /// Light view, layer 2 (`fs_shadow_peel`): the next occluder behind layer 1.
+    pub shadow_peel: wgpu::RenderPipeline,
+    /// The camera pass (`fs_main`) into the HDR target.
+    pub camera: wgpu::RenderPipeline,
+}
+
+impl ScenePipelines {
+    /// Builds the layouts and pipelines of `module` (the compiled scene shader), with
+    /// `material` as group 1.
+    pub fn new(
+        ctx: &GpuContext,
+        module: &wgpu::ShaderModule,
+        material: &wgpu::BindGroupLayout,
+    ) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        let shadow_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shadow globals"),
+            entries: &[uniform_entry(0), tex_entry(1, DEPTH, D2)],
+        });
+        let camera_layout = camera_layout(device);
+        let make = |label: &str, group0: &wgpu::BindGroupLayout, vs, fs, color| {
+            pipeline(device, module, [group0, material], (label, vs, fs), color)
+        };
+        let (shadow_first, shadow_peel, camera) =
+            ctx.validated("building the render pipelines", || {
+                (
+                    make(
+                        "shadow layer 1",
+                        &shadow_layout,
+                        "vs_shadow",
+                        "fs_shadow_first",
+                        SHADOW_COLOR_FORMAT,
+                    ),
+                    make(
+                        "shadow layer 2",
+                        &shadow_layout,
+                        "vs_shadow",
+                        "fs_shadow_peel",
+                        SHADOW_COLOR_FORMAT,
+                    ),
+                    make("camera", &camera_layout, "vs_main", "fs_main", HDR_FORMAT),
+                )
+            })?;
+        Ok(ScenePipelines {
+            shadow_layout,
+            camera_layout,
+            shadow_first,
+            shadow_peel,
+            camera,
+        })
+    }
+}
+
+fn camera_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("main globals"),
+        entries: &[
+            uniform_entry(0),
+            tex_entry(1, DEPTH, D2),
+            tex_entry(2, DEPTH, D2),
+            tex_entry(3, UNFILTERED, D2),
+            tex_entry(4, UNFILTERED, D2),
+            uniform_entry(5),
+            tex_entry(6, DEPTH, D2_ARRAY),
+            tex_entry(7, DEPTH, D2_ARRAY),
+            tex_entry(8, UNFILTERED, D2_ARRAY),
+            tex_entry(9, UNFILTERED, D2_ARRAY),
+        ],
+    })
+}
+
+/// One pipeline of the scene shader: entry points `vs`, `fs`, depth test and write,
+/// no culling (leaves are two-sided sheets), no blending, into `color`.
+fn pipeline(
+    device: &wgpu::Device,
+    module: &wgpu::ShaderModule,
+    [group0, group1]: [&wgpu::BindGroupLayout; 2],
+    (label, vs, fs): (&str, &str, &str),
+    color: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &[Some(group0), Some(group1)],
+        immediate_size: 0,
+    });
+    let buffers = vertex_layouts();
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some(vs),
+            compilation_options: Default::default(),
+            buffers: &buffers,
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            front_face: wgpu::FrontFace::Ccw,
+            // Leaves are two-sided sheets.
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(fs),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: color,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}

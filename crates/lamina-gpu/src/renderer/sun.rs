@@ -1,0 +1,118 @@
+//! The sun's two-layer translucent shadow map, redrawn every frame (the sun may move):
+//! depth and transmittance of the nearest occluder (layer 1) and of the next one behind
+//! it (layer 2), seen from the sun (see the [`super`] docs). Also the light-view pass both
+//! the sun and the sky-visibility bake ([`super::sky_visibility`]) render into.
+
+use super::geometry::Geometry;
+use super::layout::{DEPTH_FORMAT, SHADOW_COLOR_FORMAT, buffer_entry, texture_2d, view_entry};
+use super::pipelines::ScenePipelines;
+
+/// The sun's light-view maps and the bind groups of its two passes.
+pub(super) struct SunShadow {
+    /// Side of the maps (texels).
+    pub size: u32,
+    /// Depth `d1`, depth `d2`, transmittance `c1`, transmittance `c2`.
+    pub views: [wgpu::TextureView; 4],
+    /// Group 0 of layer 1 (binds `d2` only because the layout wants a depth texture).
+    first: wgpu::BindGroup,
+    /// Group 0 of layer 2: peels behind `d1`.
+    peel: wgpu::BindGroup,
+}
+
+impl SunShadow {
+    /// Maps of side `size` (already clamped to the device), bound with `globals`.
+    pub fn new(
+        device: &wgpu::Device,
+        size: u32,
+        pipelines: &ScenePipelines,
+        globals: &wgpu::Buffer,
+    ) -> Self {
+        let mk = |label: &str, format: wgpu::TextureFormat| {
+            let usage =
+                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+            texture_2d(device, label, (size, size, 1), format, usage)
+                .create_view(&wgpu::TextureViewDescriptor::default())
+        };
+        let views = [
+            mk("shadow d1", DEPTH_FORMAT),
+            mk("shadow d2", DEPTH_FORMAT),
+            mk("shadow c1", SHADOW_COLOR_FORMAT),
+            mk("shadow c2", SHADOW_COLOR_FORMAT),
+        ];
+        let bind = |d: &wgpu::TextureView| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("shadow globals"),
+                layout: &pipelines.shadow_layout,
+                entries: &[buffer_entry(0, globals), view_entry(1, d)],
+            })
+        };
+        // Layer 1 binds d2 only because the layout wants a depth texture; it reads none.
+        let first = bind(&views[1]);
+        let peel = bind(&views[0]);
+        SunShadow {
+            size,
+            views,
+            first,
+            peel,
+        }
+    }
+
+    /// Records both layers' passes; without a sun they only clear (depth 1, white).
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        pipelines: &ScenePipelines,
+        geometry: &Geometry,
+        materials: &[wgpu::BindGroup],
+        has_sun: bool,
+    ) {
+        for (layer, (pipeline, bg)) in [
+            (&pipelines.shadow_first, &self.first),
+            (&pipelines.shadow_peel, &self.peel),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let (color, depth) = (&self.views[2 + layer], &self.views[layer]);
+            let mut pass = light_view_pass(encoder, "light view", color, depth);
+            if has_sun {
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, bg, &[]);
+                geometry.draw(&mut pass, materials);
+            }
+        }
+    }
+}
+
+/// Begins a light-view pass into transmittance `color` (cleared to white: nothing
+/// blocks) and `depth` (cleared to 1: nothing in front).
+pub(super) fn light_view_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    color: &wgpu::TextureView,
+    depth: &wgpu::TextureView,
+) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: color,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::WHITE),
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: depth,
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Clear(1.0),
+                store: wgpu::StoreOp::Store,
+            }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
+}

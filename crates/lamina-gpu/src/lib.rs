@@ -1,10 +1,13 @@
 //! Real-time approximation of lamina's leaf model with wgpu (Vulkan; Mesa's lavapipe
-//! renders it on machines without a GPU).
+//! renders it on machines without a GPU): `lamina render --gpu` for quick previews,
+//! `lamina view` for an interactive window, and the frame-time benchmark.
 //!
 //! The same [`lamina_scene::Scene`] the offline renderer takes (meshes, leaf cards,
 //! instanced prototypes, sun/point/area lights, constant or image sky) is rasterised with
 //! the alpha test and shaded with an approximation of [`lamina_leaf::LeafBsdf`] whose
-//! constants come from lamina-leaf itself:
+//! constants come from lamina-leaf itself; the result is the same linear-radiance
+//! [`lamina_image::Image`] the offline renderer returns, so the two can be compared and
+//! written alike.
 //!
 //! * [`bake`]: per material, the white-sky albedo maps (adaxial R, abaxial R, T, with the
 //!   thickness and extinction maps applied by the CPU model) and angular lookup tables
@@ -13,17 +16,21 @@
 //!   ([`lamina_leaf::PbrBsdf`]) likewise, with one GGX lobe of their mean roughness and a
 //!   coloured metallic Fresnel.
 //! * [`sky`]: the sky as spherical-harmonic irradiance.
-//! * [`renderer`]: the passes (two-layer translucent shadow map from the sun, camera pass,
-//!   tone map), headless image readback and window frames.
+//! * [`renderer`]: the upload and the passes (two-layer translucent shadow map from the
+//!   sun every frame, sky-visibility maps baked once at load, camera pass, tone map),
+//!   headless image readback and window frames.
 //! * [`metrics`]: mean absolute error and SSIM for comparing with the offline renderer.
 //! * [`overlay`]: a tiny bitmap font for the frame-time overlay.
 //! * [`context`]: adapter/device creation and the error-scoped shader compile path.
 //!
-//! Known approximations (see the crate README section in the notes): sky light and point
-//! lights are unshadowed; light between leaves is limited to the sun's transmittance
-//! through up to two leaves (no leaf-to-leaf bounces); the leaf lobes' azimuthal shape is
-//! averaged out; leaves' bump maps and glTF normal maps are applied with a tangent frame
-//! from screen-space derivatives (a leaf's bump baked to the CPU model's shading normal,
+//! Known approximations: point lights, area lights (drawn as point lights at their
+//! centre) and every sun but the first are unshadowed; the sky is shadowed by
+//! sky-visibility maps from [`RenderSettings::sky_directions`] directions (16 by default,
+//! 0 turns it off), so its light is blocked or filtered only as seen along those
+//! directions; light between leaves is limited to transmittance through up to two leaves
+//! per direction (no leaf-to-leaf bounces); the leaf lobes' azimuthal shape is averaged
+//! out; leaves' bump maps and glTF normal maps are applied with a tangent frame from
+//! screen-space derivatives (a leaf's bump baked to the CPU model's shading normal,
 //! entering only the shading cosines and the specular lobe, as in `LeafBsdf`); a glTF
 //! material's roughness and metallic maps are averaged for its specular lobe.
 

@@ -2,8 +2,9 @@
 //! radiance, turned into the irradiance `E(n)` (W m⁻²) on a surface facing `n` with the
 //! clamped-cosine convolution of Ramamoorthi & Hanrahan (2001). A constant sky is exact
 //! (`E = pi L`); an equirectangular sky keeps its low-frequency shape (bright zenith, sun
-//! side), which is what diffuse leaf lobes see. Sky light is not shadowed (see the crate
-//! docs).
+//! side), which is what diffuse leaf lobes see. How much of this sky a surface sees past
+//! the scene is the renderer's sky-visibility maps (`renderer::sky_visibility`), which
+//! scale this irradiance in the camera pass.
 
 use glam::Vec3;
 use lamina_scene::Sky;

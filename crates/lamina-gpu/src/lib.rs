@@ -33,6 +33,8 @@
 //! screen-space derivatives (a leaf's bump baked to the CPU model's shading normal,
 //! entering only the shading cosines and the specular lobe, as in `LeafBsdf`); a glTF
 //! material's roughness and metallic maps are averaged for its specular lobe.
+//!
+//! Where this crate sits among the others, and the invariants it keeps: ARCHITECTURE.md.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]

@@ -11,6 +11,8 @@
 //!
 //! * [`output`]: tone maps, sRGB encoding and the EXR / PNG writer.
 //! * [`error`](mod@error): why a write failed.
+//!
+//! Where this crate sits among the others, and the invariants it keeps: ARCHITECTURE.md.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]

@@ -17,7 +17,10 @@
 //! * [`film`]: pixel filters (importance-sampled) and the sample accumulator.
 //! * [`output`]: EXR / PNG writing with tone maps, atomically (lamina-image's writer).
 //! * [`render`](mod@render): tiles, passes, threads, time limit and cancellation.
+//!
+//! Where this crate sits among the others, and the invariants it keeps: ARCHITECTURE.md.
 
+#![forbid(unsafe_code)]
 // `!(x > 0.0)` is used on purpose throughout: it is also true for NaN, which must be
 // rejected the same way as non-positive values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

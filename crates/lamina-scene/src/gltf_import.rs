@@ -7,8 +7,8 @@
 //!
 //! | glTF | lamina |
 //! |---|---|
-//! | `pbrMetallicRoughness` (base colour factor × texture, metallic and roughness factors × `metallicRoughnessTexture` B and G) | [`PbrMaterial`] ([`Material::Pbr`], evaluated as `lamina_leaf::PbrBsdf`) |
-//! | `normalTexture` + `scale`, vertex `TANGENT` | [`NormalMap`]; without tangents the tangent frame comes from the UVs per triangle |
+//! | `pbrMetallicRoughness` (base colour factor × texture, metallic and roughness factors × `metallicRoughnessTexture` B and G) | [`PbrMaterial`](crate::scene::PbrMaterial) ([`Material::Pbr`], evaluated as `lamina_leaf::PbrBsdf`) |
+//! | `normalTexture` + `scale`, vertex `TANGENT` | [`NormalMap`](crate::scene::NormalMap); without tangents the tangent frame comes from the UVs per triangle |
 //! | `alphaMode` `MASK` + `alphaCutoff` | alpha test on the base colour's alpha channel |
 //! | `alphaMode` `BLEND` | alpha test at 0.5 (a path tracer has no order-dependent blending) |
 //! | `doubleSided` | every lamina material is two-sided |

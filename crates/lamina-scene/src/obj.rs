@@ -2,7 +2,8 @@
 //! `usemtl` into one [`Mesh`] per material; faces are triangulated. OBJ `vt` texture
 //! coordinates have `v` up, as lamina's textures do.
 //!
-//! Their MTL materials become lamina materials as [`crate::mtl`] says.
+//! Their MTL materials become lamina materials as docs/scene-format.md (*OBJ and MTL*)
+//! and the `mtl` module say.
 
 use crate::error::{SceneError, guarded, read_text};
 use crate::limits::MAX_TEXT_FILE_BYTES;

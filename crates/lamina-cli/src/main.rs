@@ -3,7 +3,8 @@
 //! Errors are reported with their whole chain (`error: ...: ...`) and exit code 1; usage
 //! errors exit with 2 (clap's convention); a command stopped by Ctrl-C exits with 130
 //! (see [`lamina_io::interrupt`] for what Ctrl-C does when). Nothing here panics on bad
-//! input.
+//! input. Where the binary sits among the crates, and the invariants they keep:
+//! ARCHITECTURE.md.
 
 #![forbid(unsafe_code)]
 

@@ -69,20 +69,29 @@ pub fn panic_error_message(message: &str) -> String {
     )
 }
 
-#[cfg(test)]
 thread_local! {
-    /// The fault point that panics on this thread, for the tests of the guarded paths.
-    pub(crate) static FAULT: Cell<Option<&'static str>> = const { Cell::new(None) };
+    /// The fault point armed on this thread ([`with_fault`]), if any.
+    static FAULT: Cell<Option<&'static str>> = const { Cell::new(None) };
 }
 
-/// A place where the tests can make a loader panic (`FAULT` set to `name`), to prove that
-/// the guard around it turns the panic into an error. Does nothing outside tests.
+/// A place where a test can make a loader panic ([`with_fault`]), to prove that the guard
+/// around the loader turns the panic into an error. Every crate's loaders share this one
+/// mechanism; unless a test armed `name` on this thread it does nothing (one thread-local
+/// read per file loaded).
 #[inline]
-pub(crate) fn fault_point(_name: &'static str) {
-    #[cfg(test)]
-    if FAULT.with(Cell::get) == Some(_name) {
-        panic!("injected fault at {_name}");
+pub fn fault_point(name: &'static str) {
+    if FAULT.with(Cell::get) == Some(name) {
+        panic!("injected fault at {name}");
     }
+}
+
+/// Runs `f` with fault point `name` armed on this thread (for tests of the guards).
+#[doc(hidden)]
+pub fn with_fault<T>(name: &'static str, f: impl FnOnce() -> T) -> T {
+    FAULT.with(|c| c.set(Some(name)));
+    let r = f();
+    FAULT.with(|c| c.set(None));
+    r
 }
 
 #[cfg(test)]

@@ -166,9 +166,7 @@ mod tests {
         std::fs::write(&p, "[params]\nthickness_mm = 0.3\n").unwrap();
         assert!(LeafDescription::from_toml_file(&p).is_ok());
         // A panic while parsing (injected) is an error naming the file.
-        crate::guard::FAULT.with(|f| f.set(Some("leaf_toml")));
-        let e = LeafDescription::from_toml_file(&p);
-        crate::guard::FAULT.with(|f| f.set(None));
+        let e = crate::guard::with_fault("leaf_toml", || LeafDescription::from_toml_file(&p));
         let e = e.unwrap_err().to_string();
         assert!(
             e.contains("leaf.toml") && e.contains("injected fault"),
@@ -197,9 +195,9 @@ mod tests {
     fn a_panic_while_loading_the_maps_is_an_error() {
         let d = LeafDescription::default();
         assert!(crate::LeafMaterial::load(&d, Path::new("leafdir")).is_ok());
-        crate::guard::FAULT.with(|f| f.set(Some("leaf_material")));
-        let e = crate::LeafMaterial::load(&d, Path::new("leafdir"));
-        crate::guard::FAULT.with(|f| f.set(None));
+        let e = crate::guard::with_fault("leaf_material", || {
+            crate::LeafMaterial::load(&d, Path::new("leafdir"))
+        });
         let e = e.unwrap_err().to_string();
         assert!(e.contains("leafdir") && e.contains("injected fault"), "{e}");
     }

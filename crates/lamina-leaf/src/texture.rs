@@ -440,9 +440,7 @@ pub(crate) mod tests {
             .save(&p)
             .unwrap();
         assert!(Texture::load(&p, Encoding::Linear).is_ok());
-        crate::guard::FAULT.with(|f| f.set(Some("open_image")));
-        let e = Texture::load(&p, Encoding::Linear);
-        crate::guard::FAULT.with(|f| f.set(None));
+        let e = crate::guard::with_fault("open_image", || Texture::load(&p, Encoding::Linear));
         let e = e.unwrap_err();
         assert!(matches!(e, TextureError::Panicked { .. }), "{e}");
         let e = e.to_string();

@@ -29,22 +29,8 @@ pub use params::{
     Resolved,
 };
 
-#[cfg(test)]
-thread_local! {
-    /// The fault point that panics on this thread, for the tests of the guarded loaders.
-    pub(crate) static FAULT: std::cell::Cell<Option<&'static str>> =
-        const { std::cell::Cell::new(None) };
-}
-
-/// A place where the tests can make a loader panic, to prove that the guard around it turns
-/// the panic into an error. Does nothing outside tests.
-#[inline]
-pub(crate) fn fault_point(_name: &'static str) {
-    #[cfg(test)]
-    if FAULT.with(std::cell::Cell::get) == Some(_name) {
-        panic!("injected fault at {_name}");
-    }
-}
+/// The shared fault point of the loaders' guards (see [`lamina_leaf::guard::fault_point`]).
+pub(crate) use lamina_leaf::guard::fault_point;
 
 use glam::{Vec2, Vec3};
 use lamina_core::cards::{LeafCard, append_cards};

@@ -446,9 +446,7 @@ mod tests {
         let f = dir.join("ok.toml");
         std::fs::write(&f, "seed = 3\n").unwrap();
         assert!(PlantParams::load(&f).is_ok());
-        crate::FAULT.with(|c| c.set(Some("plant_params")));
-        let e = PlantParams::load(&f);
-        crate::FAULT.with(|c| c.set(None));
+        let e = lamina_leaf::guard::with_fault("plant_params", || PlantParams::load(&f));
         let e = e.unwrap_err().to_string();
         assert!(e.contains("ok.toml") && e.contains("injected fault"), "{e}");
     }

@@ -98,22 +98,8 @@ pub(crate) fn guarded<T>(
     })
 }
 
-#[cfg(test)]
-thread_local! {
-    /// The fault point that panics on this thread, for the tests of the guarded loaders.
-    pub(crate) static FAULT: std::cell::Cell<Option<&'static str>> =
-        const { std::cell::Cell::new(None) };
-}
-
-/// A place where the tests make a loader panic (see `FAULT`), to prove that the guard
-/// around each entry point turns the panic into an error. Does nothing outside tests.
-#[inline]
-pub(crate) fn fault_point(_name: &'static str) {
-    #[cfg(test)]
-    if FAULT.with(std::cell::Cell::get) == Some(_name) {
-        panic!("injected fault at {_name}");
-    }
-}
+/// The shared fault point of the loaders' guards (see [`lamina_leaf::guard::fault_point`]).
+pub(crate) use lamina_leaf::guard::fault_point;
 
 /// Maps byte offsets in a text to 1-based line numbers.
 #[derive(Clone, Debug)]

@@ -2,7 +2,6 @@
 //! naming the file) and of the scene-wide budgets, with small budgets so that nothing big
 //! is built.
 
-use crate::error::FAULT;
 use crate::limits::Budgets;
 use std::path::{Path, PathBuf};
 
@@ -13,13 +12,7 @@ fn scratch(name: &str) -> PathBuf {
     d
 }
 
-/// Runs `f` with fault point `name` armed on this thread.
-fn with_fault<T>(name: &'static str, f: impl FnOnce() -> T) -> T {
-    FAULT.with(|c| c.set(Some(name)));
-    let r = f();
-    FAULT.with(|c| c.set(None));
-    r
-}
+use lamina_leaf::guard::with_fault;
 
 fn assert_names(e: crate::SceneError, file: &str) {
     let s = e.to_string();

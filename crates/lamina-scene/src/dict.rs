@@ -211,9 +211,6 @@ pub(crate) struct Keys {
     /// Keys every type of this table takes (objects: name, material, transform, ...),
     /// listed after `own` in messages.
     pub(crate) common: &'static [Key],
-    /// Every key of every type of this table: a key here that this type does not take is
-    /// "not a key of a light of type 'sun'", reported at the table's line.
-    pub(crate) family: &'static [&'static str],
     /// The table takes a `type` key.
     pub(crate) typed: bool,
 }
@@ -224,7 +221,6 @@ impl Keys {
         Keys {
             own,
             common: &[],
-            family: &[],
             typed: false,
         }
     }
@@ -257,6 +253,9 @@ pub(crate) struct Dict<'a> {
     pub(crate) span: Range<usize>,
     table: &'a Table,
     keys: Keys,
+    /// The keys of the other types of this table's family (lights, materials, ...): a key
+    /// of theirs is "not a key of a light of type 'sun'", reported at the table's line.
+    siblings: Vec<Keys>,
     read: RefCell<Vec<&'a str>>,
 }
 
@@ -271,6 +270,20 @@ impl<'a> Dict<'a> {
         table: &'a Table,
         keys: Keys,
     ) -> Result<Dict<'a>, SceneError> {
+        Self::open_among(ld, at, kind, span, table, keys, Vec::new())
+    }
+
+    /// [`Self::open`] for a table of a family of types whose keys are `siblings` (all of
+    /// them, this type's included).
+    pub(crate) fn open_among(
+        ld: &'a Loader,
+        at: impl Into<String>,
+        kind: Option<&'a str>,
+        span: Range<usize>,
+        table: &'a Table,
+        keys: Keys,
+        siblings: Vec<Keys>,
+    ) -> Result<Dict<'a>, SceneError> {
         let d = Dict {
             ld,
             at: at.into(),
@@ -278,6 +291,7 @@ impl<'a> Dict<'a> {
             span,
             table,
             keys,
+            siblings,
             read: RefCell::new(Vec::new()),
         };
         if let Some((k, _)) = d.table.iter().find(|(k, _)| !keys.takes(k.get_ref())) {
@@ -347,7 +361,11 @@ impl<'a> Dict<'a> {
             takes.push("type");
         }
         takes.extend(self.keys.own.iter().map(|&(k, _)| k));
-        if let (Some(kind), true) = (self.kind, self.keys.family.contains(&name)) {
+        let a_siblings_key = self
+            .siblings
+            .iter()
+            .any(|s| s.own.iter().any(|&(k, _)| k == name));
+        if let (Some(kind), true) = (self.kind, a_siblings_key) {
             let common = if self.keys.common.is_empty() {
                 String::new()
             } else {
@@ -713,6 +731,11 @@ pub(crate) fn type_entry<'a, 't, R>(
     }
 }
 
+/// The keys of every type of a family.
+pub(crate) fn sibling_keys<R>(types: &Types<R>) -> Vec<Keys> {
+    types.iter().map(|(_, keys, _)| *keys).collect()
+}
+
 /// Opens table `at` of `family` with the keys of its type; also returns the type's reader.
 pub(crate) fn open_typed<'a, 't, R>(
     ld: &'a Loader,
@@ -722,7 +745,15 @@ pub(crate) fn open_typed<'a, 't, R>(
     types: &'t Types<R>,
 ) -> Result<(Dict<'a>, &'t R), SceneError> {
     let (kind, keys, reader) = type_entry(ld, family, &at, t, types)?;
-    let d = Dict::open(ld, at, Some(kind.into_inner()), t.span(), t.get_ref(), keys)?;
+    let d = Dict::open_among(
+        ld,
+        at,
+        Some(kind.into_inner()),
+        t.span(),
+        t.get_ref(),
+        keys,
+        sibling_keys(types),
+    )?;
     Ok((d, reader))
 }
 

@@ -91,7 +91,6 @@ fn every(types: &[Keys]) -> Keys {
     Keys {
         own: Box::leak(own.into_boxed_slice()),
         common: &[],
-        family: &[],
         typed: true,
     }
 }

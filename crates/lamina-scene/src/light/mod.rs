@@ -10,28 +10,11 @@ mod quad;
 mod sphere;
 mod sun;
 
-/// Every key of every light type.
-const FAMILY: &[&str] = &[
-    "direction",
-    "irradiance",
-    "angular_diameter",
-    "position",
-    "intensity",
-    "corner",
-    "edge_u",
-    "edge_v",
-    "radiance",
-    "two_sided",
-    "center",
-    "radius",
-];
-
 /// The keys of a light type that takes `own`.
 const fn keys(own: &'static [Key]) -> Keys {
     Keys {
         own,
         common: &[],
-        family: FAMILY,
         typed: true,
     }
 }

@@ -14,40 +14,11 @@ mod diffuse_transmission;
 mod leaf;
 mod pbr;
 
-/// Every key of every material type.
-const FAMILY: &[&str] = &[
-    "name",
-    "reflectance",
-    "reflectance_map",
-    "transmittance",
-    "transmittance_map",
-    "alpha",
-    "alpha_cutoff",
-    "file",
-    "species",
-    "seed",
-    "resolution",
-    "maps",
-    "params",
-    "base_color",
-    "base_color_map",
-    "metallic",
-    "roughness",
-    "metallic_roughness_map",
-    "ior",
-    "transmission",
-    "transmission_color",
-    "normal_map",
-    "normal_scale",
-    "alpha_map",
-];
-
 /// The keys of a material type that takes `own`.
 const fn keys(own: &'static [Key]) -> Keys {
     Keys {
         own,
         common: &[],
-        family: FAMILY,
         typed: true,
     }
 }

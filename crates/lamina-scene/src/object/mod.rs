@@ -42,24 +42,11 @@ pub(crate) const COMMON: &[(&str, Kind)] = &[
     ("instances_file", Kind::Str),
 ];
 
-/// Every type's own keys.
-const FAMILY: &[&str] = &[
-    "file",
-    "corner",
-    "edge_u",
-    "edge_v",
-    "cards",
-    "plant",
-    "leaves",
-    "materials",
-];
-
 /// The keys of an object type that takes `own` besides [`COMMON`].
 const fn keys(own: &'static [Key]) -> Keys {
     Keys {
         own,
         common: COMMON,
-        family: FAMILY,
         typed: true,
     }
 }
@@ -134,7 +121,17 @@ pub(crate) fn check(ld: &Loader, i: usize, t: &S<Table>) -> Result<(), SceneErro
     if let Some(e) = materials_on_simple(ld, &at, t, reader) {
         return Err(e);
     }
-    Dict::open(ld, at, Some(kind.into_inner()), t.span(), t.get_ref(), keys).map(drop)
+    let siblings = crate::dict::sibling_keys(TYPES);
+    Dict::open_among(
+        ld,
+        at,
+        Some(kind.into_inner()),
+        t.span(),
+        t.get_ref(),
+        keys,
+        siblings,
+    )
+    .map(drop)
 }
 
 /// The error for `materials` on an object type that takes one scene material.

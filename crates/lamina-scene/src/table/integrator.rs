@@ -12,13 +12,10 @@ use crate::error::SceneError;
 use crate::loader::Loader;
 use crate::scene::Integrator;
 
-pub(crate) const FAMILY: &[&str] = &["max_depth", "rr_depth", "ambient"];
-
 /// The keys of `type = "path"`.
 pub(crate) const PATH: Keys = Keys {
     own: &[("max_depth", Kind::Int), ("rr_depth", Kind::Int)],
     common: &[],
-    family: FAMILY,
     typed: true,
 };
 
@@ -26,7 +23,6 @@ pub(crate) const PATH: Keys = Keys {
 pub(crate) const PAPER: Keys = Keys {
     own: &[("ambient", Kind::Color)],
     common: &[],
-    family: FAMILY,
     typed: true,
 };
 
@@ -50,7 +46,17 @@ pub(crate) fn read(ld: &Loader, t: Option<&S<Table>>) -> Result<Integrator, Scen
             ));
         }
     };
-    let open = |keys| Dict::open(ld, "integrator", Some(kind), t.span(), t.get_ref(), keys);
+    let open = |keys| {
+        Dict::open_among(
+            ld,
+            "integrator",
+            Some(kind),
+            t.span(),
+            t.get_ref(),
+            keys,
+            vec![PATH, PAPER],
+        )
+    };
     let integrator = match kind {
         "path" => {
             let d = open(PATH)?;

@@ -14,13 +14,10 @@ use crate::loader::Loader;
 use crate::scene::Sky;
 use lamina_leaf::Encoding;
 
-pub(crate) const FAMILY: &[&str] = &["radiance", "file", "scale", "rotation"];
-
 /// The keys of `type = "constant"`.
 pub(crate) const CONSTANT: Keys = Keys {
     own: &[("radiance", Kind::Color)],
     common: &[],
-    family: FAMILY,
     typed: true,
 };
 
@@ -32,7 +29,6 @@ pub(crate) const IMAGE: Keys = Keys {
         ("rotation", Kind::Num),
     ],
     common: &[],
-    family: FAMILY,
     typed: true,
 };
 
@@ -44,13 +40,14 @@ pub(crate) fn check(ld: &Loader, t: &S<Table>) -> Result<(), SceneError> {
         "image" => IMAGE,
         _ => return Ok(()),
     };
-    Dict::open(
+    Dict::open_among(
         ld,
         "sky",
         Some(*kind.get_ref()),
         t.span(),
         t.get_ref(),
         keys,
+        vec![CONSTANT, IMAGE],
     )
     .map(drop)
 }
@@ -59,13 +56,14 @@ pub(crate) fn check(ld: &Loader, t: &S<Table>) -> Result<(), SceneError> {
 pub(crate) fn read(ld: &Loader, t: &S<Table>) -> Result<Sky, SceneError> {
     let kind = crate::dict::type_of(ld, "sky", t)?;
     let open = |keys| {
-        Dict::open(
+        Dict::open_among(
             ld,
             "sky",
             Some(*kind.get_ref()),
             t.span(),
             t.get_ref(),
             keys,
+            vec![CONSTANT, IMAGE],
         )
     };
     let sky = match *kind.get_ref() {

@@ -1,6 +1,7 @@
 //! Instancing in scene files (`instances`, `instances_file`) and the size limits on
 //! transforms and placed geometry.
 
+mod common;
 use glam::Vec3;
 use lamina_scene::{Scene, parse_scene};
 use std::path::{Path, PathBuf};
@@ -17,10 +18,7 @@ fn quad(extra: &str) -> String {
 }
 
 fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lamina-inst-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("inst", name)
 }
 
 fn parse_in(dir: &Path, text: &str) -> Result<Scene, String> {

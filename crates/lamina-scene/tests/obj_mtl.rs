@@ -1,15 +1,13 @@
 //! OBJ with MTL materials in scene files: usemtl groups, Kd/map_Kd/d/map_d/Tf, overrides by
 //! name, and bad files (missing MTL or texture, NaN vertices, indices out of range).
 
+mod common;
 use glam::{Vec2, Vec3};
 use lamina_scene::{ColorInput, Material, Scene, parse_scene};
 use std::path::{Path, PathBuf};
 
 fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lamina-objmtl-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("objmtl", name)
 }
 
 /// Two quads: the first with `usemtl bark`, the second with `usemtl leaf`.

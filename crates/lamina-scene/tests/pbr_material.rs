@@ -1,6 +1,7 @@
 //! `[[material]] type = "pbr"` in scene files: defaults, every key loaded (maps included),
 //! and every bad value named by file, line and key.
 
+mod common;
 use glam::{Vec2, Vec3};
 use lamina_scene::{ColorInput, Material, PbrMaterial, Scene, SceneError, parse_scene};
 use std::path::{Path, PathBuf};
@@ -8,10 +9,7 @@ use std::path::{Path, PathBuf};
 const CAMERA: &str = "[camera]\nposition = [0, 1, 3]\nlook_at = [0, 0, 0]\n";
 
 fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lamina-pbr-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("pbr", name)
 }
 
 /// Lines 1-3 are the camera, line 4 `[[material]]`, line 5 `name`, line 6 `type`, then

@@ -1,0 +1,71 @@
+//! The AVX2 kernel: 8-wide nodes in `__m256` registers with an FMA slab test; leaves in
+//! the SSE kernel's 4-wide test (VEX-encoded inside this kernel's functions).
+
+use super::{LRay, Lanes, LeafHits, ROBUST};
+use crate::kernel::scalar::far_index;
+use crate::kernel::sse::{VRay, leaf4, prep4};
+use crate::layout::{Node, Pack};
+use std::arch::x86_64::*;
+
+pub(crate) struct Avx2;
+
+/// The ray for 8-wide node tests and 4-wide leaf tests.
+#[derive(Clone, Copy)]
+pub(crate) struct WRay {
+    /// `origin · inv` per axis (the FMA form `b·inv - o·inv`).
+    oinv: [__m256; 3],
+    inv: [__m256; 3],
+    near: [usize; 3],
+    four: VRay,
+}
+
+impl Lanes<8> for Avx2 {
+    type R = WRay;
+
+    #[inline(always)]
+    unsafe fn prep(r: &LRay) -> WRay {
+        // SAFETY: the caller guarantees AVX2 (trait contract); `_mm256_set1_ps` is AVX.
+        unsafe {
+            let four = prep4(r);
+            let (inv, _) = super::inverse_dir(r.d);
+            WRay {
+                oinv: [0, 1, 2].map(|a| _mm256_set1_ps(r.o[a] * inv[a])),
+                inv: inv.map(|x| _mm256_set1_ps(x)),
+                near: four.near,
+                four,
+            }
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn node(n: &Node<8>, r: &WRay, tmax: f32) -> (u32, [f32; 8]) {
+        // SAFETY: `n.b[k]` (k < 6, see `inverse_dir`) is a `[f32; 8]` inside `n`, so each
+        // unaligned load reads 32 valid bytes; the store writes all of `tn`. AVX2 + FMA are
+        // guaranteed by the caller (trait contract).
+        unsafe {
+            let slab = |a: usize| {
+                let lo = _mm256_loadu_ps(n.b[r.near[a]].as_ptr());
+                let hi = _mm256_loadu_ps(n.b[far_index(r.near[a])].as_ptr());
+                (
+                    _mm256_fmsub_ps(lo, r.inv[a], r.oinv[a]),
+                    _mm256_fmsub_ps(hi, r.inv[a], r.oinv[a]),
+                )
+            };
+            let (x0, x1) = slab(0);
+            let (y0, y1) = slab(1);
+            let (z0, z1) = slab(2);
+            let near = _mm256_max_ps(_mm256_max_ps(x0, y0), _mm256_max_ps(z0, _mm256_setzero_ps()));
+            let far = _mm256_min_ps(_mm256_min_ps(x1, y1), _mm256_min_ps(z1, _mm256_set1_ps(tmax)));
+            let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(near, _mm256_mul_ps(far, _mm256_set1_ps(ROBUST)));
+            let mut tn = [0.0f32; 8];
+            _mm256_storeu_ps(tn.as_mut_ptr(), near);
+            (_mm256_movemask_ps(hit) as u32, tn)
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn leaf(p: &Pack, r: &WRay, tmax: f32, skip: u32) -> LeafHits {
+        // SAFETY: SSE2 only (see `leaf4`), a subset of AVX2.
+        unsafe { leaf4(p, &r.four, tmax, skip) }
+    }
+}

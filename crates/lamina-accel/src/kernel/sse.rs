@@ -1,0 +1,141 @@
+//! The SSE kernel: 4-wide nodes and packs in `__m128` registers. SSE2 is part of the x86-64
+//! baseline, so this kernel runs on every x86-64 CPU.
+
+use super::{LRay, Lanes, LeafHits, ROBUST, inverse_dir};
+use crate::kernel::scalar::far_index;
+use crate::layout::{Node, Pack};
+use std::arch::x86_64::*;
+
+pub(crate) struct Sse;
+
+/// The ray broadcast to four lanes, with the near/far plane indices.
+#[derive(Clone, Copy)]
+pub(crate) struct VRay {
+    pub o: [__m128; 3],
+    pub d: [__m128; 3],
+    pub inv: [__m128; 3],
+    pub near: [usize; 3],
+}
+
+#[inline(always)]
+pub(crate) unsafe fn prep4(r: &LRay) -> VRay {
+    let (inv, near) = inverse_dir(r.d);
+    // SAFETY: `_mm_set1_ps` only needs SSE, part of every x86-64 CPU.
+    unsafe {
+        VRay {
+            o: r.o.map(|x| _mm_set1_ps(x)),
+            d: r.d.map(|x| _mm_set1_ps(x)),
+            inv: inv.map(|x| _mm_set1_ps(x)),
+            near,
+        }
+    }
+}
+
+/// The 4-lane Möller-Trumbore test of `p` (same arithmetic and order as
+/// `scalar::lane_test`).
+///
+/// # Safety
+/// SSE2 only (every x86-64 CPU).
+#[inline(always)]
+pub(crate) unsafe fn leaf4(p: &Pack, r: &VRay, tmax: f32, skip: u32) -> LeafHits {
+    // SAFETY: `Pack` is `repr(C, align(64))` and every field read here is a `[f32; 4]` or
+    // `[u32; 4]` at a 16-byte aligned offset (0, 16, .., 176), so each `_mm_load_ps` /
+    // `_mm_load_si128` reads 16 valid, aligned bytes of `p`; the stores write whole
+    // `[f32; 4]` arrays of `h`. The instructions are SSE/SSE2, part of x86-64.
+    unsafe {
+        let ld = |a: &[f32; 4]| _mm_load_ps(a.as_ptr());
+        let e1 = [ld(&p.e1[0]), ld(&p.e1[1]), ld(&p.e1[2])];
+        let e2 = [ld(&p.e2[0]), ld(&p.e2[1]), ld(&p.e2[2])];
+        let cross = |a: [__m128; 3], b: [__m128; 3]| {
+            [
+                _mm_sub_ps(_mm_mul_ps(a[1], b[2]), _mm_mul_ps(a[2], b[1])),
+                _mm_sub_ps(_mm_mul_ps(a[2], b[0]), _mm_mul_ps(a[0], b[2])),
+                _mm_sub_ps(_mm_mul_ps(a[0], b[1]), _mm_mul_ps(a[1], b[0])),
+            ]
+        };
+        let dot = |a: [__m128; 3], b: [__m128; 3]| {
+            _mm_add_ps(
+                _mm_add_ps(_mm_mul_ps(a[0], b[0]), _mm_mul_ps(a[1], b[1])),
+                _mm_mul_ps(a[2], b[2]),
+            )
+        };
+        let pv = cross(r.d, e2);
+        let det = dot(e1, pv);
+        let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
+        let tv = [
+            _mm_sub_ps(r.o[0], ld(&p.v0[0])),
+            _mm_sub_ps(r.o[1], ld(&p.v0[1])),
+            _mm_sub_ps(r.o[2], ld(&p.v0[2])),
+        ];
+        let b1 = _mm_mul_ps(dot(tv, pv), inv);
+        let q = cross(tv, e1);
+        let b2 = _mm_mul_ps(dot(r.d, q), inv);
+        let t = _mm_mul_ps(dot(e2, q), inv);
+        let zero = _mm_setzero_ps();
+        let one = _mm_set1_ps(1.0);
+        let lim = _mm_add_ps(b2, _mm_mul_ps(ld(&p.tri), b1));
+        let mut ok = _mm_cmpneq_ps(det, zero);
+        ok = _mm_and_ps(ok, _mm_cmpge_ps(b1, zero));
+        ok = _mm_and_ps(ok, _mm_cmple_ps(b1, one));
+        ok = _mm_and_ps(ok, _mm_cmpge_ps(b2, zero));
+        ok = _mm_and_ps(ok, _mm_cmple_ps(lim, one));
+        ok = _mm_and_ps(ok, _mm_cmpgt_ps(t, zero));
+        ok = _mm_and_ps(ok, _mm_cmplt_ps(t, _mm_set1_ps(tmax)));
+        let ids = _mm_load_si128(p.id.as_ptr() as *const __m128i);
+        let skipped = _mm_castsi128_ps(_mm_cmpeq_epi32(ids, _mm_set1_epi32(skip as i32)));
+        ok = _mm_andnot_ps(skipped, ok);
+        let mut h = LeafHits {
+            mask: _mm_movemask_ps(ok) as u32,
+            t: [0.0; 4],
+            b1: [0.0; 4],
+            b2: [0.0; 4],
+        };
+        _mm_storeu_ps(h.t.as_mut_ptr(), t);
+        _mm_storeu_ps(h.b1.as_mut_ptr(), b1);
+        _mm_storeu_ps(h.b2.as_mut_ptr(), b2);
+        h
+    }
+}
+
+impl Lanes<4> for Sse {
+    type R = VRay;
+
+    #[inline(always)]
+    unsafe fn prep(r: &LRay) -> VRay {
+        // SAFETY: SSE only (see `prep4`).
+        unsafe { prep4(r) }
+    }
+
+    #[inline(always)]
+    unsafe fn node(n: &Node<4>, r: &VRay, tmax: f32) -> (u32, [f32; 4]) {
+        // SAFETY: `n.b[k]` is a `[f32; 4]` inside `n` (k < 6: `near` is 0..=5 by
+        // construction in `inverse_dir`), so each unaligned load reads 16 valid bytes; the
+        // store writes the whole `tn`. SSE only.
+        unsafe {
+            let slab = |a: usize| {
+                let lo = _mm_loadu_ps(n.b[r.near[a]].as_ptr());
+                let hi = _mm_loadu_ps(n.b[far_index(r.near[a])].as_ptr());
+                let o = r.o[a];
+                (
+                    _mm_mul_ps(_mm_sub_ps(lo, o), r.inv[a]),
+                    _mm_mul_ps(_mm_sub_ps(hi, o), r.inv[a]),
+                )
+            };
+            let (x0, x1) = slab(0);
+            let (y0, y1) = slab(1);
+            let (z0, z1) = slab(2);
+            let near = _mm_max_ps(_mm_max_ps(x0, y0), _mm_max_ps(z0, _mm_setzero_ps()));
+            let far = _mm_min_ps(_mm_min_ps(x1, y1), _mm_min_ps(z1, _mm_set1_ps(tmax)));
+            let hit = _mm_cmple_ps(near, _mm_mul_ps(far, _mm_set1_ps(ROBUST)));
+            let mut tn = [0.0f32; 4];
+            _mm_storeu_ps(tn.as_mut_ptr(), near);
+            (_mm_movemask_ps(hit) as u32, tn)
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn leaf(p: &Pack, r: &VRay, tmax: f32, skip: u32) -> LeafHits {
+        // SAFETY: SSE2 only (see `leaf4`).
+        unsafe { leaf4(p, r, tmax, skip) }
+    }
+}

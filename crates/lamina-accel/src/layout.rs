@@ -1,0 +1,281 @@
+//! The wide layout the kernels traverse.
+//!
+//! * [`Node`]: `W` children (8 for AVX2, 4 for SSE and the scalar kernel), their boxes as
+//!   structure-of-arrays floats (`b[axis]` the `W` lower bounds on `axis`, `b[3 + axis]`
+//!   the upper ones), so that one node test is six vector min/max steps. A child code is a
+//!   node index, or [`LEAF`]` | k` for leaf `k` (a [`Pack`] in a bottom level, an instance
+//!   in the top level); an unused slot has an empty box (`+∞ .. -∞`, never hit) and
+//!   [`EMPTY`].
+//! * [`Pack`]: up to four primitives in structure-of-arrays form (`v0`, `e1 = v1 - v0`,
+//!   `e2 = v2 - v0` per axis, 4 lanes each), tested together; 192 bytes, three cache
+//!   lines. Triangles and parallelograms mix in one pack: the lane's `tri` factor (1 for
+//!   a triangle, 0 for a parallelogram) turns the bound `b1 + b2 <= 1` into `b2 <= 1`.
+//!   Unused lanes are zero (a zero determinant: never hit).
+//! * [`AlphaRec`]: per alpha-tested primitive its matte id and texture coordinates, read
+//!   only for a candidate hit on it.
+
+use crate::build::{Aabb, Binary};
+use crate::desc::{Geometry, Prim};
+
+/// Child code bit: a leaf.
+pub(crate) const LEAF: u32 = 0x8000_0000;
+/// Child code of an unused slot (and of an empty level's root).
+pub(crate) const EMPTY: u32 = u32::MAX;
+/// `Pack::flags` bit: the lane is alpha-tested (low bits: index into `Blas::alpha`).
+pub(crate) const ALPHA: u32 = 0x8000_0000;
+/// Traversal stack entries: at most `W - 1` pushes per level of a tree of depth at most
+/// `build::SAH_DEPTH + 32` (median splits past the SAH depth halve at least 2³⁰ primitives).
+pub(crate) const STACK: usize = 7 * (crate::build::SAH_DEPTH + 32) + 8;
+
+/// A wide node (see the module docs).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+pub(crate) struct Node<const W: usize> {
+    pub b: [[f32; W]; 6],
+    pub child: [u32; W],
+}
+
+/// Four primitives, structure of arrays (see the module docs).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub(crate) struct Pack {
+    pub v0: [[f32; 4]; 3],
+    pub e1: [[f32; 4]; 3],
+    pub e2: [[f32; 4]; 3],
+    /// 1 for a triangle, 0 for a parallelogram (and for unused lanes).
+    pub tri: [f32; 4],
+    /// The primitive's index in its [`Geometry`]; `u32::MAX` for unused lanes.
+    pub id: [u32; 4],
+    /// [`ALPHA`] `|` index into `Blas::alpha`, or 0.
+    pub flags: [u32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<Pack>() == 192);
+const _: () = assert!(std::mem::size_of::<Node<8>>() == 224);
+
+/// The alpha test of one primitive: matte id and texture coordinates at its vertices.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct AlphaRec {
+    pub id: u32,
+    pub uv: [[f32; 2]; 3],
+}
+
+/// A bottom level: the world geometry or one prototype.
+#[derive(Clone, Debug)]
+pub(crate) struct Blas<const W: usize> {
+    pub nodes: Vec<Node<W>>,
+    /// Child code of the root: a node, a single pack (at most 4 primitives: no nodes at
+    /// all), or [`EMPTY`].
+    pub root: u32,
+    pub packs: Vec<Pack>,
+    pub alpha: Vec<AlphaRec>,
+    /// Bounds of every valid primitive; `None` for an empty level.
+    pub bounds: Option<Aabb>,
+}
+
+/// One instance as the top level stores it: the world-to-object transform as a 3x4 matrix
+/// (columns x, y, z, translation) and the prototype. 52 bytes.
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+pub(crate) struct InstRec {
+    pub w2o: [f32; 12],
+    pub proto: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<InstRec>() == 52);
+
+/// The top level: a wide tree whose leaves are instances (child code `LEAF | instance`).
+#[derive(Clone, Debug)]
+pub(crate) struct Tlas<const W: usize> {
+    pub nodes: Vec<Node<W>>,
+    pub root: u32,
+}
+
+/// Lays out a wide tree from `bin`: `leaf(start, count)` makes the child code of a binary
+/// leaf over `bin.order[start .. start + count]`. Returns the nodes (root first, parents
+/// before children) and the root's code.
+pub(crate) fn collapse<const W: usize>(
+    bin: &Binary,
+    leaf: &mut impl FnMut(usize, usize) -> u32,
+) -> (Vec<Node<W>>, u32) {
+    let mut nodes = Vec::new();
+    let root = &bin.nodes[0];
+    if root.count > 0 {
+        let code = leaf(root.a as usize, root.count as usize);
+        return (nodes, code);
+    }
+    emit::<W>(bin, 0, &mut nodes, leaf);
+    (nodes, 0)
+}
+
+/// Emits the wide node rooted at binary inner node `i` (and its subtree); returns its index.
+fn emit<const W: usize>(
+    bin: &Binary,
+    i: usize,
+    nodes: &mut Vec<Node<W>>,
+    leaf: &mut impl FnMut(usize, usize) -> u32,
+) -> u32 {
+    // Open the child of largest area until there are W or only leaves are left.
+    let mut kids: Vec<usize> = vec![bin.nodes[i].a as usize, bin.nodes[i].b as usize];
+    while kids.len() < W {
+        let best = kids
+            .iter()
+            .enumerate()
+            .filter(|(_, k)| bin.nodes[**k].count == 0)
+            .max_by(|a, b| {
+                let (aa, ba) = (bin.nodes[*a.1].bounds.half_area(), bin.nodes[*b.1].bounds.half_area());
+                aa.total_cmp(&ba)
+            })
+            .map(|(j, _)| j);
+        let Some(j) = best else { break };
+        let k = kids.swap_remove(j);
+        kids.push(bin.nodes[k].a as usize);
+        kids.push(bin.nodes[k].b as usize);
+    }
+    let me = nodes.len();
+    nodes.push(Node {
+        b: [
+            [f32::INFINITY; W],
+            [f32::INFINITY; W],
+            [f32::INFINITY; W],
+            [f32::NEG_INFINITY; W],
+            [f32::NEG_INFINITY; W],
+            [f32::NEG_INFINITY; W],
+        ],
+        child: [EMPTY; W],
+    });
+    for (slot, &k) in kids.iter().enumerate() {
+        let nd = bin.nodes[k];
+        let code = if nd.count > 0 {
+            leaf(nd.a as usize, nd.count as usize)
+        } else {
+            emit::<W>(bin, k, nodes, leaf)
+        };
+        let n = &mut nodes[me];
+        for a in 0..3 {
+            n.b[a][slot] = nd.bounds.min[a];
+            n.b[3 + a][slot] = nd.bounds.max[a];
+        }
+        n.child[slot] = code;
+    }
+    me as u32
+}
+
+/// The bounds of a valid primitive.
+pub(crate) fn prim_bounds(p: &Prim) -> Aabb {
+    let b = Aabb::of_points(&p.v);
+    if p.quad { b.grow(p.v[1] + p.v[2] - p.v[0]) } else { b }
+}
+
+impl<const W: usize> Blas<W> {
+    /// The bottom level of `geom`: invalid primitives left out.
+    pub(crate) fn build(geom: &Geometry, trav_cost: f32) -> Self {
+        let valid: Vec<u32> = (0..geom.prims.len() as u32)
+            .filter(|&i| geom.prims[i as usize].is_valid())
+            .collect();
+        let mut blas = Blas {
+            nodes: Vec::new(),
+            root: EMPTY,
+            packs: Vec::new(),
+            alpha: Vec::new(),
+            bounds: None,
+        };
+        if valid.is_empty() {
+            return blas;
+        }
+        let bounds: Vec<Aabb> = valid.iter().map(|&i| prim_bounds(&geom.prims[i as usize])).collect();
+        blas.bounds = Some(bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(*b)));
+        let mut packs = Vec::new();
+        let mut alpha = Vec::new();
+        let mut make_pack = |ids: &mut dyn Iterator<Item = u32>| -> u32 {
+            let mut p = Pack {
+                v0: [[0.0; 4]; 3],
+                e1: [[0.0; 4]; 3],
+                e2: [[0.0; 4]; 3],
+                tri: [0.0; 4],
+                id: [u32::MAX; 4],
+                flags: [0; 4],
+            };
+            for (lane, id) in ids.enumerate() {
+                let prim = &geom.prims[id as usize];
+                let (v0, e1, e2) = (prim.v[0], prim.v[1] - prim.v[0], prim.v[2] - prim.v[0]);
+                for a in 0..3 {
+                    p.v0[a][lane] = v0[a];
+                    p.e1[a][lane] = e1[a];
+                    p.e2[a][lane] = e2[a];
+                }
+                p.tri[lane] = if prim.quad { 0.0 } else { 1.0 };
+                p.id[lane] = id;
+                if let Some(al) = prim.alpha {
+                    p.flags[lane] = ALPHA | alpha.len() as u32;
+                    alpha.push(AlphaRec {
+                        id: al.id,
+                        uv: al.uv.map(|u| u.to_array()),
+                    });
+                }
+            }
+            packs.push(p);
+            LEAF | (packs.len() as u32 - 1)
+        };
+        if valid.len() <= 4 {
+            blas.root = make_pack(&mut valid.iter().copied());
+        } else {
+            let bin = crate::build::build_binary(
+                &bounds,
+                crate::build::BuildParams {
+                    max_leaf: 4,
+                    pack: 4,
+                    trav_cost,
+                },
+            );
+            let (nodes, root) = collapse::<W>(&bin, &mut |start, count| {
+                make_pack(&mut bin.order[start..start + count].iter().map(|&k| valid[k as usize]))
+            });
+            blas.nodes = nodes;
+            blas.root = root;
+        }
+        blas.packs = packs;
+        blas.alpha = alpha;
+        blas
+    }
+
+    /// Heap bytes.
+    pub(crate) fn bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node<W>>()
+            + self.packs.len() * std::mem::size_of::<Pack>()
+            + self.alpha.len() * std::mem::size_of::<AlphaRec>()
+    }
+
+    /// SAH cost of the wide tree relative to its root box: node visits cost `trav_cost`,
+    /// pack tests 1, each weighted by its box's area over the root's.
+    pub(crate) fn sah_cost(&self, trav_cost: f32) -> f64 {
+        let Some(root) = self.bounds else { return 0.0 };
+        if self.nodes.is_empty() {
+            return 1.0;
+        }
+        let ra = root.half_area().max(f32::MIN_POSITIVE) as f64;
+        let mut cost = 0.0;
+        let mut stack = vec![(0u32, ra)];
+        while let Some((n, area)) = stack.pop() {
+            cost += trav_cost as f64 * area / ra;
+            let node = &self.nodes[n as usize];
+            for s in 0..W {
+                let c = node.child[s];
+                if c == EMPTY {
+                    continue;
+                }
+                let b = Aabb {
+                    min: glam::Vec3::new(node.b[0][s], node.b[1][s], node.b[2][s]),
+                    max: glam::Vec3::new(node.b[3][s], node.b[4][s], node.b[5][s]),
+                };
+                let a = b.half_area() as f64;
+                if c & LEAF != 0 {
+                    cost += a / ra;
+                } else {
+                    stack.push((c, a));
+                }
+            }
+        }
+        cost
+    }
+}

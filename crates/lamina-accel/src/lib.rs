@@ -1,0 +1,554 @@
+//! lamina's ray-tracing core: the one place that intersects rays with a scene.
+//!
+//! Input is plain geometry ([`SceneDesc`]: triangles and parallelogram leaf cards per
+//! [`Geometry`], prototypes placed by [`Instance`]s, spheres, per-primitive alpha with a
+//! 3-state [`OpacityMask`] per matte); it never sees materials or lights. Output is a
+//! preliminary [`Hit`] (distance, primitive, instance, barycentrics) from which the
+//! renderer rebuilds the surface.
+//!
+//! * **Wide BVHs** ([`layout`](crate::layout) docs): a binned-SAH binary build
+//!   (multithreaded) collapsed to 8-wide nodes for AVX2 or 4-wide for SSE and the scalar
+//!   kernel, chosen at build time by CPU feature detection ([`Kernel::best`]); leaves hold
+//!   four primitives in structure-of-arrays form, triangles and cards tested together.
+//! * **Two levels**: one bottom level per [`Geometry`] (the world, each prototype), a wide
+//!   top level over the instances. A ray enters a prototype in object space with its
+//!   direction *not renormalised*, so `t` means the same in every space and one `tmax`
+//!   serves all levels. A prototype of at most four primitives (a leaf card) has no tree:
+//!   the instance's leaf is its single pack.
+//! * **Alpha in the leaf test**: an alpha-tested primitive is hit only where its matte is
+//!   opaque. The matte's [`OpacityMask`] decides opaque and transparent cells with one byte
+//!   read; only unknown cells ask the caller's [`AlphaFilter`] (the exact matte).
+//! * **Queries**: [`Accel::intersect`] (closest accepted hit, children entered nearest
+//!   first), [`Accel::occluded`] (any accepted hit, stops at the first), both skipping the
+//!   primitive a ray leaves ([`PrimRef`]). Directions with `-0` components are fine.
+//! * **Backends**: this crate's engine; with the `embree` feature, Embree 3 through a thin
+//!   FFI of ours ([`embree`] module), for benchmarks and for users who want it.
+//!
+//! `unsafe` lives here only (the SIMD kernels and the Embree FFI), each block with the
+//! argument that it is sound. Where this crate sits among the others: ARCHITECTURE.md.
+
+#![warn(missing_docs)]
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+#![deny(unsafe_op_in_unsafe_fn)]
+
+pub mod build;
+pub mod desc;
+#[cfg(feature = "embree")]
+pub mod embree;
+mod kernel;
+mod layout;
+pub mod mask;
+mod traverse;
+
+pub use build::Aabb;
+pub use desc::{Geometry, Instance, Prim, PrimAlpha, SceneDesc, Sphere};
+pub use mask::{MaskWrap, OpacityMask};
+
+use glam::{Vec2, Vec3};
+use layout::{Blas, InstRec, LEAF, Tlas};
+use std::cell::Cell;
+use traverse::Levels;
+
+/// A ray: `origin + t·dir` for `t ∈ (0, tmax)`. Distances are in units of `dir`'s length
+/// (metres for a unit direction).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Origin (m).
+    pub origin: Vec3,
+    /// Direction; need not be unit length, must be finite and non-zero.
+    pub dir: Vec3,
+    /// Largest distance considered; `f32::INFINITY` for none.
+    pub tmax: f32,
+}
+
+/// [`PrimRef::inst`] of the world geometry.
+pub const NO_INSTANCE: u32 = u32::MAX;
+/// [`PrimRef::inst`] of a sphere (its index in [`SceneDesc::spheres`] is `prim`).
+pub const SPHERE: u32 = u32::MAX - 1;
+/// "No primitive" in [`PrimRef::prim`].
+pub const NO_PRIM: u32 = u32::MAX;
+
+/// A primitive of the scene: primitive `prim` (index in its [`Geometry`]) of the world
+/// (`inst == NO_INSTANCE`) or of instance `inst`'s prototype (index in
+/// [`SceneDesc::instances`]), or sphere `prim` (`inst == SPHERE`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct PrimRef {
+    /// Instance index, [`NO_INSTANCE`] or [`SPHERE`].
+    pub inst: u32,
+    /// Primitive index, or [`NO_PRIM`].
+    pub prim: u32,
+}
+
+impl PrimRef {
+    /// No primitive: nothing to skip.
+    pub const NONE: PrimRef = PrimRef {
+        inst: NO_INSTANCE,
+        prim: NO_PRIM,
+    };
+}
+
+/// The closest accepted hit along a ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Distance along the ray (units of its direction's length).
+    pub t: f32,
+    /// What was hit.
+    pub prim: PrimRef,
+    /// Barycentric coordinates of `v[1]` and `v[2]` (parallelograms: `b1, b2 ∈ [0, 1]`
+    /// along the two edges); zero on a sphere.
+    pub bary: Vec2,
+}
+
+/// The exact alpha test, asked only for candidate hits in cells an [`OpacityMask`] cannot
+/// decide (or on mattes without one).
+pub trait AlphaFilter {
+    /// Whether the matte `id` ([`PrimAlpha::id`]) is opaque at texture coordinates `uv`.
+    fn opaque(&self, id: u32, uv: Vec2) -> bool;
+}
+
+impl<F: Fn(u32, Vec2) -> bool> AlphaFilter for F {
+    #[inline(always)]
+    fn opaque(&self, id: u32, uv: Vec2) -> bool {
+        self(id, uv)
+    }
+}
+
+/// What a traversal did, for [`TraversalStats`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Event {
+    /// A wide node tested.
+    Node,
+    /// A leaf pack tested.
+    Pack,
+    /// An instance entered.
+    Instance,
+    /// A candidate on a matte decided opaque by its mask.
+    MaskOpaque,
+    /// A candidate on a matte decided transparent by its mask.
+    MaskTransparent,
+    /// A candidate that asked the [`AlphaFilter`].
+    AlphaLookup,
+}
+
+/// Counts traversal events; `()` counts nothing and costs nothing.
+pub trait Counter {
+    /// Records one event.
+    fn count(&self, e: Event);
+}
+
+impl Counter for () {
+    #[inline(always)]
+    fn count(&self, _: Event) {}
+}
+
+/// Traversal counters (for benchmarks: steps per ray, alpha lookups skipped).
+#[derive(Debug, Default)]
+pub struct TraversalStats {
+    /// Wide nodes tested.
+    pub nodes: Cell<u64>,
+    /// Leaf packs tested.
+    pub packs: Cell<u64>,
+    /// Instances entered.
+    pub instances: Cell<u64>,
+    /// Alpha candidates the masks decided opaque.
+    pub mask_opaque: Cell<u64>,
+    /// Alpha candidates the masks decided transparent.
+    pub mask_transparent: Cell<u64>,
+    /// Alpha candidates that asked the exact matte.
+    pub alpha_lookups: Cell<u64>,
+}
+
+impl Counter for TraversalStats {
+    #[inline]
+    fn count(&self, e: Event) {
+        let c = match e {
+            Event::Node => &self.nodes,
+            Event::Pack => &self.packs,
+            Event::Instance => &self.instances,
+            Event::MaskOpaque => &self.mask_opaque,
+            Event::MaskTransparent => &self.mask_transparent,
+            Event::AlphaLookup => &self.alpha_lookups,
+        };
+        c.set(c.get() + 1);
+    }
+}
+
+/// The traversal kernel (instruction set and node width).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// 8-wide nodes, AVX2 + FMA (x86-64).
+    Avx2,
+    /// 4-wide nodes, SSE2 (every x86-64 CPU).
+    Sse,
+    /// 4-wide nodes in plain loops (any CPU).
+    Scalar,
+}
+
+impl Kernel {
+    /// The fastest kernel this CPU runs, unless `LAMINA_ACCEL_KERNEL` (`avx2`, `sse`,
+    /// `scalar`) names another one it runs.
+    pub fn best() -> Kernel {
+        let forced = std::env::var("LAMINA_ACCEL_KERNEL").ok().and_then(|s| Kernel::parse(&s));
+        if let Some(k) = forced.filter(|k| k.available()) {
+            return k;
+        }
+        [Kernel::Avx2, Kernel::Sse, Kernel::Scalar]
+            .into_iter()
+            .find(|k| k.available())
+            .unwrap_or(Kernel::Scalar)
+    }
+
+    /// `"avx2"`, `"sse"` or `"scalar"`.
+    pub fn parse(s: &str) -> Option<Kernel> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "avx2" => Some(Kernel::Avx2),
+            "sse" => Some(Kernel::Sse),
+            "scalar" => Some(Kernel::Scalar),
+            _ => None,
+        }
+    }
+
+    /// Whether this CPU has the kernel's instructions.
+    pub fn available(self) -> bool {
+        match self {
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2 => is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"),
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Sse => true,
+            Kernel::Scalar => true,
+            #[allow(unreachable_patterns)]
+            _ => false,
+        }
+    }
+
+    /// Children per node.
+    pub fn width(self) -> usize {
+        match self {
+            Kernel::Avx2 => 8,
+            _ => 4,
+        }
+    }
+}
+
+/// Why a scene cannot be built.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum AccelError {
+    /// An instance names a prototype that does not exist.
+    #[error("instance {instance} uses prototype {prototype}, but there are {count} prototypes")]
+    Prototype {
+        /// Instance index.
+        instance: usize,
+        /// The prototype it names.
+        prototype: u32,
+        /// Number of prototypes.
+        count: usize,
+    },
+    /// An instance transform that is not finite and invertible.
+    #[error("instance {0}: the transform is not finite and invertible")]
+    Transform(usize),
+    /// The requested kernel does not run on this CPU.
+    #[error("the {0:?} kernel does not run on this CPU")]
+    Kernel(Kernel),
+    /// More than 2³⁰ primitives in one geometry, or 2³⁰ instances.
+    #[error("{0}: more than 2^30 entries")]
+    TooLarge(&'static str),
+    /// An error of the Embree backend.
+    #[error("Embree: {0}")]
+    Embree(String),
+}
+
+/// Build settings.
+#[derive(Clone, Copy, Debug)]
+pub struct BuildOptions {
+    /// The kernel (and so the node width); [`Kernel::best`] by default.
+    pub kernel: Kernel,
+    /// SAH cost of a node visit relative to a 4-primitive leaf test (default 1.0).
+    pub trav_cost: f32,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions {
+            kernel: Kernel::best(),
+            trav_cost: 1.0,
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+enum Engine {
+    W8(Levels<8>),
+    W4(Levels<4>),
+}
+
+/// Memory held by an [`Accel`], in bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AccelMemory {
+    /// The world geometry's tree and packs.
+    pub world: usize,
+    /// Every prototype's tree and packs, each once.
+    pub prototypes: usize,
+    /// The instance records (52 bytes each) and the top level over them.
+    pub instances: usize,
+    /// Opacity masks.
+    pub masks: usize,
+    /// Number of instances in the top level.
+    pub instance_count: usize,
+}
+
+impl AccelMemory {
+    /// All of it.
+    pub fn total(&self) -> usize {
+        self.world + self.prototypes + self.instances + self.masks
+    }
+
+    /// Bytes per instance of the instance level; 0 without instances.
+    pub fn bytes_per_instance(&self) -> f64 {
+        if self.instance_count == 0 {
+            0.0
+        } else {
+            self.instances as f64 / self.instance_count as f64
+        }
+    }
+}
+
+/// The acceleration structure of a [`SceneDesc`].
+#[derive(Clone, Debug)]
+pub struct Accel {
+    kernel: Kernel,
+    trav_cost: f32,
+    engine: Engine,
+}
+
+fn build_levels<const W: usize>(desc: &SceneDesc, trav_cost: f32) -> Result<Levels<W>, AccelError> {
+    if desc.instances.len() >= 1 << 30 {
+        return Err(AccelError::TooLarge("instances"));
+    }
+    if desc.world.prims.len() >= 1 << 30 || desc.prototypes.iter().any(|g| g.prims.len() >= 1 << 30) {
+        return Err(AccelError::TooLarge("a geometry"));
+    }
+    let mut used = vec![false; desc.prototypes.len()];
+    let mut recs = Vec::with_capacity(desc.instances.len());
+    for (i, inst) in desc.instances.iter().enumerate() {
+        let Some(u) = used.get_mut(inst.prototype as usize) else {
+            return Err(AccelError::Prototype {
+                instance: i,
+                prototype: inst.prototype,
+                count: desc.prototypes.len(),
+            });
+        };
+        *u = true;
+        let m = inst.object_to_world;
+        let inv = m.inverse();
+        if !(m.matrix3.determinant().abs() > 0.0 && m.is_finite() && inv.is_finite()) {
+            return Err(AccelError::Transform(i));
+        }
+        let mut w2o = [0.0f32; 12];
+        inv.write_cols_to_slice(&mut w2o);
+        recs.push(InstRec {
+            w2o,
+            proto: inst.prototype,
+        });
+    }
+    let (world, protos) = rayon::join(
+        || Blas::<W>::build(&desc.world, trav_cost),
+        || {
+            use rayon::prelude::*;
+            desc.prototypes
+                .par_iter()
+                .zip(&used)
+                .map(|(g, &u)| {
+                    if u {
+                        Blas::<W>::build(g, trav_cost)
+                    } else {
+                        Blas::<W>::build(&Geometry::default(), trav_cost)
+                    }
+                })
+                .collect::<Vec<_>>()
+        },
+    );
+    // The top level over the world boxes of instances whose prototype is not empty.
+    let mut ids = Vec::new();
+    let mut boxes = Vec::new();
+    for (i, inst) in desc.instances.iter().enumerate() {
+        let Some(b) = protos[inst.prototype as usize].bounds else {
+            continue;
+        };
+        let m = inst.object_to_world;
+        let mut wb = Aabb::EMPTY;
+        for k in 0..8 {
+            let c = Vec3::new(
+                if k & 1 == 0 { b.min.x } else { b.max.x },
+                if k & 2 == 0 { b.min.y } else { b.max.y },
+                if k & 4 == 0 { b.min.z } else { b.max.z },
+            );
+            wb = wb.grow(m.transform_point3(c));
+        }
+        ids.push(i as u32);
+        boxes.push(wb);
+    }
+    let tlas = (!boxes.is_empty()).then(|| {
+        let bin = build::build_binary(
+            &boxes,
+            build::BuildParams {
+                max_leaf: 1,
+                pack: 1,
+                trav_cost,
+            },
+        );
+        let (nodes, root) = layout::collapse::<W>(&bin, &mut |start, count| {
+            debug_assert_eq!(count, 1);
+            LEAF | ids[bin.order[start] as usize]
+        });
+        Tlas { nodes, root }
+    });
+    Ok(Levels {
+        world,
+        protos,
+        tlas,
+        recs,
+        spheres: desc
+            .spheres
+            .iter()
+            .filter(|s| s.center.is_finite() && s.radius > 0.0 && s.radius.is_finite())
+            .copied()
+            .collect(),
+        masks: desc.masks.clone(),
+    })
+}
+
+macro_rules! dispatch {
+    ($self:ident, $method:ident, $($arg:expr),*) => {
+        match (&$self.engine, $self.kernel) {
+            #[cfg(target_arch = "x86_64")]
+            (Engine::W8(l), Kernel::Avx2) => {
+                #[target_feature(enable = "avx2,fma")]
+                unsafe fn go<F: AlphaFilter, C: Counter>(l: &Levels<8>, ray: &Ray, skip: PrimRef, f: &F, c: &C) -> _ret!($method) {
+                    // SAFETY: this function's own target features are AVX2 + FMA, which
+                    // `Avx2` needs.
+                    unsafe { l.$method::<kernel::avx2::Avx2, F, C>(ray, skip, f, c) }
+                }
+                // SAFETY: an `Accel` holds `Kernel::Avx2` only after `Kernel::available`
+                // confirmed AVX2 and FMA on this CPU (`Accel::build_with`).
+                unsafe { go(l, $($arg),*) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            (Engine::W4(l), Kernel::Sse) => {
+                // SAFETY: SSE2 is part of every x86-64 CPU.
+                unsafe { l.$method::<kernel::sse::Sse, _, _>($($arg),*) }
+            }
+            (Engine::W4(l), _) => {
+                // SAFETY: the scalar kernel uses no special instructions.
+                unsafe { l.$method::<kernel::scalar::Scalar, _, _>($($arg),*) }
+            }
+            (Engine::W8(_), _) => unreachable!("8-wide trees are built for the AVX2 kernel only"),
+        }
+    };
+}
+
+macro_rules! _ret {
+    (closest) => { Option<Hit> };
+    (occluded) => { bool };
+}
+
+impl Accel {
+    /// Builds the structure with [`BuildOptions::default`] (the best kernel of this CPU).
+    pub fn build(desc: &SceneDesc) -> Result<Accel, AccelError> {
+        Accel::build_with(desc, BuildOptions::default())
+    }
+
+    /// Builds the structure for `opts.kernel`; an error when the CPU lacks it, for an
+    /// instance naming a missing prototype or with a transform that is not finite and
+    /// invertible.
+    pub fn build_with(desc: &SceneDesc, opts: BuildOptions) -> Result<Accel, AccelError> {
+        if !opts.kernel.available() {
+            return Err(AccelError::Kernel(opts.kernel));
+        }
+        let engine = match opts.kernel.width() {
+            8 => Engine::W8(build_levels::<8>(desc, opts.trav_cost)?),
+            _ => Engine::W4(build_levels::<4>(desc, opts.trav_cost)?),
+        };
+        Ok(Accel {
+            kernel: opts.kernel,
+            trav_cost: opts.trav_cost,
+            engine,
+        })
+    }
+
+    /// The kernel queries run with.
+    pub fn kernel(&self) -> Kernel {
+        self.kernel
+    }
+
+    /// The closest accepted hit along `ray`, not counting primitive `skip`
+    /// ([`PrimRef::NONE`]: none). `f` decides the alpha-tested candidates no mask decides.
+    #[inline]
+    pub fn intersect<F: AlphaFilter>(&self, ray: &Ray, skip: PrimRef, f: &F) -> Option<Hit> {
+        dispatch!(self, closest, ray, skip, f, &())
+    }
+
+    /// Whether any accepted hit lies along `ray` within `(0, tmax)`, not counting `skip`.
+    #[inline]
+    pub fn occluded<F: AlphaFilter>(&self, ray: &Ray, skip: PrimRef, f: &F) -> bool {
+        dispatch!(self, occluded, ray, skip, f, &())
+    }
+
+    /// [`Accel::intersect`], counting what the traversal does into `stats`.
+    pub fn intersect_counted<F: AlphaFilter>(
+        &self,
+        ray: &Ray,
+        skip: PrimRef,
+        f: &F,
+        stats: &TraversalStats,
+    ) -> Option<Hit> {
+        dispatch!(self, closest, ray, skip, f, stats)
+    }
+
+    /// [`Accel::occluded`], counting what the traversal does into `stats`.
+    pub fn occluded_counted<F: AlphaFilter>(
+        &self,
+        ray: &Ray,
+        skip: PrimRef,
+        f: &F,
+        stats: &TraversalStats,
+    ) -> bool {
+        dispatch!(self, occluded, ray, skip, f, stats)
+    }
+
+    /// Bytes held, by level.
+    pub fn memory(&self) -> AccelMemory {
+        fn of<const W: usize>(l: &Levels<W>) -> AccelMemory {
+            let tlas = l.tlas.as_ref().map_or(0, |t| t.nodes.len() * std::mem::size_of::<layout::Node<W>>());
+            let count = l.tlas.as_ref().map_or(0, |_| l.recs.len());
+            AccelMemory {
+                world: l.world.bytes(),
+                prototypes: l.protos.iter().map(Blas::bytes).sum(),
+                instances: tlas + l.recs.len() * std::mem::size_of::<InstRec>(),
+                masks: l.masks.iter().flatten().map(OpacityMask::bytes).sum(),
+                instance_count: count,
+            }
+        }
+        match &self.engine {
+            Engine::W8(l) => of(l),
+            Engine::W4(l) => of(l),
+        }
+    }
+
+    /// SAH cost of the world geometry's tree (node visits weighted by the build's
+    /// `trav_cost`, pack tests by 1, each by its box's area relative to the root's): the
+    /// expected number of steps of a ray through the root box, for comparing builds.
+    pub fn world_sah_cost(&self) -> f64 {
+        match &self.engine {
+            Engine::W8(l) => l.world.sah_cost(self.trav_cost),
+            Engine::W4(l) => l.world.sah_cost(self.trav_cost),
+        }
+    }
+
+    /// Wide nodes and leaf packs of the world geometry's tree.
+    pub fn world_counts(&self) -> (usize, usize) {
+        match &self.engine {
+            Engine::W8(l) => (l.world.nodes.len(), l.world.packs.len()),
+            Engine::W4(l) => (l.world.nodes.len(), l.world.packs.len()),
+        }
+    }
+}

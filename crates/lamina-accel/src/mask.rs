@@ -1,0 +1,124 @@
+//! 3-state opacity masks: for every bilinear cell of a matte (the square between four texel
+//! centres) whether the matte is opaque everywhere in it, transparent everywhere, or
+//! unknown (its outline crosses the cell). The leaf test decides opaque and transparent
+//! cells itself; only unknown cells ask the caller's exact matte ([`crate::AlphaFilter`]).
+//! After Gruen, Benthin & Woop (HPG 2020, sub-triangle opacity masks), with cells in
+//! texture space rather than in barycentric space: one table per matte, shared by every
+//! primitive that uses it, exact at the texel grid.
+
+use glam::Vec2;
+
+/// The cell is transparent everywhere: no hit.
+pub const TRANSPARENT: u8 = 0;
+/// The cell is opaque everywhere: a hit, no lookup.
+pub const OPAQUE: u8 = 1;
+/// The matte's outline crosses the cell: ask the exact matte.
+pub const UNKNOWN: u8 = 2;
+
+/// How a matte's texture coordinates outside `[0, 1]` read it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MaskWrap {
+    /// Tiled.
+    Repeat,
+    /// The edge texels extend outward.
+    Clamp,
+}
+
+/// A 3-state opacity mask over a `width x height` matte sampled bilinearly at texel centres
+/// (texel `(x, y)` at `u = (x + 0.5) / width`, `v = 1 - (y + 0.5) / height`: row 0 is the
+/// top of the image, `v` grows upward), as [`OpacityMask::classify`] documents.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OpacityMask {
+    width: i64,
+    height: i64,
+    wrap: MaskWrap,
+    /// `Repeat`: `height x width` cells indexed by the wrapped lower-left texel. `Clamp`:
+    /// `(height + 1) x (width + 1)` cells for lower-left texels `-1 ..= size - 1`.
+    cells: Vec<u8>,
+}
+
+impl OpacityMask {
+    /// Largest table built (cells); [`OpacityMask::from_texels`] returns `None` above it.
+    pub const MAX_CELLS: i64 = 1 << 26;
+
+    /// The mask of a matte whose texel `(x, y)` (any integers: `value` applies the wrap)
+    /// has opacity `value(x, y)`, opaque where the bilinear blend is at least `cutoff`. A
+    /// margin of 1e-5 around the cutoff keeps rounding in the blend from ever flipping a
+    /// decision (such cells are unknown). `None` for an empty or too large matte.
+    pub fn from_texels(
+        width: u32,
+        height: u32,
+        wrap: MaskWrap,
+        cutoff: f32,
+        value: impl Fn(i64, i64) -> f32,
+    ) -> Option<Self> {
+        let (w, h) = (width as i64, height as i64);
+        if w == 0 || h == 0 || (w + 1) * (h + 1) > Self::MAX_CELLS {
+            return None;
+        }
+        let (x_range, y_range) = match wrap {
+            MaskWrap::Repeat => (0..w, 0..h),
+            MaskWrap::Clamp => (-1..w, -1..h),
+        };
+        let (hi, lo) = (cutoff + 1e-5, cutoff - 1e-5);
+        let mut cells = Vec::with_capacity(
+            (x_range.end - x_range.start) as usize * (y_range.end - y_range.start) as usize,
+        );
+        for y in y_range {
+            for x in x_range.clone() {
+                let c = [
+                    value(x, y),
+                    value(x + 1, y),
+                    value(x, y + 1),
+                    value(x + 1, y + 1),
+                ];
+                cells.push(if c.iter().all(|&a| a >= hi) {
+                    OPAQUE
+                } else if c.iter().all(|&a| a < lo) {
+                    TRANSPARENT
+                } else {
+                    UNKNOWN
+                });
+            }
+        }
+        Some(OpacityMask {
+            width: w,
+            height: h,
+            wrap,
+            cells,
+        })
+    }
+
+    /// The class ([`OPAQUE`], [`TRANSPARENT`] or [`UNKNOWN`]) of the cell a bilinear lookup
+    /// at `uv` blends: texel coordinates `x = u·width - 0.5`, `y = (1 - v)·height - 0.5`,
+    /// lower-left texel `(⌊x⌋, ⌊y⌋)`. Non-finite `uv` is unknown.
+    #[inline(always)]
+    pub fn classify(&self, uv: Vec2) -> u8 {
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = (1.0 - uv.y) * self.height as f32 - 0.5;
+        if !(x.is_finite() && y.is_finite()) {
+            return UNKNOWN;
+        }
+        let (x0, y0) = (x.floor() as i64, y.floor() as i64);
+        let i = match self.wrap {
+            MaskWrap::Repeat => y0.rem_euclid(self.height) * self.width + x0.rem_euclid(self.width),
+            MaskWrap::Clamp => {
+                (y0.clamp(-1, self.height - 1) + 1) * (self.width + 1)
+                    + x0.clamp(-1, self.width - 1)
+                    + 1
+            }
+        };
+        self.cells.get(i as usize).copied().unwrap_or(UNKNOWN)
+    }
+
+    /// Shares of the cells that are opaque, transparent and unknown.
+    pub fn shares(&self) -> [f64; 3] {
+        let n = self.cells.len().max(1) as f64;
+        [OPAQUE, TRANSPARENT, UNKNOWN].map(|c| self.cells.iter().filter(|&&x| x == c).count() as f64 / n)
+    }
+
+    /// Heap bytes.
+    pub fn bytes(&self) -> usize {
+        self.cells.len()
+    }
+}

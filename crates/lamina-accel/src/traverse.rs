@@ -1,0 +1,450 @@
+//! The traversal, written once over [`Lanes`] and the node width `W`: a fixed stack,
+//! children entered nearest first (closest hit) or in any order (occlusion), the leaf test
+//! with alpha decided by the opacity masks and only unknown cells asking the caller.
+
+use crate::desc::Sphere;
+use crate::kernel::{LRay, Lanes};
+use crate::layout::{ALPHA, Blas, EMPTY, InstRec, LEAF, Node, Pack, STACK, Tlas};
+use crate::mask::{OPAQUE, OpacityMask, TRANSPARENT};
+use crate::{AlphaFilter, Counter, Event, Hit, NO_INSTANCE, PrimRef, Ray, SPHERE};
+use glam::{Affine3A, Vec2, Vec3, Vec3A};
+
+/// What a leaf visit tells the walk.
+pub(crate) enum Step {
+    /// Go on, with this (possibly shortened) `tmax`.
+    Go(f32),
+    /// Stop: an occluder was found.
+    Stop,
+}
+
+/// Walks the wide tree `nodes` from child code `root` with ray `r`, calling `leaf` for
+/// every leaf code reached (with the current `tmax`). `ORDERED`: children are entered
+/// nearest first and skipped once beyond `tmax`; otherwise in slot order.
+///
+/// # Safety
+/// `K`'s instruction set must be available (see [`Lanes`]).
+#[inline(always)]
+pub(crate) unsafe fn walk<K: Lanes<W>, const W: usize, const ORDERED: bool, C: Counter>(
+    nodes: &[Node<W>],
+    root: u32,
+    r: &K::R,
+    mut tmax: f32,
+    c: &C,
+    mut leaf: impl FnMut(u32, f32) -> Step,
+) {
+    let mut stack = [(0u32, 0.0f32); STACK];
+    let mut sp = 0usize;
+    let mut cur = root;
+    loop {
+        if cur & LEAF == 0 {
+            c.count(Event::Node);
+            let node = &nodes[cur as usize];
+            // SAFETY: forwarded from the caller's guarantee on `K`.
+            let (mut m, tn) = unsafe { K::node(node, r, tmax) };
+            if m != 0 {
+                if m & (m - 1) == 0 {
+                    cur = node.child[m.trailing_zeros() as usize];
+                    continue;
+                }
+                let base = sp;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    stack[sp] = (node.child[i], tn[i]);
+                    sp += 1;
+                    if ORDERED {
+                        // Insertion into the pushed run, farthest at the bottom.
+                        let mut j = sp - 1;
+                        while j > base && stack[j - 1].1 < stack[j].1 {
+                            stack.swap(j - 1, j);
+                            j -= 1;
+                        }
+                    }
+                }
+                sp -= 1;
+                cur = stack[sp].0;
+                continue;
+            }
+        } else if cur != EMPTY {
+            match leaf(cur & !LEAF, tmax) {
+                Step::Go(t) => tmax = t,
+                Step::Stop => return,
+            }
+        }
+        loop {
+            if sp == 0 {
+                return;
+            }
+            sp -= 1;
+            let (n, t) = stack[sp];
+            if !ORDERED || t <= tmax {
+                cur = n;
+                break;
+            }
+        }
+    }
+}
+
+/// Whether the alpha-tested lane `flags` of a pack in `blas` is opaque at `(b1, b2)`.
+#[inline(always)]
+fn alpha_opaque<const W: usize, F: AlphaFilter, C: Counter>(
+    blas: &Blas<W>,
+    masks: &[Option<OpacityMask>],
+    flags: u32,
+    b1: f32,
+    b2: f32,
+    f: &F,
+    c: &C,
+) -> bool {
+    let rec = &blas.alpha[(flags & !ALPHA) as usize];
+    let b0 = 1.0 - b1 - b2;
+    let uv = Vec2::new(
+        rec.uv[0][0] * b0 + rec.uv[1][0] * b1 + rec.uv[2][0] * b2,
+        rec.uv[0][1] * b0 + rec.uv[1][1] * b1 + rec.uv[2][1] * b2,
+    );
+    if let Some(Some(m)) = masks.get(rec.id as usize) {
+        match m.classify(uv) {
+            OPAQUE => {
+                c.count(Event::MaskOpaque);
+                return true;
+            }
+            TRANSPARENT => {
+                c.count(Event::MaskTransparent);
+                return false;
+            }
+            _ => {}
+        }
+    }
+    c.count(Event::AlphaLookup);
+    f.opaque(rec.id, uv)
+}
+
+/// The closest accepted lane of pack `p` with `t < tmax`: `(t, lane, b1, b2)`.
+///
+/// # Safety
+/// As [`walk`].
+#[inline(always)]
+unsafe fn pack_closest<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
+    blas: &Blas<W>,
+    masks: &[Option<OpacityMask>],
+    p: &Pack,
+    r: &K::R,
+    tmax: f32,
+    skip: u32,
+    f: &F,
+    c: &C,
+) -> Option<(f32, usize, f32, f32)> {
+    c.count(Event::Pack);
+    // SAFETY: forwarded.
+    let h = unsafe { K::leaf(p, r, tmax, skip) };
+    let mut m = h.mask;
+    while m != 0 {
+        // Nearest remaining lane first: the first one accepted is the pack's closest.
+        let mut i = m.trailing_zeros() as usize;
+        let mut rest = m & (m - 1);
+        while rest != 0 {
+            let j = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            if h.t[j] < h.t[i] {
+                i = j;
+            }
+        }
+        m &= !(1 << i);
+        let fl = p.flags[i];
+        if fl & ALPHA != 0 && !alpha_opaque(blas, masks, fl, h.b1[i], h.b2[i], f, c) {
+            continue;
+        }
+        return Some((h.t[i], i, h.b1[i], h.b2[i]));
+    }
+    None
+}
+
+/// Whether pack `p` has an accepted lane with `t < tmax`.
+///
+/// # Safety
+/// As [`walk`].
+#[inline(always)]
+unsafe fn pack_any<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
+    blas: &Blas<W>,
+    masks: &[Option<OpacityMask>],
+    p: &Pack,
+    r: &K::R,
+    tmax: f32,
+    skip: u32,
+    f: &F,
+    c: &C,
+) -> bool {
+    c.count(Event::Pack);
+    // SAFETY: forwarded.
+    let h = unsafe { K::leaf(p, r, tmax, skip) };
+    let mut m = h.mask;
+    while m != 0 {
+        let i = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let fl = p.flags[i];
+        if fl & ALPHA == 0 || alpha_opaque(blas, masks, fl, h.b1[i], h.b2[i], f, c) {
+            return true;
+        }
+    }
+    false
+}
+
+/// The best hit so far.
+#[derive(Clone, Copy)]
+pub(crate) struct Best {
+    pub t: f32,
+    pub prim: u32,
+    pub inst: u32,
+    pub bary: Vec2,
+}
+
+/// Closest hit in `blas` for `lr`, improving `best` (its `t` is the bound).
+///
+/// # Safety
+/// As [`walk`].
+#[inline(always)]
+unsafe fn blas_closest<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
+    blas: &Blas<W>,
+    masks: &[Option<OpacityMask>],
+    lr: &LRay,
+    best: &mut Best,
+    inst: u32,
+    f: &F,
+    c: &C,
+) -> bool {
+    if blas.root == EMPTY {
+        return false;
+    }
+    // SAFETY: forwarded.
+    let r = unsafe { K::prep(lr) };
+    let mut found = false;
+    let t0 = best.t;
+    let leaf = |k: u32, tmax: f32| {
+        let p = &blas.packs[k as usize];
+        // SAFETY: forwarded.
+        if let Some((t, lane, b1, b2)) =
+            unsafe { pack_closest::<K, W, F, C>(blas, masks, p, &r, tmax, lr.skip, f, c) }
+        {
+            *best = Best {
+                t,
+                prim: p.id[lane],
+                inst,
+                bary: Vec2::new(b1, b2),
+            };
+            found = true;
+            Step::Go(t)
+        } else {
+            Step::Go(tmax)
+        }
+    };
+    // SAFETY: forwarded.
+    unsafe { walk::<K, W, true, C>(&blas.nodes, blas.root, &r, t0, c, leaf) };
+    found
+}
+
+/// Whether `blas` has an accepted hit for `lr` within `tmax`.
+///
+/// # Safety
+/// As [`walk`].
+#[inline(always)]
+unsafe fn blas_any<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
+    blas: &Blas<W>,
+    masks: &[Option<OpacityMask>],
+    lr: &LRay,
+    tmax: f32,
+    f: &F,
+    c: &C,
+) -> bool {
+    if blas.root == EMPTY {
+        return false;
+    }
+    // SAFETY: forwarded.
+    let r = unsafe { K::prep(lr) };
+    let mut hit = false;
+    let leaf = |k: u32, tmax: f32| {
+        let p = &blas.packs[k as usize];
+        // SAFETY: forwarded.
+        if unsafe { pack_any::<K, W, F, C>(blas, masks, p, &r, tmax, lr.skip, f, c) } {
+            hit = true;
+            Step::Stop
+        } else {
+            Step::Go(tmax)
+        }
+    };
+    // SAFETY: forwarded.
+    unsafe { walk::<K, W, false, C>(&blas.nodes, blas.root, &r, tmax, c, leaf) };
+    hit
+}
+
+/// The levels of one node width.
+#[derive(Clone, Debug)]
+pub(crate) struct Levels<const W: usize> {
+    pub world: Blas<W>,
+    pub protos: Vec<Blas<W>>,
+    pub tlas: Option<Tlas<W>>,
+    /// Per scene instance (input order), its record.
+    pub recs: Vec<InstRec>,
+    pub spheres: Vec<Sphere>,
+    pub masks: Vec<Option<OpacityMask>>,
+}
+
+#[inline(always)]
+fn to_local(rec: &InstRec, o: Vec3A, d: Vec3A, skip: PrimRef, inst: u32) -> LRay {
+    let m = Affine3A::from_cols_slice(&rec.w2o);
+    LRay {
+        o: m.transform_point3a(o).to_array(),
+        d: m.transform_vector3a(d).to_array(),
+        skip: if skip.inst == inst { skip.prim } else { u32::MAX },
+    }
+}
+
+/// Nearest `t ∈ (0, tmax)` where the ray meets sphere `s`, or `∞` (stable form: Hearn &
+/// Baker, Ray Tracing Gems ch. 7).
+#[inline]
+pub(crate) fn intersect_sphere(s: &Sphere, o: Vec3, d: Vec3, tmax: f32) -> f32 {
+    let oc = o - s.center;
+    let a = d.length_squared();
+    if !(a > 0.0) {
+        return f32::INFINITY;
+    }
+    let b = oc.dot(d) / a;
+    let perp = oc - d * b;
+    let disc = s.radius * s.radius - perp.length_squared();
+    if disc < 0.0 {
+        return f32::INFINITY;
+    }
+    let c = (oc.length_squared() - s.radius * s.radius) / a;
+    let q = -b - (disc / a).sqrt().copysign(b);
+    let (t0, t1) = if q != 0.0 { (c / q, q) } else { (0.0, 0.0) };
+    let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+    if t0 > 0.0 && t0 < tmax {
+        t0
+    } else if t1 > 0.0 && t1 < tmax {
+        t1
+    } else {
+        f32::INFINITY
+    }
+}
+
+impl<const W: usize> Levels<W> {
+    /// The closest accepted hit.
+    ///
+    /// # Safety
+    /// `K`'s instruction set must be available.
+    #[inline(always)]
+    pub(crate) unsafe fn closest<K: Lanes<W>, F: AlphaFilter, C: Counter>(
+        &self,
+        ray: &Ray,
+        skip: PrimRef,
+        f: &F,
+        c: &C,
+    ) -> Option<Hit> {
+        let o = Vec3A::from(ray.origin);
+        let d = Vec3A::from(ray.dir);
+        let mut best = Best {
+            t: ray.tmax,
+            prim: u32::MAX,
+            inst: NO_INSTANCE,
+            bary: Vec2::ZERO,
+        };
+        let wr = LRay {
+            o: ray.origin.to_array(),
+            d: ray.dir.to_array(),
+            skip: if skip.inst == NO_INSTANCE { skip.prim } else { u32::MAX },
+        };
+        // SAFETY: forwarded.
+        let mut found = unsafe {
+            blas_closest::<K, W, F, C>(&self.world, &self.masks, &wr, &mut best, NO_INSTANCE, f, c)
+        };
+        if let Some(tlas) = &self.tlas {
+            // SAFETY: forwarded.
+            let tr = unsafe { K::prep(&LRay { skip: u32::MAX, ..wr }) };
+            let t0 = best.t;
+            let leaf = |i: u32, _| {
+                c.count(Event::Instance);
+                let rec = &self.recs[i as usize];
+                let lr = to_local(rec, o, d, skip, i);
+                let blas = &self.protos[rec.proto as usize];
+                // SAFETY: forwarded.
+                found |= unsafe {
+                    blas_closest::<K, W, F, C>(blas, &self.masks, &lr, &mut best, i, f, c)
+                };
+                Step::Go(best.t)
+            };
+            // SAFETY: forwarded.
+            unsafe { walk::<K, W, true, C>(&tlas.nodes, tlas.root, &tr, t0, c, leaf) };
+        }
+        for (k, s) in self.spheres.iter().enumerate() {
+            let t = intersect_sphere(s, ray.origin, ray.dir, best.t);
+            if t < best.t {
+                best = Best {
+                    t,
+                    prim: k as u32,
+                    inst: SPHERE,
+                    bary: Vec2::ZERO,
+                };
+                found = true;
+            }
+        }
+        found.then_some(Hit {
+            t: best.t,
+            prim: PrimRef {
+                inst: best.inst,
+                prim: best.prim,
+            },
+            bary: best.bary,
+        })
+    }
+
+    /// Whether any accepted hit lies within `(0, tmax)`.
+    ///
+    /// # Safety
+    /// `K`'s instruction set must be available.
+    #[inline(always)]
+    pub(crate) unsafe fn occluded<K: Lanes<W>, F: AlphaFilter, C: Counter>(
+        &self,
+        ray: &Ray,
+        skip: PrimRef,
+        f: &F,
+        c: &C,
+    ) -> bool {
+        for s in &self.spheres {
+            if intersect_sphere(s, ray.origin, ray.dir, ray.tmax) < ray.tmax {
+                return true;
+            }
+        }
+        let o = Vec3A::from(ray.origin);
+        let d = Vec3A::from(ray.dir);
+        let wr = LRay {
+            o: ray.origin.to_array(),
+            d: ray.dir.to_array(),
+            skip: if skip.inst == NO_INSTANCE { skip.prim } else { u32::MAX },
+        };
+        // SAFETY: forwarded.
+        if unsafe { blas_any::<K, W, F, C>(&self.world, &self.masks, &wr, ray.tmax, f, c) } {
+            return true;
+        }
+        let Some(tlas) = &self.tlas else {
+            return false;
+        };
+        // SAFETY: forwarded.
+        let tr = unsafe { K::prep(&LRay { skip: u32::MAX, ..wr }) };
+        let mut hit = false;
+        let leaf = |i: u32, tmax: f32| {
+            c.count(Event::Instance);
+            let rec = &self.recs[i as usize];
+            let lr = to_local(rec, o, d, skip, i);
+            let blas = &self.protos[rec.proto as usize];
+            // SAFETY: forwarded.
+            if unsafe { blas_any::<K, W, F, C>(blas, &self.masks, &lr, tmax, f, c) } {
+                hit = true;
+                Step::Stop
+            } else {
+                Step::Go(tmax)
+            }
+        };
+        // SAFETY: forwarded.
+        unsafe { walk::<K, W, false, C>(&tlas.nodes, tlas.root, &tr, ray.tmax, c, leaf) };
+        hit
+    }
+}

@@ -16,6 +16,7 @@
 
 use crate::build::{Aabb, Binary};
 use crate::desc::{Geometry, Prim};
+use crate::memory::PageArray;
 
 /// Child code bit: a leaf.
 pub(crate) const LEAF: u32 = 0x8000_0000;
@@ -63,12 +64,12 @@ pub(crate) struct AlphaRec {
 /// A bottom level: the world geometry or one prototype.
 #[derive(Clone, Debug)]
 pub(crate) struct Blas<const W: usize> {
-    pub nodes: Vec<Node<W>>,
+    pub nodes: PageArray<Node<W>>,
     /// Child code of the root: a node, a single pack (at most 4 primitives: no nodes at
     /// all), or [`EMPTY`].
     pub root: u32,
-    pub packs: Vec<Pack>,
-    pub alpha: Vec<AlphaRec>,
+    pub packs: PageArray<Pack>,
+    pub alpha: PageArray<AlphaRec>,
     /// Bounds of every valid primitive; `None` for an empty level.
     pub bounds: Option<Aabb>,
 }
@@ -87,7 +88,7 @@ const _: () = assert!(std::mem::size_of::<InstRec>() == 52);
 /// The top level: a wide tree whose leaves are instances (child code `LEAF | instance`).
 #[derive(Clone, Debug)]
 pub(crate) struct Tlas<const W: usize> {
-    pub nodes: Vec<Node<W>>,
+    pub nodes: PageArray<Node<W>>,
     pub root: u32,
 }
 
@@ -174,10 +175,10 @@ impl<const W: usize> Blas<W> {
             .filter(|&i| geom.prims[i as usize].is_valid())
             .collect();
         let mut blas = Blas {
-            nodes: Vec::new(),
+            nodes: PageArray::default(),
             root: EMPTY,
-            packs: Vec::new(),
-            alpha: Vec::new(),
+            packs: PageArray::default(),
+            alpha: PageArray::default(),
             bounds: None,
         };
         if valid.is_empty() {
@@ -231,11 +232,11 @@ impl<const W: usize> Blas<W> {
             let (nodes, root) = collapse::<W>(&bin, &mut |start, count| {
                 make_pack(&mut bin.order[start..start + count].iter().map(|&k| valid[k as usize]))
             });
-            blas.nodes = nodes;
+            blas.nodes = PageArray::new(nodes);
             blas.root = root;
         }
-        blas.packs = packs;
-        blas.alpha = alpha;
+        blas.packs = PageArray::new(packs);
+        blas.alpha = PageArray::new(alpha);
         blas
     }
 

@@ -38,6 +38,7 @@ pub mod embree;
 mod kernel;
 mod layout;
 pub mod mask;
+mod memory;
 mod traverse;
 
 pub use build::Aabb;
@@ -400,12 +401,16 @@ fn build_levels<const W: usize>(desc: &SceneDesc, trav_cost: f32) -> Result<Leve
             debug_assert_eq!(count, 1);
             LEAF | ids[bin.order[start] as usize]
         });
-        Tlas { nodes, root }
+        Tlas {
+            nodes: memory::PageArray::new(nodes),
+            root,
+        }
     });
     Ok(Levels {
         world,
         protos,
         tlas,
+        tlas_instances: ids.len(),
         recs,
         spheres: desc
             .spheres
@@ -515,11 +520,34 @@ impl Accel {
         dispatch!(self, occluded, ray, skip, f, stats)
     }
 
+    /// The world-to-object transform of instance `inst` (index in
+    /// [`SceneDesc::instances`]) as the traversal applies it; `None` out of range.
+    #[inline]
+    pub fn world_to_object(&self, inst: u32) -> Option<glam::Affine3A> {
+        let recs = match &self.engine {
+            Engine::W8(l) => &l.recs,
+            Engine::W4(l) => &l.recs,
+        };
+        recs.get(inst as usize).map(|r| glam::Affine3A::from_cols_slice(&r.w2o))
+    }
+
+    /// The prototype of instance `inst` (index in [`SceneDesc::instances`]).
+    ///
+    /// # Panics
+    /// For an instance index out of range.
+    #[inline]
+    pub fn prototype_of(&self, inst: u32) -> u32 {
+        match &self.engine {
+            Engine::W8(l) => l.recs[inst as usize].proto,
+            Engine::W4(l) => l.recs[inst as usize].proto,
+        }
+    }
+
     /// Bytes held, by level.
     pub fn memory(&self) -> AccelMemory {
         fn of<const W: usize>(l: &Levels<W>) -> AccelMemory {
             let tlas = l.tlas.as_ref().map_or(0, |t| t.nodes.len() * std::mem::size_of::<layout::Node<W>>());
-            let count = l.tlas.as_ref().map_or(0, |_| l.recs.len());
+            let count = l.tlas_instances;
             AccelMemory {
                 world: l.world.bytes(),
                 prototypes: l.protos.iter().map(Blas::bytes).sum(),

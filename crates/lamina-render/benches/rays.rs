@@ -137,6 +137,34 @@ fn main() {
     if std::env::var_os("LAMINA_CAMERA_ONLY").is_some() {
         return;
     }
+    if std::env::var_os("LAMINA_STATS").is_some() {
+        let (sah, nodes, packs) = accel.world_tree();
+        println!("world tree: SAH cost {sah:.2}, {nodes} nodes, {packs} packs, kernel {:?}", accel.kernel());
+        for (name, rays, any) in [
+            ("camera closest", &camera_rays, false),
+            ("random closest", &random_rays, false),
+            ("random any", &random_rays, true),
+        ] {
+            let st = lamina_accel::TraversalStats::default();
+            let k = 65536.min(rays.len());
+            for r in &rays[..k] {
+                if any {
+                    accel.occluded_counted(r, &st);
+                } else {
+                    accel.intersect_counted(r, &st);
+                }
+            }
+            let per = |c: &std::cell::Cell<u64>| c.get() as f64 / k as f64;
+            let decided = st.mask_opaque.get() + st.mask_transparent.get();
+            println!(
+                "{name:16} nodes/ray {:.1} packs/ray {:.1} alpha candidates/ray {:.2} decided by masks {:.1} %",
+                per(&st.nodes),
+                per(&st.packs),
+                (decided + st.alpha_lookups.get()) as f64 / k as f64,
+                100.0 * decided as f64 / (decided + st.alpha_lookups.get()).max(1) as f64
+            );
+        }
+    }
     let n = random_rays.len();
     report(
         "random rays (closest hit):",

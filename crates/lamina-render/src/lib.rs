@@ -7,7 +7,8 @@
 //! Modules, one concept each (pbrt-v4 style):
 //! * [`sampler`]: per-pixel Owen-scrambled, index-shuffled 2D Sobol points (Burley 2020).
 //! * [`camera`]: the pinhole / thin-lens camera.
-//! * [`accel`]: the BVH (obvhs compressed wide BVH8) with the alpha test on every ray.
+//! * [`accel`]: the scene handed to lamina-accel (wide SIMD BVHs, opacity masks) plus the
+//!   shading data of every primitive.
 //! * [`lights`]: sun, point, quad, sphere and sky (constant or importance-sampled image).
 //! * [`distribution`]: 1D and 2D piecewise-constant distributions.
 //! * [`materials`]: scene materials to a [`materials::SurfaceBsdf`] at a hit.

@@ -1,49 +1,38 @@
-//! Bottom-level structures: the primitives of the world meshes or of one prototype, their
-//! shading side tables (vertex normals and tangents) and the BVH over them.
+//! One level's primitives: the meshes (and quad lights) of the world or of one prototype
+//! turned into lamina-accel's geometry (cards merged into parallelograms, alpha-tested
+//! primitives tagged with their material) plus the shading side tables the renderer reads
+//! for a final hit (vertices, UVs, frames, vertex normals and tangents).
 
 use super::alpha::AlphaTest;
-use super::prims::{Tri, parallelogram};
+use super::prims::parallelogram;
 use super::{FLAG_ALPHA, FLAG_QUAD, FLAG_UV_MIRRORED, ID_MASK, PrimInfo};
 use crate::error::RenderError;
 use glam::{Vec2, Vec3, Vec4};
+use lamina_accel::{Geometry, Prim, PrimAlpha};
 use lamina_core::Mesh;
 use lamina_leaf::frame::Frame;
-use obvhs::{
-    BvhBuildParams,
-    aabb::Aabb,
-    cwbvh::{CwBvh, builder::build_cwbvh, node::CwBvhNode},
-    triangle::Triangle,
-};
 
-/// One bottom-level structure: a BVH over primitives stored in its leaf order (see the
-/// module docs), for the world-space meshes or for one prototype in its object space.
+/// The shading side of one level (the world meshes and quad lights, or one prototype):
+/// per primitive (lamina-accel's id: the order pushed) its vertices and shading record,
+/// and the vertex normals and tangents of smooth triangles. lamina-accel holds the
+/// geometry the traversal tests; this is what the renderer reads for a final hit.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Blas {
-    /// The BVH over `tris`; `None` for an empty BLAS and for one of at most
-    /// [`SMALL_BLAS`] primitives, whose primitives are tested directly.
-    pub(super) bvh: Option<CwBvh>,
-    pub(super) tris: Vec<Tri>,
+    /// `v0`, `e1 = v1 - v0`, `e2 = v2 - v0` per primitive (level space).
+    pub(super) verts: Vec<[Vec3; 3]>,
     pub(super) prims: Vec<PrimInfo>,
-    /// Per primitive (BVH order) an index into `normals`, or [`NO_NORMALS`] for a flat
-    /// one. Empty when no primitive of this BLAS has vertex normals: such a BLAS (cards,
-    /// normal-less meshes) stores nothing extra.
+    /// Per primitive an index into `normals`, or [`NO_NORMALS`] for a flat one. Empty when
+    /// no primitive of this level has vertex normals: such a level (cards, normal-less
+    /// meshes) stores nothing extra.
     pub(super) nidx: Vec<u32>,
-    /// Vertex normals at `v0`, `v1`, `v2` of the smooth primitives (BLAS space, as the mesh
-    /// gives them).
+    /// Vertex normals at `v0`, `v1`, `v2` of the smooth primitives (level space, as the
+    /// mesh gives them).
     pub(super) normals: Vec<[Vec3; 3]>,
     /// Vertex tangents (`w` = handedness, see [`Mesh::tangents`]) parallel to `normals`, or
-    /// empty when no smooth primitive of this BLAS came with tangents; an all-zero entry
+    /// empty when no smooth primitive of this level came with tangents; an all-zero entry
     /// means "none" (the tangent then comes from the UVs).
     pub(super) tangents: Vec<[Vec4; 3]>,
-    /// Bounds of all primitives (in the BLAS's own space).
-    pub(super) bounds: Option<Aabb>,
 }
-
-/// A BLAS of at most this many primitives (a leaf card: one parallelogram) has no BVH:
-/// a ray tests its primitives one after the other, which costs less than setting up a
-/// traversal and testing a root node (measured with `LAMINA_INSTANCES=1` in
-/// benches/rays.rs).
-pub(super) const SMALL_BLAS: usize = 4;
 
 /// "Flat primitive" in `Blas::nidx`.
 pub(super) const NO_NORMALS: u32 = u32::MAX;
@@ -67,17 +56,11 @@ pub(super) fn smooth_normals(v: [Vec3; 3], vn: [Vec3; 3]) -> Option<[Vec3; 3]> {
     (!flat).then_some(vn)
 }
 
-/// Collects primitives for a [`Blas`].
+/// Collects the primitives of one level: lamina-accel's geometry and the shading side.
 #[derive(Default)]
 pub(super) struct BlasBuilder {
-    pub(super) tris: Vec<Triangle>,
-    pub(super) bounds: Vec<Aabb>,
-    pub(super) prims: Vec<PrimInfo>,
-    /// Per pushed primitive: its index into `normals` or [`NO_NORMALS`]; left empty while
-    /// every primitive is flat.
-    pub(super) nidx: Vec<u32>,
-    pub(super) normals: Vec<[Vec3; 3]>,
-    pub(super) tangents: Vec<[Vec4; 3]>,
+    pub(super) geometry: Geometry,
+    pub(super) blas: Blas,
 }
 
 impl BlasBuilder {
@@ -120,17 +103,17 @@ impl BlasBuilder {
                 flags |= FLAG_UV_MIRRORED;
             }
         }
-        let mut bb = Aabb::from_points(&[v[0].into(), v[1].into(), v[2].into()]);
-        if flags & FLAG_QUAD != 0 {
-            bb.extend((v[1] + v[2] - v[0]).into());
-        }
-        self.bounds.push(bb);
-        self.tris.push(Triangle {
-            v0: v[0].into(),
-            v1: v[1].into(),
-            v2: v[2].into(),
+        self.geometry.prims.push(Prim {
+            v,
+            quad: flags & FLAG_QUAD != 0,
+            alpha: (flags & FLAG_ALPHA != 0).then_some(PrimAlpha {
+                id: flags & ID_MASK,
+                uv,
+            }),
         });
-        self.prims.push(PrimInfo {
+        let b = &mut self.blas;
+        b.verts.push([v[0], e1, e2]);
+        b.prims.push(PrimInfo {
             uv,
             n,
             s: frame.s,
@@ -140,18 +123,17 @@ impl BlasBuilder {
         match vn {
             Some(vn) => {
                 // The first smooth primitive: every earlier one was flat.
-                self.nidx.resize(self.prims.len() - 1, NO_NORMALS);
-                self.nidx.push(self.normals.len() as u32);
-                self.normals.push(vn);
+                b.nidx.resize(b.prims.len() - 1, NO_NORMALS);
+                b.nidx.push(b.normals.len() as u32);
+                b.normals.push(vn);
                 if let Some(vt) = vt {
-                    self.tangents
-                        .resize(self.normals.len() - 1, [Vec4::ZERO; 3]);
-                    self.tangents.push(vt);
-                } else if !self.tangents.is_empty() {
-                    self.tangents.push([Vec4::ZERO; 3]);
+                    b.tangents.resize(b.normals.len() - 1, [Vec4::ZERO; 3]);
+                    b.tangents.push(vt);
+                } else if !b.tangents.is_empty() {
+                    b.tangents.push([Vec4::ZERO; 3]);
                 }
             }
-            None if !self.nidx.is_empty() => self.nidx.push(NO_NORMALS),
+            None if !b.nidx.is_empty() => b.nidx.push(NO_NORMALS),
             None => {}
         }
     }
@@ -175,7 +157,7 @@ impl BlasBuilder {
                 )));
             }
             let mut flags = mat as u32;
-            if !matches!(alpha[mat], AlphaTest::None) {
+            if alpha[mat].is_some() {
                 flags |= FLAG_ALPHA;
             }
             let has_uv = !mesh.uvs.is_empty();
@@ -241,79 +223,15 @@ impl BlasBuilder {
         Ok(())
     }
 
-    pub(super) fn finish(self) -> Blas {
-        if self.tris.is_empty() {
-            return Blas::default();
-        }
-        let bounds = self.bounds.iter().fold(Aabb::empty(), |a, b| a.union(b));
-        if self.tris.len() <= SMALL_BLAS {
-            // Tested directly, in the order pushed: no BVH (see `Blas::bvh`).
-            let tris = self
-                .tris
-                .iter()
-                .zip(&self.prims)
-                .map(|(tr, info)| Tri::new(tr, info))
-                .collect();
-            return Blas {
-                bvh: None,
-                tris,
-                prims: self.prims,
-                nidx: self.nidx,
-                normals: self.normals,
-                tangents: self.tangents,
-                bounds: Some(bounds),
-            };
-        }
-        // Small leaves (2 primitives): with alpha-tested cards every primitive in a leaf
-        // costs an intersection plus a matte lookup, so a deeper tree pays off (measured
-        // with benches/rays.rs: random rays +15 % per CPU-second).
-        let mut bvh = build_cwbvh(
-            &self.bounds,
-            BvhBuildParams {
-                max_prims_per_leaf: 2,
-                collapse_traversal_cost: 1.0,
-                ..BvhBuildParams::slow_build()
-            },
-            &mut Default::default(),
-        );
-        // Lay the triangles out in BVH leaf order so the traversal indexes them directly.
-        let order = std::mem::take(&mut bvh.primitive_indices);
-        let tris: Vec<Tri> = order
-            .iter()
-            .map(|&i| Tri::new(&self.tris[i as usize], &self.prims[i as usize]))
-            .collect();
-        let prims: Vec<PrimInfo> = order.iter().map(|&i| self.prims[i as usize]).collect();
-        let nidx: Vec<u32> = if self.nidx.is_empty() {
-            Vec::new()
-        } else {
-            order.iter().map(|&i| self.nidx[i as usize]).collect()
-        };
-        Blas {
-            bvh: Some(bvh),
-            tris,
-            prims,
-            nidx,
-            normals: self.normals,
-            tangents: self.tangents,
-            bounds: Some(bounds),
-        }
-    }
 }
 
 impl Blas {
+    /// Heap bytes of the shading side.
     pub(super) fn bytes(&self) -> usize {
-        self.bvh.as_ref().map_or(0, bvh_bytes)
-            + self.tris.len() * std::mem::size_of::<Tri>()
+        self.verts.len() * std::mem::size_of::<[Vec3; 3]>()
             + self.prims.len() * std::mem::size_of::<PrimInfo>()
             + self.nidx.len() * 4
             + self.normals.len() * std::mem::size_of::<[Vec3; 3]>()
             + self.tangents.len() * std::mem::size_of::<[Vec4; 3]>()
     }
-}
-
-/// Heap bytes of a BVH's nodes and index arrays.
-pub(super) fn bvh_bytes(bvh: &CwBvh) -> usize {
-    bvh.nodes.len() * std::mem::size_of::<CwBvhNode>()
-        + bvh.primitive_indices.len() * 4
-        + bvh.exact_node_aabbs.as_ref().map_or(0, |a| a.len()) * std::mem::size_of::<Aabb>()
 }

@@ -1,54 +1,45 @@
-//! Ray casting: compressed wide BVH8s (obvhs) in two levels, a short list of sphere lights,
-//! and the alpha test.
+//! Ray casting for the renderer: the scene's meshes, cards, instances and lights handed to
+//! lamina-accel (wide SIMD BVHs in two levels, opacity masks in the leaf test), plus the
+//! shading data lamina-accel never sees.
 //!
-//! * **Two levels**: one BLAS over every triangle of the world-space meshes plus the quad
-//!   lights, one BLAS per prototype (object space, built once however many instances use
-//!   it), and a top-level BVH (TLAS) over the instances' world bounds. A query traverses
-//!   the world BLAS first, then the TLAS with `tmax` already shortened; a TLAS leaf
-//!   transforms the ray into its prototype's object space with the instance's 3x4
-//!   world-to-object matrix *without renormalising the direction*, so `t` means the same
-//!   in both spaces and one `tmax` serves all levels. A scene without instances has no
-//!   TLAS and costs what a single BVH costs. Instance records are 52 bytes (matrix +
-//!   prototype id), stored in TLAS leaf order.
-//! * **Tiny BLASes**: a BLAS of at most four primitives (a leaf-card prototype is one
-//!   parallelogram) has no BVH; a ray tests its primitives one after the other (closest
-//!   hit, skip and alpha test as in a traversal), which costs less than starting a
-//!   traversal and testing a root node for every instance the TLAS reaches.
+//! * **Two levels**: one level over every triangle of the world-space meshes plus the quad
+//!   lights, one per prototype an instance uses (object space, built once however many
+//!   instances use it), and lamina-accel's top level over the instances. A ray enters an
+//!   instance in object space with its direction *not renormalised*, so `t` means the same
+//!   in every space. A prototype of at most four primitives (a leaf card) has no tree.
 //! * **Instance shading**: [`Accel::surface`] returns world-space data: the position
 //!   through the object-to-world transform, the geometric normal through the inverse
 //!   transpose (so a mirroring transform keeps the adaxial side on the side of the
 //!   transformed normal, as for a mesh flattened with its winding reversed), the tangent
 //!   `dP/du` through the transform, re-orthogonalised.
-//! * **Alpha test on every ray kind**: a triangle whose material has a matte
+//! * **Alpha test on every ray kind**: a primitive whose material has a matte
 //!   ([`lamina_core::AlphaMask`], or a leaf's [`lamina_leaf::LeafMaterial::opaque`]) is
-//!   hit only where the matte is opaque at the interpolated texture coordinate; the
-//!   traversal rejects the other hits and goes on. [`Accel::intersect`] finds the closest
-//!   opaque hit, [`Accel::occluded`] stops at the first one (any-hit).
+//!   hit only where the matte is opaque at the interpolated texture coordinate.
+//!   lamina-accel decides most candidates with the matte's 3-state opacity mask (exact at
+//!   the texel grid, built here at load, `alpha.rs`); candidates in cells the matte's
+//!   outline crosses come back to the exact lookup. [`Accel::intersect`] finds the
+//!   closest opaque hit, [`Accel::occluded`] stops at the first one (any-hit).
 //! * **Self-intersection**: rays leaving a surface skip the primitive they leave (a
 //!   [`PrimRef`], instance and primitive: a planar triangle cannot be hit again by a ray
-//!   leaving it) and start a small distance off the
-//!   surface on the side they go (see [`spawn_origin`]), which guards against the
-//!   neighbouring triangles of the same card.
+//!   leaving it) and start a small distance off the surface on the side they go (see
+//!   [`spawn_origin`]), which guards against the neighbouring triangles of the same card.
 //! * **Cards**: two consecutive triangles of a mesh that form a planar parallelogram with
 //!   affine UVs (a leaf card, however it was split) become one parallelogram primitive, as
 //!   do quad lights: half the primitives, and one intersection test per card.
-//! * **Layout**: primitives are stored in BVH leaf order, one 64-byte cache line each:
-//!   `v0, e1, e2` for the Möller-Trumbore test plus the flags and UVs of the alpha test, so
-//!   a candidate costs one cache line. Shading data (UVs, unit geometric normal, unit
-//!   tangent along `dP/du`, material / light id) sit in a parallel array indexed by the same
-//!   primitive id, read once per final hit. All of it is precomputed at build time, per
-//!   BLAS.
+//! * **Shading data**: per primitive (lamina-accel's id, the order pushed) its vertices,
+//!   UVs, unit geometric normal, unit tangent along `dP/du` and material / light id, read
+//!   once per final hit; precomputed at build time, per level.
 //! * **Shading normals**: triangles whose mesh carries vertex normals that differ from the
-//!   geometric normal keep them (BLAS space) in a side table: per primitive a `u32`
-//!   index into an array of `[Vec3; 3]`, and the index array exists only in a BLAS with at
-//!   least one such triangle. Cards, quad lights, meshes without normals and meshes whose
-//!   normals equal the geometric normal store nothing and are never merged with smooth
-//!   triangles. [`Accel::shading_normal`] interpolates them at the hit.
+//!   geometric normal keep them (level space) in a side table: per primitive a `u32`
+//!   index into an array of `[Vec3; 3]`, and the index array exists only in a level with
+//!   at least one such triangle. Cards, quad lights, meshes without normals and meshes
+//!   whose normals equal the geometric normal store nothing and are never merged with
+//!   smooth triangles. [`Accel::shading_normal`] interpolates them at the hit.
 //!
-//! Files: this one holds the public types, the build of the two levels and the queries;
-//! `prims.rs` the primitive records and their intersection tests (and card detection),
-//! `alpha.rs` the alpha test, `blas.rs` the bottom-level structures and their builder.
-//! `tests/` is the acceleration-structure suite every backend must pass.
+//! Files: this one holds the public types, the build and the queries; `prims.rs` the
+//! detection of cards, `alpha.rs` the alpha test and its masks, `blas.rs` one level's
+//! primitives and shading tables. `tests/` is the acceleration-structure suite every
+//! backend must pass.
 
 mod alpha;
 mod blas;
@@ -57,30 +48,14 @@ mod prims;
 mod tests;
 
 use crate::error::RenderError;
-use alpha::{AlphaTest, MaskCells};
-use blas::{Blas, BlasBuilder, bvh_bytes};
+use alpha::AlphaTest;
+use blas::{Blas, BlasBuilder};
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
+use lamina_accel::{AccelError, Geometry, Instance, SceneDesc, Sphere};
 use lamina_core::{Light, Material, Scene};
 use lamina_leaf::frame::Frame;
-use obvhs::{
-    BvhBuildParams,
-    aabb::Aabb,
-    cwbvh::{CwBvh, builder::build_cwbvh},
-    ray::{Ray as BvhRay, RayHit},
-};
-use prims::{SphereGeom, Tri, intersect_sphere, intersect_tri};
 
-/// A ray: `origin + t·dir` for `t ∈ (0, tmax)`. `dir` must be unit length for distances to
-/// be in metres (the integrators always pass unit directions).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Ray {
-    /// Origin (m).
-    pub origin: Vec3,
-    /// Direction (unit).
-    pub dir: Vec3,
-    /// Largest distance considered (m); `f32::INFINITY` for none.
-    pub tmax: f32,
-}
+pub use lamina_accel::Ray;
 
 /// What a ray hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -121,28 +96,12 @@ pub const FLAG_QUAD: u32 = 0x2000_0000;
 pub const FLAG_UV_MIRRORED: u32 = 0x1000_0000;
 /// Mask of the material or light index in [`PrimInfo::flags`].
 pub const ID_MASK: u32 = 0x0fff_ffff;
-/// "No primitive" in [`PrimRef::prim`].
-pub const NO_PRIM: u32 = u32::MAX;
-/// [`PrimRef::inst`] of the world-space meshes and quad lights (not an instance).
-pub const NO_INSTANCE: u32 = u32::MAX;
+pub use lamina_accel::{NO_INSTANCE, NO_PRIM};
 
-/// A primitive of the scene: primitive `prim` (BVH order) of the world meshes
-/// (`inst == NO_INSTANCE`) or of the prototype of instance `inst` (top-level order).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct PrimRef {
-    /// Instance (top-level BVH order), or [`NO_INSTANCE`] for world geometry.
-    pub inst: u32,
-    /// Primitive within that BLAS (its BVH order), or [`NO_PRIM`].
-    pub prim: u32,
-}
-
-impl PrimRef {
-    /// No primitive: nothing to skip.
-    pub const NONE: PrimRef = PrimRef {
-        inst: NO_INSTANCE,
-        prim: NO_PRIM,
-    };
-}
+/// A primitive of the scene: primitive `prim` (the order the level's meshes were pushed)
+/// of the world meshes and quad lights (`inst == NO_INSTANCE`) or of the prototype of
+/// instance `inst` (index in [`Scene::instances`]).
+pub use lamina_accel::PrimRef;
 
 /// Per-triangle shading data, precomputed at build time.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -188,36 +147,6 @@ pub fn spawn_origin(p: Vec3, n: Vec3, dir: Vec3) -> Vec3 {
     }
 }
 
-/// The obvhs ray for origin `o`, direction `d`, `t ∈ (0, tmax)`. Negative zeros in `d`
-/// become positive zeros (`-0 + 0 = +0`): obvhs picks the ray octant with `d < 0` (false
-/// for `-0`) but inverts `-0` to a large *negative* value, and with the two disagreeing
-/// the traversal misses boxes it is inside (an axis-aligned `-Vec3::Z` ray missed half of a
-/// sphere).
-#[inline(always)]
-fn bvh_ray(o: Vec3A, d: Vec3A, tmax: f32) -> BvhRay {
-    BvhRay::new(o, d + Vec3A::ZERO, 0.0, tmax)
-}
-
-/// One placed prototype, as the traversal stores it: the world-to-object transform as a
-/// 3x4 matrix (columns `x`, `y`, `z`, translation: `p_obj = x·p.x + y·p.y + z·p.z + w`) and
-/// the prototype index. 52 bytes; the object-to-world transform is recomputed (one 3x3
-/// inverse) only for a ray's final hit.
-#[derive(Clone, Copy, Debug)]
-#[repr(C)]
-struct InstanceRec {
-    world_to_object: [f32; 12],
-    prototype: u32,
-}
-
-const _: () = assert!(std::mem::size_of::<InstanceRec>() == 52);
-
-impl InstanceRec {
-    #[inline(always)]
-    fn world_to_object(&self) -> Affine3A {
-        Affine3A::from_cols_slice(&self.world_to_object)
-    }
-}
-
 /// Memory held by an [`Accel`], in bytes (heap arrays: BVH nodes, primitive records,
 /// shading records, instance records).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -228,6 +157,8 @@ pub struct AccelMemory {
     pub prototypes: usize,
     /// The instance records (52 bytes each) plus the top-level BVH over them.
     pub instances: usize,
+    /// The opacity masks of the mattes (one byte per texel cell, once per material).
+    pub masks: usize,
     /// Number of instances.
     pub instance_count: usize,
 }
@@ -235,7 +166,7 @@ pub struct AccelMemory {
 impl AccelMemory {
     /// All of it (bytes).
     pub fn total(&self) -> usize {
-        self.world + self.prototypes + self.instances
+        self.world + self.prototypes + self.instances + self.masks
     }
 
     /// Bytes per instance of the instance level (record + its share of the top-level
@@ -249,34 +180,28 @@ impl AccelMemory {
     }
 }
 
-/// The acceleration structure of a scene: a BLAS over the world-space meshes and quad
-/// lights, one BLAS per prototype, and a top-level BVH over the instances.
+/// The acceleration structure of a scene: lamina-accel's levels plus the shading side of
+/// every level.
 #[derive(Clone, Debug)]
 pub struct Accel {
+    core: lamina_accel::Accel,
     world: Blas,
     prototypes: Vec<Blas>,
-    /// Top-level BVH over the instances' world bounds; `None` without instances.
-    tlas: Option<CwBvh>,
-    /// Instances in top-level leaf order: a TLAS primitive id indexes this directly.
-    instances: Vec<InstanceRec>,
     alpha: Vec<AlphaTest>,
-    spheres: Vec<SphereGeom>,
+    /// Per lamina-accel sphere, its index in [`Scene::lights`].
+    sphere_lights: Vec<u32>,
 }
 
-/// A ray in the space of one BLAS: origin, direction (not renormalised, so `t` is the
-/// same as in world space) and the primitive to skip.
-#[derive(Clone, Copy)]
-struct LocalRay {
-    o: Vec3A,
-    d: Vec3A,
-    skip: u32,
+fn accel_error(e: AccelError) -> RenderError {
+    RenderError::InvalidScene(e.to_string())
 }
 
 impl Accel {
-    /// Builds the BVHs of `scene`: world meshes and quad lights, one per prototype, and
-    /// the top level over the instances. Degenerate or non-finite triangles are left out.
-    /// An error for out-of-range vertex, material or prototype indices and for
-    /// instance transforms that are not finite and invertible.
+    /// Builds the acceleration structure of `scene`: world meshes and quad lights, one
+    /// level per prototype an instance uses, and the top level over the instances.
+    /// Degenerate or non-finite triangles are left out. An error for out-of-range vertex,
+    /// material or prototype indices and for instance transforms that are not finite and
+    /// invertible.
     pub fn build(scene: &Scene) -> Result<Self, RenderError> {
         Self::build_with(scene, true)
     }
@@ -284,15 +209,25 @@ impl Accel {
     /// [`Accel::build`], with `merge_cards = false` keeping every card as two triangles (for
     /// benchmarks; the images are the same).
     pub fn build_with(scene: &Scene, merge_cards: bool) -> Result<Self, RenderError> {
+        Self::build_for(scene, merge_cards, lamina_accel::Kernel::best())
+    }
+
+    /// [`Accel::build_with`] for traversal kernel `kernel` (an error if this CPU lacks it):
+    /// for tests and benchmarks of each kernel.
+    pub fn build_for(
+        scene: &Scene,
+        merge_cards: bool,
+        kernel: lamina_accel::Kernel,
+    ) -> Result<Self, RenderError> {
         let alpha: Vec<AlphaTest> = scene
             .materials
             .iter()
             .map(|m| match m {
                 Material::Leaf { leaf, .. } => AlphaTest::Leaf(leaf.clone()),
-                m => m.alpha_mask().cloned().map_or(AlphaTest::None, |m| {
-                    let cells = MaskCells::new(&m);
-                    AlphaTest::Mask(m, cells)
-                }),
+                m => m
+                    .alpha_mask()
+                    .cloned()
+                    .map_or(AlphaTest::None, AlphaTest::Mask),
             })
             .collect();
         let mut world = BlasBuilder::default();
@@ -300,6 +235,7 @@ impl Accel {
             format!("mesh {mi}")
         })?;
         let mut spheres = Vec::new();
+        let mut sphere_lights = Vec::new();
         for (li, light) in scene.lights.iter().enumerate() {
             match light {
                 Light::Quad {
@@ -317,18 +253,17 @@ impl Accel {
                     );
                 }
                 Light::Sphere { center, radius, .. } if center.is_finite() && *radius > 0.0 => {
-                    spheres.push(SphereGeom {
+                    spheres.push(Sphere {
                         center: *center,
                         radius: *radius,
-                        light: li as u32,
                     });
+                    sphere_lights.push(li as u32);
                 }
                 _ => {}
             }
         }
-        let world = world.finish();
 
-        // Only prototypes that some instance uses get a BVH.
+        // Only prototypes that some instance uses are collected.
         let mut used = vec![false; scene.prototypes.len()];
         for (ii, inst) in scene.instances.iter().enumerate() {
             let Some(u) = used.get_mut(inst.prototype as usize) else {
@@ -352,86 +287,76 @@ impl Accel {
                         format!("prototype {pi} ('{}'), mesh {mi}", proto.name)
                     })?;
                 }
-                Ok(b.finish())
+                Ok(b)
             })
-            .collect::<Result<Vec<Blas>, RenderError>>()?;
-
-        let mut recs = Vec::with_capacity(scene.instances.len());
-        let mut inst_bounds = Vec::with_capacity(scene.instances.len());
-        for (ii, inst) in scene.instances.iter().enumerate() {
-            let m = inst.transform;
-            let det = m.matrix3.determinant();
-            let inv = m.inverse();
-            if !(det.abs() > 0.0 && m.is_finite() && inv.is_finite()) {
-                return Err(RenderError::InvalidScene(format!(
-                    "instance {ii}: the transform is not finite and invertible"
-                )));
-            }
-            let Some(b) = prototypes[inst.prototype as usize].bounds else {
-                continue; // an empty prototype: nothing to hit
-            };
-            let mut wb = Aabb::empty();
-            for k in 0..8 {
-                let c = Vec3A::new(
-                    if k & 1 == 0 { b.min.x } else { b.max.x },
-                    if k & 2 == 0 { b.min.y } else { b.max.y },
-                    if k & 4 == 0 { b.min.z } else { b.max.z },
-                );
-                wb.extend(m.transform_point3a(c));
-            }
-            let mut w2o = [0.0f32; 12];
-            inv.write_cols_to_slice(&mut w2o);
-            recs.push(InstanceRec {
-                world_to_object: w2o,
-                prototype: inst.prototype,
-            });
-            inst_bounds.push(wb);
-        }
-        let (tlas, instances) = if recs.is_empty() {
-            (None, Vec::new())
-        } else {
-            let mut tlas = build_cwbvh(
-                &inst_bounds,
-                BvhBuildParams {
-                    max_prims_per_leaf: 1,
-                    ..BvhBuildParams::medium_build()
-                },
-                &mut Default::default(),
-            );
-            let order = std::mem::take(&mut tlas.primitive_indices);
-            let instances = order.iter().map(|&i| recs[i as usize]).collect();
-            (Some(tlas), instances)
-        };
-        Ok(Accel {
-            world,
-            prototypes,
-            tlas,
-            instances,
-            alpha,
+            .collect::<Result<Vec<BlasBuilder>, RenderError>>()?;
+        let (proto_geometry, prototypes): (Vec<Geometry>, Vec<Blas>) =
+            prototypes.into_iter().map(|b| (b.geometry, b.blas)).unzip();
+        let desc = SceneDesc {
+            world: world.geometry,
+            prototypes: proto_geometry,
+            instances: scene
+                .instances
+                .iter()
+                .map(|i| Instance {
+                    object_to_world: i.transform,
+                    prototype: i.prototype,
+                })
+                .collect(),
             spheres,
+            masks: alpha.iter().map(AlphaTest::mask).collect(),
+        };
+        let core = lamina_accel::Accel::build_with(
+            &desc,
+            lamina_accel::BuildOptions {
+                kernel,
+                ..Default::default()
+            },
+        )
+        .map_err(accel_error)?;
+        Ok(Accel {
+            core,
+            world: world.blas,
+            prototypes,
+            alpha,
+            sphere_lights,
         })
+    }
+
+    /// The kernel lamina-accel traverses with (AVX2 8-wide, SSE 4-wide or scalar).
+    pub fn kernel(&self) -> lamina_accel::Kernel {
+        self.core.kernel()
     }
 
     /// Number of primitives stored: triangles, plus parallelograms for leaf cards (pairs of
     /// mesh triangles) and quad lights, of the world meshes and of every prototype once.
     pub fn primitive_count(&self) -> usize {
-        self.world.tris.len() + self.prototypes.iter().map(|b| b.tris.len()).sum::<usize>()
+        self.world.prims.len() + self.prototypes.iter().map(|b| b.prims.len()).sum::<usize>()
     }
 
     /// Number of instances in the top level (instances of empty prototypes are dropped).
     pub fn instance_count(&self) -> usize {
-        self.instances.len()
+        self.core.memory().instance_count
     }
 
-    /// Bytes held by the BVHs and primitive records, by level.
+    /// Bytes held by the BVHs, primitive records and shading records, by level.
     pub fn memory(&self) -> AccelMemory {
+        let m = self.core.memory();
         AccelMemory {
-            world: self.world.bytes(),
-            prototypes: self.prototypes.iter().map(Blas::bytes).sum(),
-            instances: self.tlas.as_ref().map_or(0, bvh_bytes)
-                + self.instances.len() * std::mem::size_of::<InstanceRec>(),
-            instance_count: self.instances.len(),
+            world: m.world + self.world.bytes(),
+            prototypes: m.prototypes + self.prototypes.iter().map(Blas::bytes).sum::<usize>(),
+            instances: m.instances,
+            masks: m.masks,
+            instance_count: m.instance_count,
         }
+    }
+
+    /// The world-to-object transform of instance `inst`.
+    #[inline(always)]
+    fn world_to_object(&self, inst: u32) -> Affine3A {
+        self.core
+            .world_to_object(inst)
+            .expect("a PrimRef's instance comes from this Accel")
     }
 
     /// The surface at barycentric `bary` on primitive `prim` (from a [`HitKind::Triangle`]),
@@ -442,15 +367,13 @@ impl Accel {
     #[inline]
     pub fn surface(&self, prim: PrimRef, bary: Vec2) -> (Vec3, PrimInfo) {
         let blas = self.blas_of(prim);
-        let t = &blas.tris[prim.prim as usize];
-        let p = Vec3::from_array(t.v0)
-            + Vec3::from_array(t.e1) * bary.x
-            + Vec3::from_array(t.e2) * bary.y;
+        let [v0, e1, e2] = blas.verts[prim.prim as usize];
+        let p = v0 + e1 * bary.x + e2 * bary.y;
         let info = blas.prims[prim.prim as usize];
         if prim.inst == NO_INSTANCE {
             return (p, info);
         }
-        let w2o = self.instances[prim.inst as usize].world_to_object();
+        let w2o = self.world_to_object(prim.inst);
         let o2w = w2o.inverse();
         let n = (w2o.matrix3.transpose() * Vec3A::from(info.n)).normalize_or_zero();
         let s = o2w.matrix3 * Vec3A::from(info.s);
@@ -480,7 +403,7 @@ impl Accel {
         let n = if prim.inst == NO_INSTANCE {
             n
         } else {
-            let w2o = self.instances[prim.inst as usize].world_to_object();
+            let w2o = self.world_to_object(prim.inst);
             (w2o.matrix3.transpose() * Vec3A::from(n)).into()
         };
         let len2 = n.length_squared();
@@ -524,9 +447,7 @@ impl Accel {
             return (t, sign);
         }
         // (M⁻ᵀn × Mt)·Mb = det(M) (M⁻ᵀn)·(M⁻ᵀ(t × b)), and t × b is along n.
-        let o2w = self.instances[prim.inst as usize]
-            .world_to_object()
-            .inverse();
+        let o2w = self.world_to_object(prim.inst).inverse();
         let det = o2w.matrix3.determinant();
         (
             (o2w.matrix3 * Vec3A::from(t)).into(),
@@ -537,7 +458,7 @@ impl Accel {
     /// The flags (material or light id and `FLAG_*`) of primitive `prim`.
     #[inline]
     pub fn flags(&self, prim: PrimRef) -> u32 {
-        self.blas_of(prim).tris[prim.prim as usize].flags
+        self.blas_of(prim).prims[prim.prim as usize].flags
     }
 
     #[inline(always)]
@@ -545,7 +466,7 @@ impl Accel {
         if prim.inst == NO_INSTANCE {
             &self.world
         } else {
-            &self.prototypes[self.instances[prim.inst as usize].prototype as usize]
+            &self.prototypes[self.core.prototype_of(prim.inst) as usize]
         }
     }
 
@@ -559,201 +480,52 @@ impl Accel {
         self.occluded_skip(ray, PrimRef::NONE)
     }
 
+    /// The exact alpha test lamina-accel asks for candidates its masks cannot decide.
     #[inline(always)]
-    fn accept(&self, tri: &Tri, b1: f32, b2: f32) -> bool {
-        if tri.flags & FLAG_ALPHA == 0 {
-            return true;
-        }
-        self.alpha[(tri.flags & ID_MASK) as usize].opaque(tri.uv_at(b1, b2))
-    }
-
-    /// Closest opaque hit in `blas` with `t < tmax`: `(t, prim, bary)`.
-    #[inline(always)]
-    fn blas_closest(&self, blas: &Blas, r: LocalRay, tmax: f32) -> Option<(f32, u32, Vec2)> {
-        let Some(bvh) = &blas.bvh else {
-            let mut best = None;
-            let mut tmax = tmax;
-            for (i, tri) in blas.tris.iter().enumerate() {
-                if i as u32 == r.skip {
-                    continue;
-                }
-                let (t, b1, b2) = intersect_tri(tri, r.o, r.d, tmax);
-                if t < tmax && self.accept(tri, b1, b2) {
-                    tmax = t;
-                    best = Some((t, i as u32, Vec2::new(b1, b2)));
-                }
-            }
-            return best;
-        };
-        let bray = bvh_ray(r.o, r.d, tmax);
-        let mut hit = RayHit::none();
-        let mut bary = Vec2::ZERO;
-        let found = bvh.ray_traverse(bray, &mut hit, |ray, id| {
-            if id as u32 == r.skip {
-                return f32::INFINITY;
-            }
-            let tri = &blas.tris[id];
-            let (t, b1, b2) = intersect_tri(tri, r.o, r.d, ray.tmax);
-            if t < ray.tmax && self.accept(tri, b1, b2) {
-                bary = Vec2::new(b1, b2);
-                t
-            } else {
-                f32::INFINITY
-            }
-        });
-        found.then_some((hit.t, hit.primitive_id, bary))
-    }
-
-    /// Whether `blas` has an opaque hit with `t < tmax`.
-    #[inline(always)]
-    fn blas_occluded(&self, blas: &Blas, r: LocalRay, tmax: f32) -> bool {
-        let Some(bvh) = &blas.bvh else {
-            return blas.tris.iter().enumerate().any(|(i, tri)| {
-                if i as u32 == r.skip {
-                    return false;
-                }
-                let (t, b1, b2) = intersect_tri(tri, r.o, r.d, tmax);
-                t < tmax && self.accept(tri, b1, b2)
-            });
-        };
-        let bray = bvh_ray(r.o, r.d, tmax);
-        !bvh.ray_traverse_miss(bray, |ray, id| {
-            if id as u32 == r.skip {
-                return f32::INFINITY;
-            }
-            let tri = &blas.tris[id];
-            let (t, b1, b2) = intersect_tri(tri, r.o, r.d, ray.tmax);
-            if t < ray.tmax && self.accept(tri, b1, b2) {
-                t
-            } else {
-                f32::INFINITY
-            }
-        })
-    }
-
-    /// The ray of TLAS primitive `inst` in its prototype's object space.
-    #[inline(always)]
-    fn local_ray(&self, inst: usize, o: Vec3A, d: Vec3A, skip: PrimRef) -> (&Blas, LocalRay) {
-        let rec = &self.instances[inst];
-        let w2o = rec.world_to_object();
-        (
-            &self.prototypes[rec.prototype as usize],
-            LocalRay {
-                o: w2o.transform_point3a(o),
-                d: w2o.transform_vector3a(d),
-                skip: if skip.inst == inst as u32 {
-                    skip.prim
-                } else {
-                    NO_PRIM
-                },
-            },
-        )
+    fn filter(&self) -> impl Fn(u32, Vec2) -> bool + '_ {
+        |id, uv| self.alpha[id as usize].opaque(uv)
     }
 
     /// [`Accel::intersect`], ignoring primitive `skip` (the one the ray leaves).
     #[inline]
     pub fn intersect_skip(&self, ray: &Ray, skip: PrimRef) -> Option<Hit> {
-        let mut best: Option<Hit> = None;
-        let mut tmax = ray.tmax;
-        let o = Vec3A::from(ray.origin);
-        let d = Vec3A::from(ray.dir);
-        let world_skip = if skip.inst == NO_INSTANCE {
-            skip.prim
+        let h = self.core.intersect(ray, skip, &self.filter())?;
+        let kind = if h.prim.inst == lamina_accel::SPHERE {
+            HitKind::Sphere {
+                light: self.sphere_lights[h.prim.prim as usize],
+            }
         } else {
-            NO_PRIM
-        };
-        let wr = LocalRay {
-            o,
-            d,
-            skip: world_skip,
-        };
-        if let Some((t, prim, bary)) = self.blas_closest(&self.world, wr, tmax) {
-            tmax = t;
-            best = Some(Hit {
-                t,
-                kind: HitKind::Triangle {
-                    prim: PrimRef {
-                        inst: NO_INSTANCE,
-                        prim,
-                    },
-                    bary,
-                },
-            });
-        }
-        if let Some(tlas) = &self.tlas {
-            let bray = bvh_ray(o, d, tmax);
-            let mut hit = RayHit::none();
-            let (mut prim, mut bary) = (0, Vec2::ZERO);
-            if tlas.ray_traverse(bray, &mut hit, |r, inst| {
-                let (blas, lr) = self.local_ray(inst, o, d, skip);
-                match self.blas_closest(blas, lr, r.tmax) {
-                    Some((t, p, b)) => {
-                        (prim, bary) = (p, b);
-                        t
-                    }
-                    None => f32::INFINITY,
-                }
-            }) {
-                tmax = hit.t;
-                best = Some(Hit {
-                    t: hit.t,
-                    kind: HitKind::Triangle {
-                        prim: PrimRef {
-                            inst: hit.primitive_id,
-                            prim,
-                        },
-                        bary,
-                    },
-                });
+            HitKind::Triangle {
+                prim: h.prim,
+                bary: h.bary,
             }
-        }
-        for s in &self.spheres {
-            let t = intersect_sphere(s, ray.origin, ray.dir, tmax);
-            if t < tmax {
-                tmax = t;
-                best = Some(Hit {
-                    t,
-                    kind: HitKind::Sphere { light: s.light },
-                });
-            }
-        }
-        best
+        };
+        Some(Hit { t: h.t, kind })
+    }
+
+    /// [`Accel::intersect`], counting lamina-accel's traversal steps into `stats` (for
+    /// benchmarks: nodes and packs per ray, alpha lookups the masks saved).
+    pub fn intersect_counted(&self, ray: &Ray, stats: &lamina_accel::TraversalStats) -> bool {
+        self.core
+            .intersect_counted(ray, PrimRef::NONE, &self.filter(), stats)
+            .is_some()
+    }
+
+    /// [`Accel::occluded`], counting lamina-accel's traversal steps into `stats`.
+    pub fn occluded_counted(&self, ray: &Ray, stats: &lamina_accel::TraversalStats) -> bool {
+        self.core
+            .occluded_counted(ray, PrimRef::NONE, &self.filter(), stats)
+    }
+
+    /// The SAH cost, wide nodes and leaf packs of the world level's tree.
+    pub fn world_tree(&self) -> (f64, usize, usize) {
+        let (n, p) = self.core.world_counts();
+        (self.core.world_sah_cost(), n, p)
     }
 
     /// [`Accel::occluded`], ignoring primitive `skip` (the one the ray leaves).
     #[inline]
     pub fn occluded_skip(&self, ray: &Ray, skip: PrimRef) -> bool {
-        for s in &self.spheres {
-            if intersect_sphere(s, ray.origin, ray.dir, ray.tmax) < ray.tmax {
-                return true;
-            }
-        }
-        let o = Vec3A::from(ray.origin);
-        let d = Vec3A::from(ray.dir);
-        let world_skip = if skip.inst == NO_INSTANCE {
-            skip.prim
-        } else {
-            NO_PRIM
-        };
-        let wr = LocalRay {
-            o,
-            d,
-            skip: world_skip,
-        };
-        if self.blas_occluded(&self.world, wr, ray.tmax) {
-            return true;
-        }
-        let Some(tlas) = &self.tlas else {
-            return false;
-        };
-        let bray = bvh_ray(o, d, ray.tmax);
-        !tlas.ray_traverse_miss(bray, |r, inst| {
-            let (blas, lr) = self.local_ray(inst, o, d, skip);
-            if self.blas_occluded(blas, lr, r.tmax) {
-                0.0
-            } else {
-                f32::INFINITY
-            }
-        })
+        self.core.occluded(ray, skip, &self.filter())
     }
 }

@@ -6,7 +6,7 @@
 //!   normal) and any-hit (`occluded`), both alpha-tested and able to skip the primitive a
 //!   ray leaves.
 //! * [`reference::BruteForce`] implements it by testing every primitive, in `f64`, with
-//!   no BVH; [`CurrentAccel`] wraps [`Accel`] (obvhs BVH8s in two levels).
+//!   no BVH; [`CurrentAccel`] wraps [`Accel`] (lamina-accel's wide BVHs in two levels).
 //! * [`checks`] holds the suite: generic functions over `B: Backend` that compare `B` with
 //!   the reference on thousands of seeded random rays over the scene kinds of
 //!   [`random_scenes`] (triangles, alpha-masked cards, instances, lights), continuation
@@ -97,42 +97,31 @@ pub(crate) trait Backend: Sized {
     fn occluded(&self, ray: &Ray, skip: Option<Self::Prim>) -> bool;
 }
 
-/// [`Accel`] as a [`Backend`], with the map from its top-level order of instances back to
-/// the scene's.
-pub(crate) struct CurrentAccel {
+/// [`Accel`] (lamina-accel's wide BVHs) as a [`Backend`], built for kernel `K`: 0 the
+/// best this CPU runs (AVX2 8-wide here), 1 SSE 4-wide, 2 scalar 4-wide. A kernel the CPU
+/// lacks falls back to the best one (the suite then checks that one twice).
+pub(crate) struct CurrentAccel<const K: u8 = 0> {
     accel: Accel,
-    /// Per instance record (top-level order), its index in [`Scene::instances`].
-    scene_instance: Vec<u32>,
 }
 
-impl Backend for CurrentAccel {
-    const NAME: &'static str = "obvhs accel";
+impl<const K: u8> Backend for CurrentAccel<K> {
+    const NAME: &'static str = match K {
+        0 => "lamina-accel (best kernel)",
+        1 => "lamina-accel (SSE kernel)",
+        _ => "lamina-accel (scalar kernel)",
+    };
     type Prim = PrimRef;
 
     fn build(scene: &Scene) -> Result<Self, RenderError> {
-        let accel = Accel::build(scene)?;
-        // The records store the inverse transform as `Accel::build` computed it: the same
-        // computation here finds each one's instance, bit for bit.
-        let mut taken = vec![false; scene.instances.len()];
-        let scene_instance = accel
-            .instances
-            .iter()
-            .map(|rec| {
-                let k = (0..scene.instances.len())
-                    .find(|&k| {
-                        let inst = &scene.instances[k];
-                        let mut w2o = [0.0f32; 12];
-                        inst.transform.inverse().write_cols_to_slice(&mut w2o);
-                        !taken[k] && inst.prototype == rec.prototype && w2o == rec.world_to_object
-                    })
-                    .expect("every instance record comes from a scene instance");
-                taken[k] = true;
-                k as u32
-            })
-            .collect();
+        use lamina_accel::Kernel;
+        let kernel = match K {
+            1 => Kernel::Sse,
+            2 => Kernel::Scalar,
+            _ => Kernel::best(),
+        };
+        let kernel = if kernel.available() { kernel } else { Kernel::best() };
         Ok(CurrentAccel {
-            accel,
-            scene_instance,
+            accel: Accel::build_for(scene, true, kernel)?,
         })
     }
 
@@ -152,8 +141,7 @@ impl Backend for CurrentAccel {
             Surface::QuadLight(id)
         } else {
             Surface::Mesh {
-                instance: (prim.inst != NO_INSTANCE)
-                    .then(|| self.scene_instance[prim.inst as usize]),
+                instance: (prim.inst != NO_INSTANCE).then_some(prim.inst),
                 material: id,
             }
         };
@@ -214,4 +202,6 @@ macro_rules! backend_suite {
 }
 
 backend_suite!(current, super::CurrentAccel);
+backend_suite!(current_sse, super::CurrentAccel<1>);
+backend_suite!(current_scalar, super::CurrentAccel<2>);
 backend_suite!(brute_force, super::reference::BruteForce);

@@ -3,13 +3,17 @@
 //! throughput [-- N...]`. For the full comparison with Embree, see lamina-bench's `rays`.
 
 use glam::Vec3;
-use lamina_accel::{Accel, BuildOptions, Geometry, Kernel, Prim, PrimRef, Ray, SceneDesc, TraversalStats};
+use lamina_accel::{
+    Accel, BuildOptions, Geometry, Kernel, Prim, PrimRef, Ray, SceneDesc, TraversalStats,
+};
 use std::time::Instant;
 
 fn rng(seed: u64) -> impl FnMut() -> f32 {
     let mut s = seed;
     move || {
-        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (s >> 40) as f32 / (1u64 << 24) as f32
     }
 }
@@ -22,8 +26,15 @@ fn unit(r: &mut impl FnMut() -> f32) -> Vec3 {
 }
 
 fn main() {
-    let sizes: Vec<usize> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
-    let sizes = if sizes.is_empty() { vec![1000, 10_000, 100_000] } else { sizes };
+    let sizes: Vec<usize> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
+    let sizes = if sizes.is_empty() {
+        vec![1000, 10_000, 100_000]
+    } else {
+        sizes
+    };
     for n in sizes {
         let mut r = rng(7);
         let side = 10.0 * (n as f32 / 100_000.0).cbrt();
@@ -50,20 +61,34 @@ fn main() {
                 continue;
             }
             let t = Instant::now();
-            let a = Accel::build_with(&desc, BuildOptions { kernel, ..Default::default() }).unwrap();
+            let a = Accel::build_with(
+                &desc,
+                BuildOptions {
+                    kernel,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
             let build = t.elapsed().as_secs_f64();
             let f = |_: u32, _| true;
             let mut best = f64::INFINITY;
             let mut hits = 0;
             for _ in 0..3 {
                 let t = Instant::now();
-                hits = rays.iter().filter(|ray| a.intersect(ray, PrimRef::NONE, &f).is_some()).count();
+                hits = rays
+                    .iter()
+                    .filter(|ray| a.intersect(ray, PrimRef::NONE, &f).is_some())
+                    .count();
                 best = best.min(t.elapsed().as_secs_f64());
             }
             let mut best_any = f64::INFINITY;
             for _ in 0..3 {
                 let t = Instant::now();
-                std::hint::black_box(rays.iter().filter(|ray| a.occluded(ray, PrimRef::NONE, &f)).count());
+                std::hint::black_box(
+                    rays.iter()
+                        .filter(|ray| a.occluded(ray, PrimRef::NONE, &f))
+                        .count(),
+                );
                 best_any = best_any.min(t.elapsed().as_secs_f64());
             }
             let st = TraversalStats::default();

@@ -150,7 +150,10 @@ impl Ctx<'_> {
     fn build(&self, nodes: &mut [BNode], base: u32, idx: &mut [u32], start: u32, depth: usize) {
         let n = idx.len();
         let (bounds, cbounds) = idx.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, c), &i| {
-            (b.union(self.bounds[i as usize]), c.grow(self.centers[i as usize]))
+            (
+                b.union(self.bounds[i as usize]),
+                c.grow(self.centers[i as usize]),
+            )
         });
         let leaf = BNode {
             bounds,
@@ -185,9 +188,8 @@ impl Ctx<'_> {
         let (left_idx, right_idx) = idx.split_at_mut(k);
         let (lb, rb) = (base + 1, base + 2 * k as u32);
         let go_left = |ln: &mut [BNode], li: &mut [u32]| self.build(ln, lb, li, start, depth + 1);
-        let go_right = |rn: &mut [BNode], ri: &mut [u32]| {
-            self.build(rn, rb, ri, start + k as u32, depth + 1)
-        };
+        let go_right =
+            |rn: &mut [BNode], ri: &mut [u32]| self.build(rn, rb, ri, start + k as u32, depth + 1);
         if n >= PARALLEL_MIN {
             rayon::join(
                 || go_left(left_nodes, left_idx),
@@ -267,7 +269,6 @@ impl Ctx<'_> {
     }
 }
 
-
 /// Splits `idx` at its middle by centre along the longest axis of `cb` (`select_nth`).
 fn median_split(idx: &mut [u32], centers: &[Vec3], cb: Aabb) -> usize {
     let e = cb.max - cb.min;
@@ -304,7 +305,9 @@ mod tests {
     fn random_boxes(n: usize) -> Vec<Aabb> {
         let mut s = 1u64;
         let mut r = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (s >> 40) as f32 / (1u64 << 24) as f32
         };
         (0..n)
@@ -337,12 +340,16 @@ mod tests {
                     for &p in &t.order[nd.a as usize..(nd.a + nd.count) as usize] {
                         seen[p as usize] += 1;
                         let pb = b[p as usize];
-                        assert!(pb.min.cmpge(nd.bounds.min).all() && pb.max.cmple(nd.bounds.max).all());
+                        assert!(
+                            pb.min.cmpge(nd.bounds.min).all() && pb.max.cmple(nd.bounds.max).all()
+                        );
                     }
                 } else {
                     for c in [nd.a as usize, nd.b as usize] {
                         let cb = t.nodes[c].bounds;
-                        assert!(cb.min.cmpge(nd.bounds.min).all() && cb.max.cmple(nd.bounds.max).all());
+                        assert!(
+                            cb.min.cmpge(nd.bounds.min).all() && cb.max.cmple(nd.bounds.max).all()
+                        );
                         stack.push(c);
                     }
                 }
@@ -373,6 +380,9 @@ mod tests {
                 1 + depth(t, n.a as usize).max(depth(t, n.b as usize))
             }
         }
-        assert!(depth(&t, 0) <= 14, "median splits: about log2(5000 / 4) levels");
+        assert!(
+            depth(&t, 0) <= 14,
+            "median splits: about log2(5000 / 4) levels"
+        );
     }
 }

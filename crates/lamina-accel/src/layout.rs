@@ -124,7 +124,10 @@ fn emit<const W: usize>(
             .enumerate()
             .filter(|(_, k)| bin.nodes[**k].count == 0)
             .max_by(|a, b| {
-                let (aa, ba) = (bin.nodes[*a.1].bounds.half_area(), bin.nodes[*b.1].bounds.half_area());
+                let (aa, ba) = (
+                    bin.nodes[*a.1].bounds.half_area(),
+                    bin.nodes[*b.1].bounds.half_area(),
+                );
                 aa.total_cmp(&ba)
             })
             .map(|(j, _)| j);
@@ -165,7 +168,11 @@ fn emit<const W: usize>(
 /// The bounds of a valid primitive.
 pub(crate) fn prim_bounds(p: &Prim) -> Aabb {
     let b = Aabb::of_points(&p.v);
-    if p.quad { b.grow(p.v[1] + p.v[2] - p.v[0]) } else { b }
+    if p.quad {
+        b.grow(p.v[1] + p.v[2] - p.v[0])
+    } else {
+        b
+    }
 }
 
 impl<const W: usize> Blas<W> {
@@ -184,7 +191,10 @@ impl<const W: usize> Blas<W> {
         if valid.is_empty() {
             return blas;
         }
-        let bounds: Vec<Aabb> = valid.iter().map(|&i| prim_bounds(&geom.prims[i as usize])).collect();
+        let bounds: Vec<Aabb> = valid
+            .iter()
+            .map(|&i| prim_bounds(&geom.prims[i as usize]))
+            .collect();
         blas.bounds = Some(bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(*b)));
         let mut packs = Vec::new();
         let mut alpha = Vec::new();
@@ -230,7 +240,11 @@ impl<const W: usize> Blas<W> {
                 },
             );
             let (nodes, root) = collapse::<W>(&bin, &mut |start, count| {
-                make_pack(&mut bin.order[start..start + count].iter().map(|&k| valid[k as usize]))
+                make_pack(
+                    &mut bin.order[start..start + count]
+                        .iter()
+                        .map(|&k| valid[k as usize]),
+                )
             });
             blas.nodes = PageArray::new(nodes);
             blas.root = root;

@@ -39,6 +39,8 @@ mod kernel;
 mod layout;
 pub mod mask;
 mod memory;
+#[cfg(test)]
+mod tests;
 mod traverse;
 
 pub use build::Aabb;

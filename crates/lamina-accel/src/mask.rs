@@ -114,7 +114,8 @@ impl OpacityMask {
     /// Shares of the cells that are opaque, transparent and unknown.
     pub fn shares(&self) -> [f64; 3] {
         let n = self.cells.len().max(1) as f64;
-        [OPAQUE, TRANSPARENT, UNKNOWN].map(|c| self.cells.iter().filter(|&&x| x == c).count() as f64 / n)
+        [OPAQUE, TRANSPARENT, UNKNOWN]
+            .map(|c| self.cells.iter().filter(|&&x| x == c).count() as f64 / n)
     }
 
     /// Heap bytes.

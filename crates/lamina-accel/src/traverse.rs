@@ -18,6 +18,39 @@ pub(crate) enum Step {
     Stop,
 }
 
+/// Asks the memory system for the node or leaf behind child code `code` (pushed now, read
+/// when popped).
+#[inline(always)]
+fn prefetch<const W: usize>(nodes: &[Node<W>], code: u32, leaf: &impl Visit) {
+    if code & LEAF == 0 {
+        if let Some(n) = nodes.get(code as usize) {
+            prefetch_lines(
+                n as *const Node<W> as *const u8,
+                std::mem::size_of::<Node<W>>(),
+            );
+        }
+    } else if code != EMPTY {
+        leaf.prefetch(code & !LEAF);
+    }
+}
+
+/// Prefetches the cache lines of `bytes` bytes at `p` into L1.
+#[inline(always)]
+pub(crate) fn prefetch_lines(p: *const u8, bytes: usize) {
+    #[cfg(target_arch = "x86_64")]
+    for off in (0..bytes).step_by(64) {
+        // SAFETY: a prefetch is a hint that never faults, whatever the address;
+        // `wrapping_add` keeps the pointer arithmetic defined. SSE is part of x86-64.
+        unsafe {
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                p.wrapping_add(off) as *const i8,
+            )
+        };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (p, bytes);
+}
+
 /// What the walk does at a leaf: called with the leaf's index and the current `tmax`.
 /// A trait rather than a closure so that it is inlined (closures cannot be marked
 /// `#[inline(always)]` on stable Rust, and were not inlined).
@@ -27,6 +60,11 @@ pub(crate) trait Visit {
     /// # Safety
     /// As [`walk`].
     unsafe fn leaf(&mut self, k: u32, tmax: f32) -> Step;
+
+    /// Prefetches leaf `k` (pushed now, visited later).
+    fn prefetch(&self, k: u32) {
+        let _ = k;
+    }
 }
 
 /// Walks the wide tree `nodes` from child code `root` with ray `r`, calling `leaf` for
@@ -60,11 +98,26 @@ pub(crate) unsafe fn walk<K: Lanes<W>, const W: usize, const ORDERED: bool, C: C
                     cur = node.child[m.trailing_zeros() as usize];
                     continue;
                 }
+                if ORDERED && (m & (m - 1)).count_ones() == 1 {
+                    // Two children, the common case: enter the nearer, push the farther.
+                    let (i, j) = (
+                        m.trailing_zeros() as usize,
+                        (31 - m.leading_zeros()) as usize,
+                    );
+                    let (near, far) = if tn[j] < tn[i] { (j, i) } else { (i, j) };
+                    let far_child = node.child[far];
+                    prefetch(nodes, far_child, leaf);
+                    stack[sp] = MaybeUninit::new((far_child, tn[far]));
+                    sp += 1;
+                    cur = node.child[near];
+                    continue;
+                }
                 let base = sp;
                 while m != 0 {
                     let i = m.trailing_zeros() as usize;
                     m &= m - 1;
                     let entry = (node.child[i], tn[i]);
+                    prefetch(nodes, entry.0, leaf);
                     if ORDERED {
                         // Insertion into the pushed run, farthest at the bottom.
                         let mut j = sp;
@@ -253,11 +306,20 @@ unsafe fn blas_closest<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
     }
     impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit for V<'_, K, W, F, C> {
         #[inline(always)]
+        fn prefetch(&self, k: u32) {
+            if let Some(p) = self.blas.packs.get(k as usize) {
+                prefetch_lines(p as *const Pack as *const u8, std::mem::size_of::<Pack>());
+            }
+        }
+
+        #[inline(always)]
         unsafe fn leaf(&mut self, k: u32, tmax: f32) -> Step {
             let p = &self.blas.packs[k as usize];
             // SAFETY: forwarded.
             let hit = unsafe {
-                pack_closest::<K, W, F, C>(self.blas, self.masks, p, &self.r, tmax, self.skip, self.f, self.c)
+                pack_closest::<K, W, F, C>(
+                    self.blas, self.masks, p, &self.r, tmax, self.skip, self.f, self.c,
+                )
             };
             if let Some((t, lane, b1, b2)) = hit {
                 *self.best = Best {
@@ -319,11 +381,20 @@ unsafe fn blas_any<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
     }
     impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit for V<'_, K, W, F, C> {
         #[inline(always)]
+        fn prefetch(&self, k: u32) {
+            if let Some(p) = self.blas.packs.get(k as usize) {
+                prefetch_lines(p as *const Pack as *const u8, std::mem::size_of::<Pack>());
+            }
+        }
+
+        #[inline(always)]
         unsafe fn leaf(&mut self, k: u32, tmax: f32) -> Step {
             let p = &self.blas.packs[k as usize];
             // SAFETY: forwarded.
             if unsafe {
-                pack_any::<K, W, F, C>(self.blas, self.masks, p, &self.r, tmax, self.skip, self.f, self.c)
+                pack_any::<K, W, F, C>(
+                    self.blas, self.masks, p, &self.r, tmax, self.skip, self.f, self.c,
+                )
             } {
                 *self.hit = true;
                 Step::Stop
@@ -361,7 +432,9 @@ struct TlasClosest<'a, const W: usize, F, C> {
 /// Marker so that [`TlasClosest`] knows its kernel without storing a value of it.
 struct KernelOf<K>(std::marker::PhantomData<K>);
 
-impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit for (TlasClosest<'_, W, F, C>, KernelOf<K>) {
+impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit
+    for (TlasClosest<'_, W, F, C>, KernelOf<K>)
+{
     #[inline(always)]
     unsafe fn leaf(&mut self, i: u32, _: f32) -> Step {
         let v = &mut self.0;
@@ -370,7 +443,9 @@ impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit for (TlasClo
         let lr = to_local(rec, v.o, v.d, v.skip, i);
         let blas = &v.levels.protos[rec.proto as usize];
         // SAFETY: forwarded.
-        v.found |= unsafe { blas_closest::<K, W, F, C>(blas, &v.levels.masks, &lr, &mut v.best, i, v.f, v.c) };
+        v.found |= unsafe {
+            blas_closest::<K, W, F, C>(blas, &v.levels.masks, &lr, &mut v.best, i, v.f, v.c)
+        };
         Step::Go(v.best.t)
     }
 }
@@ -386,7 +461,9 @@ struct TlasAny<'a, const W: usize, F, C> {
     c: &'a C,
 }
 
-impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit for (TlasAny<'_, W, F, C>, KernelOf<K>) {
+impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit
+    for (TlasAny<'_, W, F, C>, KernelOf<K>)
+{
     #[inline(always)]
     unsafe fn leaf(&mut self, i: u32, tmax: f32) -> Step {
         let v = &mut self.0;
@@ -424,7 +501,11 @@ fn to_local(rec: &InstRec, o: Vec3A, d: Vec3A, skip: PrimRef, inst: u32) -> LRay
     LRay {
         o: m.transform_point3a(o).to_array(),
         d: m.transform_vector3a(d).to_array(),
-        skip: if skip.inst == inst { skip.prim } else { u32::MAX },
+        skip: if skip.inst == inst {
+            skip.prim
+        } else {
+            u32::MAX
+        },
     }
 }
 
@@ -480,7 +561,11 @@ impl<const W: usize> Levels<W> {
         let wr = LRay {
             o: ray.origin.to_array(),
             d: ray.dir.to_array(),
-            skip: if skip.inst == NO_INSTANCE { skip.prim } else { u32::MAX },
+            skip: if skip.inst == NO_INSTANCE {
+                skip.prim
+            } else {
+                u32::MAX
+            },
         };
         // SAFETY: forwarded.
         let mut found = unsafe {
@@ -488,7 +573,12 @@ impl<const W: usize> Levels<W> {
         };
         if let Some(tlas) = &self.tlas {
             // SAFETY: forwarded.
-            let tr = unsafe { K::prep(&LRay { skip: u32::MAX, ..wr }) };
+            let tr = unsafe {
+                K::prep(&LRay {
+                    skip: u32::MAX,
+                    ..wr
+                })
+            };
             let t0 = best.t;
             let mut v = (
                 TlasClosest {
@@ -552,7 +642,11 @@ impl<const W: usize> Levels<W> {
         let wr = LRay {
             o: ray.origin.to_array(),
             d: ray.dir.to_array(),
-            skip: if skip.inst == NO_INSTANCE { skip.prim } else { u32::MAX },
+            skip: if skip.inst == NO_INSTANCE {
+                skip.prim
+            } else {
+                u32::MAX
+            },
         };
         // SAFETY: forwarded.
         if unsafe { blas_any::<K, W, F, C>(&self.world, &self.masks, &wr, ray.tmax, f, c) } {
@@ -562,7 +656,12 @@ impl<const W: usize> Levels<W> {
             return false;
         };
         // SAFETY: forwarded.
-        let tr = unsafe { K::prep(&LRay { skip: u32::MAX, ..wr }) };
+        let tr = unsafe {
+            K::prep(&LRay {
+                skip: u32::MAX,
+                ..wr
+            })
+        };
         let mut v = (
             TlasAny {
                 levels: self,

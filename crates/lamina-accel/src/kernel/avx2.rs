@@ -54,8 +54,14 @@ impl Lanes<8> for Avx2 {
             let (x0, x1) = slab(0);
             let (y0, y1) = slab(1);
             let (z0, z1) = slab(2);
-            let near = _mm256_max_ps(_mm256_max_ps(x0, y0), _mm256_max_ps(z0, _mm256_setzero_ps()));
-            let far = _mm256_min_ps(_mm256_min_ps(x1, y1), _mm256_min_ps(z1, _mm256_set1_ps(tmax)));
+            let near = _mm256_max_ps(
+                _mm256_max_ps(x0, y0),
+                _mm256_max_ps(z0, _mm256_setzero_ps()),
+            );
+            let far = _mm256_min_ps(
+                _mm256_min_ps(x1, y1),
+                _mm256_min_ps(z1, _mm256_set1_ps(tmax)),
+            );
             let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(near, _mm256_mul_ps(far, _mm256_set1_ps(ROBUST)));
             let mut tn = [0.0f32; 8];
             _mm256_storeu_ps(tn.as_mut_ptr(), near);

@@ -9,9 +9,9 @@
 //! return bit-identical hits; the node tests differ only in rounding, which the
 //! conservative far bound ([`ROBUST`]) absorbs.
 
-pub(crate) mod scalar;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod avx2;
+pub(crate) mod scalar;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod sse;
 
@@ -28,7 +28,8 @@ pub(crate) struct LRay {
 
 /// The far distance of a slab test is scaled by this: `1 + 2γ₃` in pbrt's error terms
 /// (Ize 2013, "Robust BVH ray traversal"), so rounding never culls a box the ray touches.
-pub(crate) const ROBUST: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+pub(crate) const ROBUST: f32 =
+    1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// Direction components below this magnitude are replaced by it (keeping their sign, so
 /// `-0` stays on the negative side) before inverting: the slab test then never computes
@@ -40,7 +41,13 @@ pub(crate) const MIN_DIR: f32 = 1e-20;
 /// reciprocal).
 #[inline(always)]
 pub(crate) fn inverse_dir(d: [f32; 3]) -> ([f32; 3], [usize; 3]) {
-    let inv = d.map(|c| 1.0 / if c.abs() < MIN_DIR { MIN_DIR.copysign(c) } else { c });
+    let inv = d.map(|c| {
+        1.0 / if c.abs() < MIN_DIR {
+            MIN_DIR.copysign(c)
+        } else {
+            c
+        }
+    });
     let near = [0, 1, 2].map(|a| if inv[a] >= 0.0 { a } else { 3 + a });
     (inv, near)
 }

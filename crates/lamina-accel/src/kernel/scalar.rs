@@ -16,8 +16,17 @@ pub(crate) struct SRay {
 /// The Möller-Trumbore test of lane `i` of `p` (the arithmetic every kernel repeats):
 /// `(hit, t, b1, b2)`.
 #[inline(always)]
-pub(crate) fn lane_test(p: &Pack, i: usize, o: [f32; 3], d: [f32; 3], tmax: f32) -> (bool, f32, f32, f32) {
-    let (e1, e2) = ([p.e1[0][i], p.e1[1][i], p.e1[2][i]], [p.e2[0][i], p.e2[1][i], p.e2[2][i]]);
+pub(crate) fn lane_test(
+    p: &Pack,
+    i: usize,
+    o: [f32; 3],
+    d: [f32; 3],
+    tmax: f32,
+) -> (bool, f32, f32, f32) {
+    let (e1, e2) = (
+        [p.e1[0][i], p.e1[1][i], p.e1[2][i]],
+        [p.e2[0][i], p.e2[1][i], p.e2[2][i]],
+    );
     let cross = |a: [f32; 3], b: [f32; 3]| {
         [
             a[1] * b[2] - a[2] * b[1],

@@ -66,10 +66,17 @@ fn main() {
             let mut hits = 0;
             for _ in 0..3 {
                 let t = Instant::now();
-                hits = rays.iter().filter(|ray| e.intersect(ray, PrimRef::NONE, &f).is_some()).count();
+                hits = rays
+                    .iter()
+                    .filter(|ray| e.intersect(ray, PrimRef::NONE, &f).is_some())
+                    .count();
                 best = best.min(t.elapsed().as_secs_f64());
                 let t = Instant::now();
-                std::hint::black_box(rays.iter().filter(|ray| e.occluded(ray, PrimRef::NONE, &f)).count());
+                std::hint::black_box(
+                    rays.iter()
+                        .filter(|ray| e.occluded(ray, PrimRef::NONE, &f))
+                        .count(),
+                );
                 best_any = best_any.min(t.elapsed().as_secs_f64());
             }
             println!(
@@ -98,6 +105,13 @@ fn main() {
             )
             .unwrap();
             let build = t.elapsed().as_secs_f64();
+            if std::env::var_os("LAMINA_BUILD_ONLY").is_some() {
+                println!(
+                    "{n:7} cards {kernel:?}: build {build:.3} s, {:.1} MB",
+                    a.memory().total() as f64 / 1e6
+                );
+                continue;
+            }
             let f = |_: u32, _| true;
             let mut best = f64::INFINITY;
             let mut hits = 0;
@@ -123,7 +137,16 @@ fn main() {
             for ray in &rays[..1 << 14] {
                 a.intersect_counted(ray, PrimRef::NONE, &f, &st);
             }
+            let sa = TraversalStats::default();
+            for ray in &rays[..1 << 14] {
+                a.occluded_counted(ray, PrimRef::NONE, &f, &sa);
+            }
             let k = (1 << 14) as f64;
+            println!(
+                "    any hit: nodes/ray {:.1}, packs/ray {:.1}",
+                sa.nodes.get() as f64 / k,
+                sa.packs.get() as f64 / k
+            );
             println!(
                 "{n:7} cards {kernel:?}: build {build:.3} s, SAH {:.1}, closest {:.2} Mrays/s, any {:.2} Mrays/s ({:.0} % hit), nodes/ray {:.1}, packs/ray {:.1}, {:.1} MB",
                 a.world_sah_cost(),

@@ -105,13 +105,65 @@ const PARALLEL_MIN: usize = 4096;
 /// the traversal stack, see `layout::STACK`) whatever the input.
 pub(crate) const SAH_DEPTH: usize = 40;
 
+/// One primitive as the build moves it around: its box and id, 32 bytes, partitioned in
+/// place so that every pass over a node's primitives reads memory in order.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+struct PRef {
+    min: Vec3,
+    id: u32,
+    max: Vec3,
+    _pad: u32,
+}
+
+impl PRef {
+    #[inline(always)]
+    fn center(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    #[inline(always)]
+    fn aabb(&self) -> Aabb {
+        Aabb {
+            min: self.min,
+            max: self.max,
+        }
+    }
+}
+
+/// Bounds and centroid bounds of `refs` (in parallel when there are many).
+fn bounds_of(refs: &[PRef]) -> (Aabb, Aabb) {
+    let fold = |(b, c): (Aabb, Aabb), r: &PRef| (b.union(r.aabb()), c.grow(r.center()));
+    let merge = |(b1, c1): (Aabb, Aabb), (b2, c2): (Aabb, Aabb)| (b1.union(b2), c1.union(c2));
+    let empty = (Aabb::EMPTY, Aabb::EMPTY);
+    if refs.len() < PARALLEL_BINNING {
+        refs.iter().fold(empty, fold)
+    } else {
+        use rayon::prelude::*;
+        refs.par_chunks(PARALLEL_BINNING / 4)
+            .map(|c| c.iter().fold(empty, fold))
+            .reduce(|| empty, merge)
+    }
+}
+
+/// Above this many primitives a node's binning runs on several threads.
+const PARALLEL_BINNING: usize = 1 << 16;
+
 /// Builds the binary BVH over the primitives with boxes `bounds` (ids = indices); every box
 /// must be non-empty and finite.
 pub(crate) fn build_binary(bounds: &[Aabb], params: BuildParams) -> Binary {
     let n = bounds.len();
     assert!(n > 0 && n < (1 << 30));
-    let centers: Vec<Vec3> = bounds.iter().map(Aabb::center).collect();
-    let mut order: Vec<u32> = (0..n as u32).collect();
+    let mut refs: Vec<PRef> = bounds
+        .iter()
+        .enumerate()
+        .map(|(i, b)| PRef {
+            min: b.min,
+            id: i as u32,
+            max: b.max,
+            _pad: 0,
+        })
+        .collect();
     let unused = BNode {
         bounds: Aabb::EMPTY,
         a: 0,
@@ -119,18 +171,16 @@ pub(crate) fn build_binary(bounds: &[Aabb], params: BuildParams) -> Binary {
         count: u32::MAX,
     };
     let mut nodes = vec![unused; 2 * n - 1];
-    let ctx = Ctx {
-        bounds,
-        centers: &centers,
-        params,
-    };
-    ctx.build(&mut nodes, 0, &mut order, 0, 0);
-    Binary { nodes, order }
+    let ctx = Ctx { params };
+    let (b, c) = bounds_of(&refs);
+    ctx.build(&mut nodes, 0, &mut refs, 0, 0, b, c);
+    Binary {
+        nodes,
+        order: refs.iter().map(|r| r.id).collect(),
+    }
 }
 
-struct Ctx<'a> {
-    bounds: &'a [Aabb],
-    centers: &'a [Vec3],
+struct Ctx {
     params: BuildParams,
 }
 
@@ -140,21 +190,31 @@ struct Bin {
     count: u32,
 }
 
-impl Ctx<'_> {
+const EMPTY_BINS: [[Bin; BINS]; 3] = [[Bin {
+    bounds: Aabb::EMPTY,
+    count: 0,
+}; BINS]; 3];
+
+impl Ctx {
     fn leaf_cost(&self, n: usize) -> f32 {
         n.div_ceil(self.params.pack) as f32
     }
 
-    /// Builds the subtree over `idx` (global offset `start` in the order) into `nodes`
-    /// (`2·len - 1` slots, the first being this subtree's root, global index `base`).
-    fn build(&self, nodes: &mut [BNode], base: u32, idx: &mut [u32], start: u32, depth: usize) {
-        let n = idx.len();
-        let (bounds, cbounds) = idx.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, c), &i| {
-            (
-                b.union(self.bounds[i as usize]),
-                c.grow(self.centers[i as usize]),
-            )
-        });
+    /// Builds the subtree over `refs` (global offset `start` in the order) into `nodes`
+    /// (`2·len - 1` slots, the first being this subtree's root, global index `base`);
+    /// `bounds` and `cbounds` are the boxes of `refs` and of their centres.
+    #[allow(clippy::too_many_arguments)]
+    fn build(
+        &self,
+        nodes: &mut [BNode],
+        base: u32,
+        refs: &mut [PRef],
+        start: u32,
+        depth: usize,
+        bounds: Aabb,
+        cbounds: Aabb,
+    ) {
+        let n = refs.len();
         let leaf = BNode {
             bounds,
             a: start,
@@ -166,38 +226,44 @@ impl Ctx<'_> {
             return;
         }
         let split = if depth < SAH_DEPTH {
-            self.sah_split(idx, bounds, cbounds)
+            self.sah_split(refs, bounds, cbounds)
         } else {
             None
         };
-        let k = match split {
-            Some((cost, k)) => {
+        let (k, sides) = match split {
+            Some((cost, k, sides)) => {
                 if n <= self.params.max_leaf && self.leaf_cost(n) <= cost {
                     nodes[0] = leaf;
                     return;
                 }
-                k
+                (k, sides)
             }
             None if n <= self.params.max_leaf => {
                 nodes[0] = leaf;
                 return;
             }
-            None => median_split(idx, self.centers, cbounds),
+            None => {
+                let k = median_split(refs, cbounds);
+                (k, [bounds_of(&refs[..k]), bounds_of(&refs[k..])])
+            }
         };
+        let [(lbox, lcb), (rbox, rcb)] = sides;
         let (left_nodes, right_nodes) = nodes[1..].split_at_mut(2 * k - 1);
-        let (left_idx, right_idx) = idx.split_at_mut(k);
+        let (left, right) = refs.split_at_mut(k);
         let (lb, rb) = (base + 1, base + 2 * k as u32);
-        let go_left = |ln: &mut [BNode], li: &mut [u32]| self.build(ln, lb, li, start, depth + 1);
-        let go_right =
-            |rn: &mut [BNode], ri: &mut [u32]| self.build(rn, rb, ri, start + k as u32, depth + 1);
+        let go_left =
+            |ln: &mut [BNode], l: &mut [PRef]| self.build(ln, lb, l, start, depth + 1, lbox, lcb);
+        let go_right = |rn: &mut [BNode], r: &mut [PRef]| {
+            self.build(rn, rb, r, start + k as u32, depth + 1, rbox, rcb)
+        };
         if n >= PARALLEL_MIN {
             rayon::join(
-                || go_left(left_nodes, left_idx),
-                || go_right(right_nodes, right_idx),
+                || go_left(left_nodes, left),
+                || go_right(right_nodes, right),
             );
         } else {
-            go_left(left_nodes, left_idx);
-            go_right(right_nodes, right_idx);
+            go_left(left_nodes, left);
+            go_right(right_nodes, right);
         }
         nodes[0] = BNode {
             bounds,
@@ -207,30 +273,53 @@ impl Ctx<'_> {
         };
     }
 
-    /// The best binned-SAH split over the three axes: `(cost, k)`, `idx` partitioned so
-    /// that `idx[..k]` goes left. `None` when every centre coincides.
-    fn sah_split(&self, idx: &mut [u32], bounds: Aabb, cb: Aabb) -> Option<(f32, usize)> {
+    /// The best binned-SAH split over the three axes: `(cost, k, [(box, centre box); 2])`,
+    /// `refs` partitioned so that `refs[..k]` goes left. `None` when every centre coincides.
+    #[allow(clippy::type_complexity)]
+    fn sah_split(
+        &self,
+        refs: &mut [PRef],
+        bounds: Aabb,
+        cb: Aabb,
+    ) -> Option<(f32, usize, [(Aabb, Aabb); 2])> {
         let extent = cb.max - cb.min;
         let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
         let mut best: Option<(f32, usize, usize)> = None; // cost, axis, bin boundary
-        let mut bins = [[Bin {
-            bounds: Aabb::EMPTY,
-            count: 0,
-        }; BINS]; 3];
+        // Fewer bins for small nodes: the sweep costs O(bins) whatever the node's size.
+        let nb = (refs.len() / 2 + 4).min(BINS);
         let scale = Vec3::select(
             extent.cmpgt(Vec3::ZERO),
-            Vec3::splat(BINS as f32 * (1.0 - 1e-6)) / extent,
+            Vec3::splat(nb as f32 * (1.0 - 1e-6)) / extent,
             Vec3::ZERO,
         );
-        for &i in idx.iter() {
-            let c = (self.centers[i as usize] - cb.min) * scale;
-            let b = self.bounds[i as usize];
-            for (axis, bins) in bins.iter_mut().enumerate() {
-                let k = (c[axis] as usize).min(BINS - 1);
-                bins[k].bounds = bins[k].bounds.union(b);
-                bins[k].count += 1;
+        let bin_all = |chunk: &[PRef]| {
+            let mut bins = EMPTY_BINS;
+            for r in chunk {
+                let c = (r.center() - cb.min) * scale;
+                let b = r.aabb();
+                for (axis, bins) in bins.iter_mut().enumerate() {
+                    let k = (c[axis] as usize).min(nb - 1);
+                    bins[k].bounds = bins[k].bounds.union(b);
+                    bins[k].count += 1;
+                }
             }
-        }
+            bins
+        };
+        let bins = if refs.len() < PARALLEL_BINNING {
+            bin_all(refs)
+        } else {
+            use rayon::prelude::*;
+            refs.par_chunks(PARALLEL_BINNING / 4).map(bin_all).reduce(
+                || EMPTY_BINS,
+                |mut a, b| {
+                    for (x, y) in a.iter_mut().flatten().zip(b.iter().flatten()) {
+                        x.bounds = x.bounds.union(y.bounds);
+                        x.count += y.count;
+                    }
+                    a
+                },
+            )
+        };
         for (axis, bins) in bins.iter().enumerate() {
             if extent[axis] <= 0.0 {
                 continue;
@@ -238,16 +327,16 @@ impl Ctx<'_> {
             // Right-to-left sweep: area·cost of everything right of each boundary.
             let mut right = [0.0f32; BINS];
             let (mut rb, mut rn) = (Aabb::EMPTY, 0usize);
-            for k in (1..BINS).rev() {
+            for k in (1..nb).rev() {
                 rb = rb.union(bins[k].bounds);
                 rn += bins[k].count as usize;
                 right[k] = rb.half_area() * self.leaf_cost(rn);
             }
             let (mut lb, mut ln) = (Aabb::EMPTY, 0usize);
-            for k in 1..BINS {
+            for k in 1..nb {
                 lb = lb.union(bins[k - 1].bounds);
                 ln += bins[k - 1].count as usize;
-                if ln == 0 || ln == idx.len() {
+                if ln == 0 || ln == refs.len() {
                     continue;
                 }
                 let cost = self.params.trav_cost
@@ -260,17 +349,17 @@ impl Ctx<'_> {
         let (cost, axis, k) = best?;
         let s = scale[axis];
         let lo = cb.min[axis];
-        let goes_left = |i: u32| {
-            let c = ((self.centers[i as usize][axis] - lo) * s) as usize;
-            c.min(BINS - 1) < k
+        let goes_left = |r: &PRef| {
+            let c = ((r.center()[axis] - lo) * s) as usize;
+            c.min(nb - 1) < k
         };
-        let mid = partition(idx, goes_left);
-        Some((cost, mid))
+        let (mid, sides) = partition(refs, goes_left);
+        Some((cost, mid, sides))
     }
 }
 
-/// Splits `idx` at its middle by centre along the longest axis of `cb` (`select_nth`).
-fn median_split(idx: &mut [u32], centers: &[Vec3], cb: Aabb) -> usize {
+/// Splits `refs` at its middle by centre along the longest axis of `cb` (`select_nth`).
+fn median_split(refs: &mut [PRef], cb: Aabb) -> usize {
     let e = cb.max - cb.min;
     let axis = if e.x >= e.y && e.x >= e.z {
         0
@@ -279,23 +368,38 @@ fn median_split(idx: &mut [u32], centers: &[Vec3], cb: Aabb) -> usize {
     } else {
         2
     };
-    let k = idx.len() / 2;
-    idx.select_nth_unstable_by(k, |&a, &b| {
-        centers[a as usize][axis].total_cmp(&centers[b as usize][axis])
-    });
+    let k = refs.len() / 2;
+    refs.select_nth_unstable_by(k, |a, b| a.center()[axis].total_cmp(&b.center()[axis]));
     k
 }
 
-/// Moves the elements for which `left` holds to the front; returns how many there are.
-fn partition(idx: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
-    let mut i = 0;
-    for j in 0..idx.len() {
-        if left(idx[j]) {
-            idx.swap(i, j);
+/// Moves the elements for which `left` holds to the front (Hoare-style, from both ends);
+/// returns how many there are and the boxes and centre boxes of the two sides.
+fn partition(refs: &mut [PRef], left: impl Fn(&PRef) -> bool) -> (usize, [(Aabb, Aabb); 2]) {
+    let (mut i, mut j) = (0, refs.len());
+    let mut sides = [(Aabb::EMPTY, Aabb::EMPTY); 2];
+    let mut add = |side: usize, r: &PRef| {
+        let s = &mut sides[side];
+        *s = (s.0.union(r.aabb()), s.1.grow(r.center()));
+    };
+    loop {
+        while i < j && left(&refs[i]) {
+            add(0, &refs[i]);
             i += 1;
         }
+        while i < j && !left(&refs[j - 1]) {
+            add(1, &refs[j - 1]);
+            j -= 1;
+        }
+        if i >= j {
+            return (i, sides);
+        }
+        refs.swap(i, j - 1);
+        add(0, &refs[i]);
+        add(1, &refs[j - 1]);
+        i += 1;
+        j -= 1;
     }
-    i
 }
 
 #[cfg(test)]

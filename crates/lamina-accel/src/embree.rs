@@ -977,10 +977,54 @@ impl Drop for EmbreeAccel {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::AccelError;
     use crate::desc::{Instance, PrimAlpha};
     use crate::mask::MaskWrap;
-    use crate::{Accel, AccelError};
     use glam::{Affine3A, Quat};
+
+    /// lamina's [`crate::Accel`] speaking scene instance indices, as Embree does (lamina's
+    /// hits name instances in its top level's order, see `Accel::scene_instances`).
+    #[derive(Debug)]
+    struct Accel {
+        a: crate::Accel,
+        /// Per lamina instance id, the scene index, and the inverse.
+        to_scene: Vec<u32>,
+        to_id: Vec<u32>,
+    }
+
+    impl Accel {
+        fn build(desc: &SceneDesc) -> Result<Accel, AccelError> {
+            let a = crate::Accel::build(desc)?;
+            let to_scene = a.scene_instances(desc);
+            let mut to_id = vec![u32::MAX; desc.instances.len()];
+            for (id, &k) in to_scene.iter().enumerate() {
+                to_id[k as usize] = id as u32;
+            }
+            Ok(Accel { a, to_scene, to_id })
+        }
+
+        fn map(p: PrimRef, table: &[u32]) -> PrimRef {
+            match p.inst {
+                NO_INSTANCE | SPHERE => p,
+                k => PrimRef {
+                    inst: table[k as usize],
+                    prim: p.prim,
+                },
+            }
+        }
+
+        fn intersect<F: AlphaFilter>(&self, ray: &Ray, skip: PrimRef, f: &F) -> Option<Hit> {
+            let skip = Accel::map(skip, &self.to_id);
+            self.a.intersect(ray, skip, f).map(|h| Hit {
+                prim: Accel::map(h.prim, &self.to_scene),
+                ..h
+            })
+        }
+
+        fn occluded<F: AlphaFilter>(&self, ray: &Ray, skip: PrimRef, f: &F) -> bool {
+            self.a.occluded(ray, Accel::map(skip, &self.to_id), f)
+        }
+    }
 
     /// splitmix64: a small, seeded generator.
     struct Rng(u64);

@@ -85,10 +85,11 @@ pub(crate) struct InstRec {
 
 const _: () = assert!(std::mem::size_of::<InstRec>() == 52);
 
-/// The top level: a wide tree whose leaves are instances (child code `LEAF | instance`).
+/// The top level: quantised 8-wide nodes ([`crate::top`]) whose leaves are instance
+/// records (child code `LEAF | record`, records in the top level's order).
 #[derive(Clone, Debug)]
-pub(crate) struct Tlas<const W: usize> {
-    pub nodes: PageArray<Node<W>>,
+pub(crate) struct Tlas {
+    pub nodes: PageArray<crate::top::QNode>,
     pub root: u32,
 }
 
@@ -109,16 +110,11 @@ pub(crate) fn collapse<const W: usize>(
     (nodes, 0)
 }
 
-/// Emits the wide node rooted at binary inner node `i` (and its subtree); returns its index.
-fn emit<const W: usize>(
-    bin: &Binary,
-    i: usize,
-    nodes: &mut Vec<Node<W>>,
-    leaf: &mut impl FnMut(usize, usize) -> u32,
-) -> u32 {
-    // Open the child of largest area until there are W or only leaves are left.
+/// The binary nodes that become the children of a wide node at binary inner node `i`:
+/// the child of largest area opened until there are `w` or only leaves are left.
+pub(crate) fn wide_children(bin: &Binary, i: usize, w: usize) -> Vec<usize> {
     let mut kids: Vec<usize> = vec![bin.nodes[i].a as usize, bin.nodes[i].b as usize];
-    while kids.len() < W {
+    while kids.len() < w {
         let best = kids
             .iter()
             .enumerate()
@@ -136,6 +132,17 @@ fn emit<const W: usize>(
         kids.push(bin.nodes[k].a as usize);
         kids.push(bin.nodes[k].b as usize);
     }
+    kids
+}
+
+/// Emits the wide node rooted at binary inner node `i` (and its subtree); returns its index.
+fn emit<const W: usize>(
+    bin: &Binary,
+    i: usize,
+    nodes: &mut Vec<Node<W>>,
+    leaf: &mut impl FnMut(usize, usize) -> u32,
+) -> u32 {
+    let kids = wide_children(bin, i, W);
     let me = nodes.len();
     nodes.push(Node {
         b: [

@@ -29,6 +29,15 @@
 
 #![warn(missing_docs)]
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Lane and axis loops index several parallel arrays at once (SoA), the form the kernels'
+// SIMD code mirrors; comparisons spell out NaN handling; the traversal's inner functions
+// take the ray, the level and the caller's filter and counter separately so that
+// everything stays in registers.
+#![allow(
+    clippy::needless_range_loop,
+    clippy::manual_range_contains,
+    clippy::too_many_arguments
+)]
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod build;
@@ -41,6 +50,7 @@ pub mod mask;
 mod memory;
 #[cfg(test)]
 mod tests;
+mod top;
 mod traverse;
 
 pub use build::Aabb;
@@ -48,7 +58,7 @@ pub use desc::{Geometry, Instance, Prim, PrimAlpha, SceneDesc, Sphere};
 pub use mask::{MaskWrap, OpacityMask};
 
 use glam::{Vec2, Vec3};
-use layout::{Blas, InstRec, LEAF, Tlas};
+use layout::{Blas, InstRec, Tlas};
 use std::cell::Cell;
 use traverse::Levels;
 
@@ -72,8 +82,10 @@ pub const SPHERE: u32 = u32::MAX - 1;
 pub const NO_PRIM: u32 = u32::MAX;
 
 /// A primitive of the scene: primitive `prim` (index in its [`Geometry`]) of the world
-/// (`inst == NO_INSTANCE`) or of instance `inst`'s prototype (index in
-/// [`SceneDesc::instances`]), or sphere `prim` (`inst == SPHERE`).
+/// (`inst == NO_INSTANCE`) or of instance `inst`'s prototype, or sphere `prim`
+/// (`inst == SPHERE`). Instance ids are the top level's order, which keeps instance
+/// records next to their tree neighbours and costs no index per instance;
+/// [`Accel::scene_instances`] maps them to [`SceneDesc::instances`] indices.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct PrimRef {
     /// Instance index, [`NO_INSTANCE`] or [`SPHERE`].
@@ -191,7 +203,9 @@ impl Kernel {
     /// The fastest kernel this CPU runs, unless `LAMINA_ACCEL_KERNEL` (`avx2`, `sse`,
     /// `scalar`) names another one it runs.
     pub fn best() -> Kernel {
-        let forced = std::env::var("LAMINA_ACCEL_KERNEL").ok().and_then(|s| Kernel::parse(&s));
+        let forced = std::env::var("LAMINA_ACCEL_KERNEL")
+            .ok()
+            .and_then(|s| Kernel::parse(&s));
         if let Some(k) = forced.filter(|k| k.available()) {
             return k;
         }
@@ -327,7 +341,8 @@ fn build_levels<const W: usize>(desc: &SceneDesc, trav_cost: f32) -> Result<Leve
     if desc.instances.len() >= 1 << 30 {
         return Err(AccelError::TooLarge("instances"));
     }
-    if desc.world.prims.len() >= 1 << 30 || desc.prototypes.iter().any(|g| g.prims.len() >= 1 << 30) {
+    if desc.world.prims.len() >= 1 << 30 || desc.prototypes.iter().any(|g| g.prims.len() >= 1 << 30)
+    {
         return Err(AccelError::TooLarge("a geometry"));
     }
     let mut used = vec![false; desc.prototypes.len()];
@@ -370,7 +385,51 @@ fn build_levels<const W: usize>(desc: &SceneDesc, trav_cost: f32) -> Result<Leve
                 .collect::<Vec<_>>()
         },
     );
-    // The top level over the world boxes of instances whose prototype is not empty.
+    let (ids, boxes) = top_boxes(desc, &protos);
+    let (tlas, top_recs) = if boxes.is_empty() {
+        (None, Vec::new())
+    } else {
+        let top = top::build_top(&build::build_binary(&boxes, top_params(trav_cost)), &boxes);
+        let top_recs = top
+            .order
+            .iter()
+            .map(|&k| recs[ids[k as usize] as usize])
+            .collect();
+        (
+            Some(Tlas {
+                nodes: top.nodes,
+                root: top.root,
+            }),
+            top_recs,
+        )
+    };
+    Ok(Levels {
+        world,
+        protos,
+        tlas,
+        recs: top_recs,
+        spheres: desc
+            .spheres
+            .iter()
+            .filter(|s| s.center.is_finite() && s.radius > 0.0 && s.radius.is_finite())
+            .copied()
+            .collect(),
+        masks: desc.masks.clone(),
+    })
+}
+
+/// The binary build settings of the top level: one instance per leaf.
+fn top_params(trav_cost: f32) -> build::BuildParams {
+    build::BuildParams {
+        max_leaf: top::TOP_LEAF,
+        pack: top::TOP_LEAF,
+        trav_cost,
+    }
+}
+
+/// The instances the top level holds (those whose prototype is not empty), as scene
+/// indices, and their world boxes.
+fn top_boxes<const W: usize>(desc: &SceneDesc, protos: &[Blas<W>]) -> (Vec<u32>, Vec<Aabb>) {
     let mut ids = Vec::new();
     let mut boxes = Vec::new();
     for (i, inst) in desc.instances.iter().enumerate() {
@@ -390,38 +449,7 @@ fn build_levels<const W: usize>(desc: &SceneDesc, trav_cost: f32) -> Result<Leve
         ids.push(i as u32);
         boxes.push(wb);
     }
-    let tlas = (!boxes.is_empty()).then(|| {
-        let bin = build::build_binary(
-            &boxes,
-            build::BuildParams {
-                max_leaf: 1,
-                pack: 1,
-                trav_cost,
-            },
-        );
-        let (nodes, root) = layout::collapse::<W>(&bin, &mut |start, count| {
-            debug_assert_eq!(count, 1);
-            LEAF | ids[bin.order[start] as usize]
-        });
-        Tlas {
-            nodes: memory::PageArray::new(nodes),
-            root,
-        }
-    });
-    Ok(Levels {
-        world,
-        protos,
-        tlas,
-        tlas_instances: ids.len(),
-        recs,
-        spheres: desc
-            .spheres
-            .iter()
-            .filter(|s| s.center.is_finite() && s.radius > 0.0 && s.radius.is_finite())
-            .copied()
-            .collect(),
-        masks: desc.masks.clone(),
-    })
+    (ids, boxes)
 }
 
 macro_rules! dispatch {
@@ -522,18 +550,39 @@ impl Accel {
         dispatch!(self, occluded, ray, skip, f, stats)
     }
 
-    /// The world-to-object transform of instance `inst` (index in
-    /// [`SceneDesc::instances`]) as the traversal applies it; `None` out of range.
+    /// The world-to-object transform of instance `inst` (an instance id as hits report it:
+    /// the top level's order, see [`Accel::scene_instances`]) as the traversal applies it;
+    /// `None` out of range.
     #[inline]
     pub fn world_to_object(&self, inst: u32) -> Option<glam::Affine3A> {
         let recs = match &self.engine {
             Engine::W8(l) => &l.recs,
             Engine::W4(l) => &l.recs,
         };
-        recs.get(inst as usize).map(|r| glam::Affine3A::from_cols_slice(&r.w2o))
+        recs.get(inst as usize)
+            .map(|r| glam::Affine3A::from_cols_slice(&r.w2o))
     }
 
-    /// The prototype of instance `inst` (index in [`SceneDesc::instances`]).
+    /// For each instance id a hit reports (the top level's order), its index in
+    /// [`SceneDesc::instances`]: recomputed from `desc` (the build is deterministic), so
+    /// that the structure itself stores nothing for it. `desc` must be the scene this was
+    /// built from.
+    pub fn scene_instances(&self, desc: &SceneDesc) -> Vec<u32> {
+        fn of<const W: usize>(l: &Levels<W>, desc: &SceneDesc, trav_cost: f32) -> Vec<u32> {
+            let (ids, boxes) = top_boxes(desc, &l.protos);
+            if boxes.is_empty() {
+                return Vec::new();
+            }
+            let top = top::build_top(&build::build_binary(&boxes, top_params(trav_cost)), &boxes);
+            top.order.iter().map(|&k| ids[k as usize]).collect()
+        }
+        match &self.engine {
+            Engine::W8(l) => of(l, desc, self.trav_cost),
+            Engine::W4(l) => of(l, desc, self.trav_cost),
+        }
+    }
+
+    /// The prototype of instance `inst` (an instance id as hits report it).
     ///
     /// # Panics
     /// For an instance index out of range.
@@ -548,8 +597,11 @@ impl Accel {
     /// Bytes held, by level.
     pub fn memory(&self) -> AccelMemory {
         fn of<const W: usize>(l: &Levels<W>) -> AccelMemory {
-            let tlas = l.tlas.as_ref().map_or(0, |t| t.nodes.len() * std::mem::size_of::<layout::Node<W>>());
-            let count = l.tlas_instances;
+            let tlas = l
+                .tlas
+                .as_ref()
+                .map_or(0, |t| t.nodes.len() * std::mem::size_of::<top::QNode>());
+            let count = l.recs.len();
             AccelMemory {
                 world: l.world.bytes(),
                 prototypes: l.protos.iter().map(Blas::bytes).sum(),

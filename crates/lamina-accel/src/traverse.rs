@@ -6,6 +6,7 @@ use crate::desc::Sphere;
 use crate::kernel::{LRay, Lanes};
 use crate::layout::{ALPHA, Blas, EMPTY, InstRec, LEAF, Node, Pack, STACK, Tlas};
 use crate::mask::{OPAQUE, OpacityMask, TRANSPARENT};
+use crate::top::QNode;
 use crate::{AlphaFilter, Counter, Event, Hit, NO_INSTANCE, PrimRef, Ray, SPHERE};
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
 use std::mem::MaybeUninit;
@@ -18,17 +19,68 @@ pub(crate) enum Step {
     Stop,
 }
 
-/// Asks the memory system for the node or leaf behind child code `code` (pushed now, read
-/// when popped).
-#[inline(always)]
-fn prefetch<const W: usize>(nodes: &[Node<W>], code: u32, leaf: &impl Visit) {
-    if code & LEAF == 0 {
-        if let Some(n) = nodes.get(code as usize) {
+/// A tree's nodes as the walk sees them: a node test and child codes by slot.
+pub(crate) trait Nodes<K: Lanes<W>, const W: usize, const N: usize> {
+    /// [`Lanes::node`] for node `i`.
+    ///
+    /// # Safety
+    /// As [`walk`].
+    unsafe fn test(&self, i: u32, r: &K::R, tmax: f32) -> (u32, [f32; N]);
+    /// The child code in slot `slot` of node `i`.
+    fn child(&self, i: u32, slot: usize) -> u32;
+    /// Prefetches node `i`.
+    fn prefetch_node(&self, i: u32);
+}
+
+impl<K: Lanes<W>, const W: usize> Nodes<K, W, W> for [Node<W>] {
+    #[inline(always)]
+    unsafe fn test(&self, i: u32, r: &K::R, tmax: f32) -> (u32, [f32; W]) {
+        // SAFETY: forwarded.
+        unsafe { K::node(&self[i as usize], r, tmax) }
+    }
+    #[inline(always)]
+    fn child(&self, i: u32, slot: usize) -> u32 {
+        self[i as usize].child[slot]
+    }
+    #[inline(always)]
+    fn prefetch_node(&self, i: u32) {
+        if let Some(n) = self.get(i as usize) {
             prefetch_lines(
                 n as *const Node<W> as *const u8,
                 std::mem::size_of::<Node<W>>(),
             );
         }
+    }
+}
+
+impl<K: Lanes<W>, const W: usize> Nodes<K, W, 8> for [QNode] {
+    #[inline(always)]
+    unsafe fn test(&self, i: u32, r: &K::R, tmax: f32) -> (u32, [f32; 8]) {
+        // SAFETY: forwarded.
+        unsafe { K::qnode(&self[i as usize], r, tmax) }
+    }
+    #[inline(always)]
+    fn child(&self, i: u32, slot: usize) -> u32 {
+        self[i as usize].child(slot)
+    }
+    #[inline(always)]
+    fn prefetch_node(&self, i: u32) {
+        if let Some(n) = self.get(i as usize) {
+            prefetch_lines(n as *const QNode as *const u8, std::mem::size_of::<QNode>());
+        }
+    }
+}
+
+/// Asks the memory system for the node or leaf behind child code `code` (pushed now, read
+/// when popped).
+#[inline(always)]
+fn prefetch<K: Lanes<W>, const W: usize, const N: usize, T: Nodes<K, W, N> + ?Sized>(
+    nodes: &T,
+    code: u32,
+    leaf: &impl Visit,
+) {
+    if code & LEAF == 0 {
+        nodes.prefetch_node(code);
     } else if code != EMPTY {
         leaf.prefetch(code & !LEAF);
     }
@@ -74,8 +126,15 @@ pub(crate) trait Visit {
 /// # Safety
 /// `K`'s instruction set must be available (see [`Lanes`]).
 #[inline(always)]
-pub(crate) unsafe fn walk<K: Lanes<W>, const W: usize, const ORDERED: bool, C: Counter>(
-    nodes: &[Node<W>],
+pub(crate) unsafe fn walk<
+    K: Lanes<W>,
+    const W: usize,
+    const N: usize,
+    T: Nodes<K, W, N> + ?Sized,
+    const ORDERED: bool,
+    C: Counter,
+>(
+    nodes: &T,
     root: u32,
     r: &K::R,
     mut tmax: f32,
@@ -90,12 +149,11 @@ pub(crate) unsafe fn walk<K: Lanes<W>, const W: usize, const ORDERED: bool, C: C
     loop {
         if cur & LEAF == 0 {
             c.count(Event::Node);
-            let node = &nodes[cur as usize];
             // SAFETY: forwarded from the caller's guarantee on `K`.
-            let (mut m, tn) = unsafe { K::node(node, r, tmax) };
+            let (mut m, tn) = unsafe { nodes.test(cur, r, tmax) };
             if m != 0 {
                 if m & (m - 1) == 0 {
-                    cur = node.child[m.trailing_zeros() as usize];
+                    cur = nodes.child(cur, m.trailing_zeros() as usize);
                     continue;
                 }
                 if ORDERED && (m & (m - 1)).count_ones() == 1 {
@@ -105,19 +163,19 @@ pub(crate) unsafe fn walk<K: Lanes<W>, const W: usize, const ORDERED: bool, C: C
                         (31 - m.leading_zeros()) as usize,
                     );
                     let (near, far) = if tn[j] < tn[i] { (j, i) } else { (i, j) };
-                    let far_child = node.child[far];
-                    prefetch(nodes, far_child, leaf);
+                    let far_child = nodes.child(cur, far);
+                    prefetch::<K, W, N, T>(nodes, far_child, leaf);
                     stack[sp] = MaybeUninit::new((far_child, tn[far]));
                     sp += 1;
-                    cur = node.child[near];
+                    cur = nodes.child(cur, near);
                     continue;
                 }
                 let base = sp;
                 while m != 0 {
                     let i = m.trailing_zeros() as usize;
                     m &= m - 1;
-                    let entry = (node.child[i], tn[i]);
-                    prefetch(nodes, entry.0, leaf);
+                    let entry = (nodes.child(cur, i), tn[i]);
+                    prefetch::<K, W, N, T>(nodes, entry.0, leaf);
                     if ORDERED {
                         // Insertion into the pushed run, farthest at the bottom.
                         let mut j = sp;
@@ -347,7 +405,7 @@ unsafe fn blas_closest<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
         c,
     };
     // SAFETY: forwarded.
-    unsafe { walk::<K, W, true, C>(&blas.nodes, blas.root, &r, t0, c, &mut v) };
+    unsafe { walk::<K, W, W, [Node<W>], true, C>(&blas.nodes, blas.root, &r, t0, c, &mut v) };
     found
 }
 
@@ -413,7 +471,7 @@ unsafe fn blas_any<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
         c,
     };
     // SAFETY: forwarded.
-    unsafe { walk::<K, W, false, C>(&blas.nodes, blas.root, &r, tmax, c, &mut v) };
+    unsafe { walk::<K, W, W, [Node<W>], false, C>(&blas.nodes, blas.root, &r, tmax, c, &mut v) };
     hit
 }
 
@@ -486,10 +544,9 @@ impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit
 pub(crate) struct Levels<const W: usize> {
     pub world: Blas<W>,
     pub protos: Vec<Blas<W>>,
-    pub tlas: Option<Tlas<W>>,
-    /// Instances in the top level (those of empty prototypes are left out).
-    pub tlas_instances: usize,
-    /// Per scene instance (input order), its record.
+    pub tlas: Option<Tlas>,
+    /// The instance records in the top level's order (instances of empty prototypes are
+    /// left out): a hit's instance id indexes this.
     pub recs: Vec<InstRec>,
     pub spheres: Vec<Sphere>,
     pub masks: Vec<Option<OpacityMask>>,
@@ -594,7 +651,9 @@ impl<const W: usize> Levels<W> {
                 KernelOf::<K>(std::marker::PhantomData),
             );
             // SAFETY: forwarded.
-            unsafe { walk::<K, W, true, C>(&tlas.nodes, tlas.root, &tr, t0, c, &mut v) };
+            unsafe {
+                walk::<K, W, 8, [QNode], true, C>(&tlas.nodes, tlas.root, &tr, t0, c, &mut v)
+            };
             best = v.0.best;
             found |= v.0.found;
         }
@@ -675,7 +734,9 @@ impl<const W: usize> Levels<W> {
             KernelOf::<K>(std::marker::PhantomData),
         );
         // SAFETY: forwarded.
-        unsafe { walk::<K, W, false, C>(&tlas.nodes, tlas.root, &tr, ray.tmax, c, &mut v) };
+        unsafe {
+            walk::<K, W, 8, [QNode], false, C>(&tlas.nodes, tlas.root, &tr, ray.tmax, c, &mut v)
+        };
         v.0.hit
     }
 }

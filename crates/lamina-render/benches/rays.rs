@@ -139,7 +139,10 @@ fn main() {
     }
     if std::env::var_os("LAMINA_STATS").is_some() {
         let (sah, nodes, packs) = accel.world_tree();
-        println!("world tree: SAH cost {sah:.2}, {nodes} nodes, {packs} packs, kernel {:?}", accel.kernel());
+        println!(
+            "world tree: SAH cost {sah:.2}, {nodes} nodes, {packs} packs, kernel {:?}",
+            accel.kernel()
+        );
         for (name, rays, any) in [
             ("camera closest", &camera_rays, false),
             ("random closest", &random_rays, false),

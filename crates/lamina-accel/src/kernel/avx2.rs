@@ -5,6 +5,7 @@ use super::{LRay, Lanes, LeafHits, ROBUST};
 use crate::kernel::scalar::far_index;
 use crate::kernel::sse::{VRay, leaf4, prep4};
 use crate::layout::{Node, Pack};
+use crate::top::QNode;
 use std::arch::x86_64::*;
 
 pub(crate) struct Avx2;
@@ -29,8 +30,16 @@ impl Lanes<8> for Avx2 {
             let four = prep4(r);
             let (inv, _) = super::inverse_dir(r.d);
             WRay {
-                oinv: [0, 1, 2].map(|a| _mm256_set1_ps(r.o[a] * inv[a])),
-                inv: inv.map(|x| _mm256_set1_ps(x)),
+                oinv: [
+                    _mm256_set1_ps(r.o[0] * inv[0]),
+                    _mm256_set1_ps(r.o[1] * inv[1]),
+                    _mm256_set1_ps(r.o[2] * inv[2]),
+                ],
+                inv: [
+                    _mm256_set1_ps(inv[0]),
+                    _mm256_set1_ps(inv[1]),
+                    _mm256_set1_ps(inv[2]),
+                ],
                 near: four.near,
                 four,
             }
@@ -54,6 +63,36 @@ impl Lanes<8> for Avx2 {
             let (x0, x1) = slab(0);
             let (y0, y1) = slab(1);
             let (z0, z1) = slab(2);
+            let near = _mm256_max_ps(
+                _mm256_max_ps(x0, y0),
+                _mm256_max_ps(z0, _mm256_setzero_ps()),
+            );
+            let far = _mm256_min_ps(
+                _mm256_min_ps(x1, y1),
+                _mm256_min_ps(z1, _mm256_set1_ps(tmax)),
+            );
+            let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(near, _mm256_mul_ps(far, _mm256_set1_ps(ROBUST)));
+            let mut tn = [0.0f32; 8];
+            _mm256_storeu_ps(tn.as_mut_ptr(), near);
+            (_mm256_movemask_ps(hit) as u32, tn)
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn qnode(n: &QNode, r: &WRay, tmax: f32) -> (u32, [f32; 8]) {
+        let (a, b) = super::qframe(n, r.four.so, r.four.sinv);
+        // SAFETY: each 8-byte load reads all of `n.q[k]` (an `[u8; 8]`, unaligned load);
+        // the store writes all of `tn`. AVX2 + FMA are guaranteed by the caller.
+        unsafe {
+            let t = |ax: usize, k: usize| {
+                let q = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(
+                    n.q[k].as_ptr() as *const __m128i
+                )));
+                _mm256_fmadd_ps(q, _mm256_set1_ps(a[ax]), _mm256_set1_ps(b[ax]))
+            };
+            let (x0, x1) = (t(0, r.near[0]), t(0, far_index(r.near[0])));
+            let (y0, y1) = (t(1, r.near[1]), t(1, far_index(r.near[1])));
+            let (z0, z1) = (t(2, r.near[2]), t(2, far_index(r.near[2])));
             let near = _mm256_max_ps(
                 _mm256_max_ps(x0, y0),
                 _mm256_max_ps(z0, _mm256_setzero_ps()),

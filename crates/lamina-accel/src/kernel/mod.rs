@@ -16,6 +16,7 @@ pub(crate) mod scalar;
 pub(crate) mod sse;
 
 use crate::layout::{Node, Pack};
+use crate::top::QNode;
 
 /// A ray in the space of one level: origin, direction (not renormalised) and the
 /// primitive id to skip (`u32::MAX`: none).
@@ -41,14 +42,17 @@ pub(crate) const MIN_DIR: f32 = 1e-20;
 /// reciprocal).
 #[inline(always)]
 pub(crate) fn inverse_dir(d: [f32; 3]) -> ([f32; 3], [usize; 3]) {
-    let inv = d.map(|c| {
+    // Written out: `[T; N]::map` is not always inlined (it showed in profiles).
+    let r = |c: f32| {
         1.0 / if c.abs() < MIN_DIR {
             MIN_DIR.copysign(c)
         } else {
             c
         }
-    });
-    let near = [0, 1, 2].map(|a| if inv[a] >= 0.0 { a } else { 3 + a });
+    };
+    let inv = [r(d[0]), r(d[1]), r(d[2])];
+    let n = |a: usize| if inv[a] >= 0.0 { a } else { 3 + a };
+    let near = [n(0), n(1), n(2)];
     (inv, near)
 }
 
@@ -77,4 +81,21 @@ pub(crate) trait Lanes<const W: usize> {
     unsafe fn node(n: &Node<W>, r: &Self::R, tmax: f32) -> (u32, [f32; W]);
     /// Which primitives of `p` the ray hits within `(0, tmax)`, not counting id `skip`.
     unsafe fn leaf(p: &Pack, r: &Self::R, tmax: f32, skip: u32) -> LeafHits;
+    /// [`Lanes::node`] for a quantised top-level node (8 slots for every kernel).
+    unsafe fn qnode(n: &QNode, r: &Self::R, tmax: f32) -> (u32, [f32; 8]);
+}
+
+/// The slab test of a quantised node in FMA form: per axis `t = q · a + b` with
+/// `a = step · inv`, `b = (origin - o) · inv`.
+#[inline(always)]
+pub(crate) fn qframe(n: &QNode, o: [f32; 3], inv: [f32; 3]) -> ([f32; 3], [f32; 3]) {
+    let s = n.steps();
+    (
+        [s[0] * inv[0], s[1] * inv[1], s[2] * inv[2]],
+        [
+            (n.origin[0] - o[0]) * inv[0],
+            (n.origin[1] - o[1]) * inv[1],
+            (n.origin[2] - o[2]) * inv[2],
+        ],
+    )
 }

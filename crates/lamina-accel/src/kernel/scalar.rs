@@ -2,6 +2,7 @@
 
 use super::{LRay, Lanes, LeafHits, ROBUST, inverse_dir};
 use crate::layout::{Node, Pack};
+use crate::top::QNode;
 
 pub(crate) struct Scalar;
 
@@ -89,6 +90,11 @@ impl<const W: usize> Lanes<W> for Scalar {
     }
 
     #[inline(always)]
+    unsafe fn qnode(n: &QNode, r: &SRay, tmax: f32) -> (u32, [f32; 8]) {
+        qnode_scalar(n, r.o, r.inv, r.near, tmax)
+    }
+
+    #[inline(always)]
     unsafe fn leaf(p: &Pack, r: &SRay, tmax: f32, skip: u32) -> LeafHits {
         let mut h = LeafHits {
             mask: 0,
@@ -107,6 +113,33 @@ impl<const W: usize> Lanes<W> for Scalar {
         }
         h
     }
+}
+
+/// The scalar quantised-node test (every kernel could use it; the scalar kernel does).
+#[inline(always)]
+pub(crate) fn qnode_scalar(
+    n: &QNode,
+    o: [f32; 3],
+    inv: [f32; 3],
+    near_idx: [usize; 3],
+    tmax: f32,
+) -> (u32, [f32; 8]) {
+    let (a, b) = super::qframe(n, o, inv);
+    let mut mask = 0;
+    let mut tn = [0.0; 8];
+    for i in 0..8 {
+        let mut near = 0.0f32;
+        let mut far = tmax;
+        for ax in 0..3 {
+            near = near.max(n.q[near_idx[ax]][i] as f32 * a[ax] + b[ax]);
+            far = far.min(n.q[far_index(near_idx[ax])][i] as f32 * a[ax] + b[ax]);
+        }
+        tn[i] = near;
+        if near <= far * ROBUST {
+            mask |= 1 << i;
+        }
+    }
+    (mask, tn)
 }
 
 /// The far-plane index for near-plane index `near` (`axis` ↔ `3 + axis`).

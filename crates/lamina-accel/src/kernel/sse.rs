@@ -4,6 +4,7 @@
 use super::{LRay, Lanes, LeafHits, ROBUST, inverse_dir};
 use crate::kernel::scalar::far_index;
 use crate::layout::{Node, Pack};
+use crate::top::QNode;
 use std::arch::x86_64::*;
 
 pub(crate) struct Sse;
@@ -15,6 +16,9 @@ pub(crate) struct VRay {
     pub d: [__m128; 3],
     pub inv: [__m128; 3],
     pub near: [usize; 3],
+    /// Origin and reciprocal direction as scalars (for quantised nodes' frames).
+    pub so: [f32; 3],
+    pub sinv: [f32; 3],
 }
 
 #[inline(always)]
@@ -22,11 +26,15 @@ pub(crate) unsafe fn prep4(r: &LRay) -> VRay {
     let (inv, near) = inverse_dir(r.d);
     // SAFETY: `_mm_set1_ps` only needs SSE, part of every x86-64 CPU.
     unsafe {
+        // Written out: `[T; N]::map` was not inlined here (2 % of a render in `try_map`).
+        let b = |v: [f32; 3]| [_mm_set1_ps(v[0]), _mm_set1_ps(v[1]), _mm_set1_ps(v[2])];
         VRay {
-            o: r.o.map(|x| _mm_set1_ps(x)),
-            d: r.d.map(|x| _mm_set1_ps(x)),
-            inv: inv.map(|x| _mm_set1_ps(x)),
+            o: b(r.o),
+            d: b(r.d),
+            inv: b(inv),
             near,
+            so: r.o,
+            sinv: inv,
         }
     }
 }
@@ -137,5 +145,39 @@ impl Lanes<4> for Sse {
     unsafe fn leaf(p: &Pack, r: &VRay, tmax: f32, skip: u32) -> LeafHits {
         // SAFETY: SSE2 only (see `leaf4`).
         unsafe { leaf4(p, r, tmax, skip) }
+    }
+
+    #[inline(always)]
+    unsafe fn qnode(n: &QNode, r: &VRay, tmax: f32) -> (u32, [f32; 8]) {
+        let (a, b) = super::qframe(n, r.so, r.sinv);
+        // SAFETY: each 4-byte read is inside `n.q[k]` (an `[u8; 8]`, halves at 0 and 4,
+        // read unaligned); the stores write whole `[f32; 4]` halves of `tn`. SSE2 only.
+        unsafe {
+            let zero = _mm_setzero_si128();
+            let planes = |k: usize, half: usize| {
+                let bytes = (n.q[k].as_ptr().add(4 * half) as *const i32).read_unaligned();
+                let v = _mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(bytes), zero), zero);
+                _mm_cvtepi32_ps(v)
+            };
+            let mut mask = 0u32;
+            let mut tn = [0.0f32; 8];
+            for half in 0..2 {
+                let t = |ax: usize, k: usize| {
+                    _mm_add_ps(
+                        _mm_mul_ps(planes(k, half), _mm_set1_ps(a[ax])),
+                        _mm_set1_ps(b[ax]),
+                    )
+                };
+                let (x0, x1) = (t(0, r.near[0]), t(0, far_index(r.near[0])));
+                let (y0, y1) = (t(1, r.near[1]), t(1, far_index(r.near[1])));
+                let (z0, z1) = (t(2, r.near[2]), t(2, far_index(r.near[2])));
+                let near = _mm_max_ps(_mm_max_ps(x0, y0), _mm_max_ps(z0, _mm_setzero_ps()));
+                let far = _mm_min_ps(_mm_min_ps(x1, y1), _mm_min_ps(z1, _mm_set1_ps(tmax)));
+                let hit = _mm_cmple_ps(near, _mm_mul_ps(far, _mm_set1_ps(ROBUST)));
+                mask |= (_mm_movemask_ps(hit) as u32) << (4 * half);
+                _mm_storeu_ps(tn.as_mut_ptr().add(4 * half), near);
+            }
+            (mask, tn)
+        }
     }
 }

@@ -222,7 +222,6 @@ impl BlasBuilder {
         }
         Ok(())
     }
-
 }
 
 impl Blas {

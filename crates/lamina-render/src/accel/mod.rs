@@ -100,7 +100,8 @@ pub use lamina_accel::{NO_INSTANCE, NO_PRIM};
 
 /// A primitive of the scene: primitive `prim` (the order the level's meshes were pushed)
 /// of the world meshes and quad lights (`inst == NO_INSTANCE`) or of the prototype of
-/// instance `inst` (index in [`Scene::instances`]).
+/// instance `inst` (lamina-accel's instance id: the top level's order, not the index in
+/// [`Scene::instances`]).
 pub use lamina_accel::PrimRef;
 
 /// Per-triangle shading data, precomputed at build time.

@@ -110,14 +110,23 @@ fn negative_zero_directions_hit() {
                 tmax: f32::INFINITY,
             };
             let (h, h_plus) = (a.intersect(&ray(d)), a.intersect(&ray(plus)));
-            let (h, h_plus) = (h.expect("the -0 ray hits"), h_plus.expect("the +0 ray hits"));
+            let (h, h_plus) = (
+                h.expect("the -0 ray hits"),
+                h_plus.expect("the +0 ray hits"),
+            );
             // The same point: on an edge the two may name either of its triangles.
-            assert!((h.t - h_plus.t).abs() <= 1e-5 * h.t, "{o} {d}: {h:?} {h_plus:?}");
+            assert!(
+                (h.t - h_plus.t).abs() <= 1e-5 * h.t,
+                "{o} {d}: {h:?} {h_plus:?}"
+            );
             let point = |h: Hit| match h.kind {
                 HitKind::Triangle { prim, bary } => a.surface(prim, bary).0,
                 HitKind::Sphere { .. } => unreachable!(),
             };
-            assert!(point(h).distance(point(h_plus)) < 1e-5, "{o} {d}: {h:?} {h_plus:?}");
+            assert!(
+                point(h).distance(point(h_plus)) < 1e-5,
+                "{o} {d}: {h:?} {h_plus:?}"
+            );
             assert!(a.occluded(&ray(d)));
         }
     }

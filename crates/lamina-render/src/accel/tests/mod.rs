@@ -102,6 +102,8 @@ pub(crate) trait Backend: Sized {
 /// lacks falls back to the best one (the suite then checks that one twice).
 pub(crate) struct CurrentAccel<const K: u8 = 0> {
     accel: Accel,
+    /// Per instance id (lamina-accel's top-level order), its index in [`Scene::instances`].
+    scene_instance: Vec<u32>,
 }
 
 impl<const K: u8> Backend for CurrentAccel<K> {
@@ -119,9 +121,33 @@ impl<const K: u8> Backend for CurrentAccel<K> {
             2 => Kernel::Scalar,
             _ => Kernel::best(),
         };
-        let kernel = if kernel.available() { kernel } else { Kernel::best() };
+        let kernel = if kernel.available() {
+            kernel
+        } else {
+            Kernel::best()
+        };
+        let accel = Accel::build_for(scene, true, kernel)?;
+        // lamina-accel stores the inverse transform as `Instance::transform.inverse()`
+        // computes it: the same computation here finds each id's instance, bit for bit.
+        let mut taken = vec![false; scene.instances.len()];
+        let scene_instance = (0..accel.instance_count() as u32)
+            .map(|id| {
+                let w2o = accel.world_to_object(id);
+                let k = (0..scene.instances.len())
+                    .find(|&k| {
+                        let inst = &scene.instances[k];
+                        !taken[k]
+                            && accel.core.prototype_of(id) == inst.prototype
+                            && inst.transform.inverse() == w2o
+                    })
+                    .expect("every instance id comes from a scene instance");
+                taken[k] = true;
+                k as u32
+            })
+            .collect();
         Ok(CurrentAccel {
-            accel: Accel::build_for(scene, true, kernel)?,
+            accel,
+            scene_instance,
         })
     }
 
@@ -141,7 +167,8 @@ impl<const K: u8> Backend for CurrentAccel<K> {
             Surface::QuadLight(id)
         } else {
             Surface::Mesh {
-                instance: (prim.inst != NO_INSTANCE).then_some(prim.inst),
+                instance: (prim.inst != NO_INSTANCE)
+                    .then(|| self.scene_instance[prim.inst as usize]),
                 material: id,
             }
         };

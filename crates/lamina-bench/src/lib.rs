@@ -1,6 +1,7 @@
 //! Scale benchmarks for lamina: scenes of whole procedural trees in two representations
 //! (flat leaf cards in world space, and instanced curved leaves), and the measurements the
-//! `scale` binary reports; and ([`frame`]) the tree the GPU path's frame time is measured on.
+//! `scale` binary reports; ([`frame`]) the tree the GPU path's frame time is measured on;
+//! and ([`rays`]) the scenes and rays of the `rays` benchmark (lamina-accel against Embree).
 //!
 //! Where this crate sits among the others, and the invariants it keeps: ARCHITECTURE.md.
 
@@ -8,6 +9,7 @@
 #![warn(missing_docs)]
 
 pub mod frame;
+pub mod rays;
 
 pub use frame::frame_tree_scene;
 

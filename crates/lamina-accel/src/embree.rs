@@ -934,8 +934,10 @@ impl EmbreeAccel {
     }
 
     /// Bytes held: what Embree's memory monitor counted (BVHs, vertex and index buffers)
-    /// plus our primitive maps, instance table and opacity masks. Embree's small geometry
-    /// and scene objects themselves are not counted by its monitor.
+    /// plus our primitive maps, instance table and opacity masks. Embree's geometry and
+    /// scene objects themselves are not counted by its monitor, which matters with many
+    /// instances (one geometry each): for the benchmark's 1M-instance tree it counts 80 MB
+    /// while the process's peak resident memory grows by ~340 MB.
     pub fn memory_bytes(&self) -> Option<usize> {
         let embree = self.log.bytes.load(Ordering::Relaxed).max(0) as usize;
         let slots = |s: &Slots| s.iter().flatten().map(|d| d.bytes()).sum::<usize>();

@@ -7,7 +7,7 @@
 //! one SIMD step, so a leaf of 1 to 4 primitives costs the same and the build prefers full
 //! leaves (`C(n) = ⌈n / pack⌉`).
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// An axis-aligned box; `EMPTY` has `min = +∞, max = -∞`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -184,14 +184,26 @@ struct Ctx {
     params: BuildParams,
 }
 
+/// One bin: the box of the primitives in it (SIMD lanes) and their number.
 #[derive(Clone, Copy)]
 struct Bin {
-    bounds: Aabb,
+    min: Vec3A,
+    max: Vec3A,
     count: u32,
 }
 
+impl Bin {
+    fn aabb(&self) -> Aabb {
+        Aabb {
+            min: self.min.into(),
+            max: self.max.into(),
+        }
+    }
+}
+
 const EMPTY_BINS: [[Bin; BINS]; 3] = [[Bin {
-    bounds: Aabb::EMPTY,
+    min: Vec3A::INFINITY,
+    max: Vec3A::NEG_INFINITY,
     count: 0,
 }; BINS]; 3];
 
@@ -292,15 +304,18 @@ impl Ctx {
             Vec3::splat(nb as f32 * (1.0 - 1e-6)) / extent,
             Vec3::ZERO,
         );
+        let (cmin, scale_a) = (Vec3A::from(cb.min), Vec3A::from(scale));
+        let last = glam::UVec3::splat(nb as u32 - 1);
         let bin_all = |chunk: &[PRef]| {
             let mut bins = EMPTY_BINS;
             for r in chunk {
-                let c = (r.center() - cb.min) * scale;
-                let b = r.aabb();
+                let (lo, hi) = (Vec3A::from(r.min), Vec3A::from(r.max));
+                let k = (((lo + hi) * 0.5 - cmin) * scale_a).as_uvec3().min(last);
                 for (axis, bins) in bins.iter_mut().enumerate() {
-                    let k = (c[axis] as usize).min(nb - 1);
-                    bins[k].bounds = bins[k].bounds.union(b);
-                    bins[k].count += 1;
+                    let b = &mut bins[k[axis] as usize];
+                    b.min = b.min.min(lo);
+                    b.max = b.max.max(hi);
+                    b.count += 1;
                 }
             }
             bins
@@ -313,7 +328,8 @@ impl Ctx {
                 || EMPTY_BINS,
                 |mut a, b| {
                     for (x, y) in a.iter_mut().flatten().zip(b.iter().flatten()) {
-                        x.bounds = x.bounds.union(y.bounds);
+                        x.min = x.min.min(y.min);
+                        x.max = x.max.max(y.max);
                         x.count += y.count;
                     }
                     a
@@ -328,13 +344,13 @@ impl Ctx {
             let mut right = [0.0f32; BINS];
             let (mut rb, mut rn) = (Aabb::EMPTY, 0usize);
             for k in (1..nb).rev() {
-                rb = rb.union(bins[k].bounds);
+                rb = rb.union(bins[k].aabb());
                 rn += bins[k].count as usize;
                 right[k] = rb.half_area() * self.leaf_cost(rn);
             }
             let (mut lb, mut ln) = (Aabb::EMPTY, 0usize);
             for k in 1..nb {
-                lb = lb.union(bins[k - 1].bounds);
+                lb = lb.union(bins[k - 1].aabb());
                 ln += bins[k - 1].count as usize;
                 if ln == 0 || ln == refs.len() {
                     continue;

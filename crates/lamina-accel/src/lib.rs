@@ -408,11 +408,21 @@ fn build_levels<const W: usize>(desc: &SceneDesc, trav_cost: f32) -> Result<Leve
         protos,
         tlas,
         recs: top_recs,
+        // Invalid spheres keep their index (a hit names the sphere by it) and are never hit.
         spheres: desc
             .spheres
             .iter()
-            .filter(|s| s.center.is_finite() && s.radius > 0.0 && s.radius.is_finite())
-            .copied()
+            .map(|s| {
+                let valid = s.center.is_finite() && s.radius > 0.0 && s.radius.is_finite();
+                if valid {
+                    *s
+                } else {
+                    Sphere {
+                        center: Vec3::ZERO,
+                        radius: 0.0,
+                    }
+                }
+            })
             .collect(),
         masks: desc.masks.clone(),
     })

@@ -402,3 +402,37 @@ fn empty_scenes_hit_nothing() {
     assert!(!a.occluded(&ray, PrimRef::NONE, &|_, _| true));
     let _ = DVec3::ZERO;
 }
+
+/// A sphere is named by its index in `SceneDesc::spheres`, also after invalid ones (which
+/// are never hit).
+#[test]
+fn sphere_ids_are_scene_indices() {
+    let desc = SceneDesc {
+        spheres: vec![
+            Sphere {
+                center: Vec3::ZERO,
+                radius: 0.0,
+            },
+            Sphere {
+                center: Vec3::new(0.0, 0.0, -5.0),
+                radius: 1.0,
+            },
+        ],
+        ..Default::default()
+    };
+    let a = Accel::build(&desc).unwrap();
+    let ray = Ray {
+        origin: Vec3::ZERO,
+        dir: -Vec3::Z,
+        tmax: f32::INFINITY,
+    };
+    let h = a.intersect(&ray, PrimRef::NONE, &|_, _| true).unwrap();
+    assert_eq!(
+        h.prim,
+        PrimRef {
+            inst: SPHERE,
+            prim: 1
+        }
+    );
+    assert!((h.t - 4.0).abs() < 1e-5);
+}

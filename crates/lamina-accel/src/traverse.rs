@@ -572,7 +572,7 @@ fn to_local(rec: &InstRec, o: Vec3A, d: Vec3A, skip: PrimRef, inst: u32) -> LRay
 pub(crate) fn intersect_sphere(s: &Sphere, o: Vec3, d: Vec3, tmax: f32) -> f32 {
     let oc = o - s.center;
     let a = d.length_squared();
-    if !(a > 0.0) {
+    if !(a > 0.0 && s.radius > 0.0) {
         return f32::INFINITY;
     }
     let b = oc.dot(d) / a;

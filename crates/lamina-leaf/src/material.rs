@@ -584,6 +584,9 @@ impl LeafMaterial {
     /// The alpha matte [`LeafMaterial::opaque`] thresholds at 0.5, and whether it reads the
     /// matte's alpha channel (else its first channel); `None` without an alpha map.
     pub fn matte(&self) -> Option<(&Texture, bool)> {
-        self.maps.alpha.as_ref().map(|t| (t, self.alpha_from_channel))
+        self.maps
+            .alpha
+            .as_ref()
+            .map(|t| (t, self.alpha_from_channel))
     }
 }

@@ -386,6 +386,18 @@ fn cross_check(case: &Case, e: &EmbreeAccel, matte: &LeafMatte) -> Mismatches {
         rays: rays.len(),
         ..Default::default()
     };
+    // lamina names instances in its top level's order, Embree by scene index.
+    let order = case.scene.lamina.scene_instances(&case.scene.desc);
+    let to_scene = |h: lamina_accel::Hit| match h.prim.inst {
+        lamina_accel::NO_INSTANCE | lamina_accel::SPHERE => h,
+        k => lamina_accel::Hit {
+            prim: PrimRef {
+                inst: order[k as usize],
+                prim: h.prim.prim,
+            },
+            ..h
+        },
+    };
     let mut shown = 0;
     let mut show = |what: &str, r: &Ray, a: String, b: String| {
         if shown < 5 {
@@ -399,7 +411,11 @@ fn cross_check(case: &Case, e: &EmbreeAccel, matte: &LeafMatte) -> Mismatches {
     for r in rays {
         match case.query {
             Query::Closest => {
-                let a = case.scene.lamina.intersect(r, PrimRef::NONE, &f);
+                let a = case
+                    .scene
+                    .lamina
+                    .intersect(r, PrimRef::NONE, &f)
+                    .map(to_scene);
                 let b = e.intersect(r, PrimRef::NONE, &f);
                 if a.map(|h| h.prim) == b.map(|h| h.prim) {
                     continue;

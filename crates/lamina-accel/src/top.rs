@@ -13,6 +13,7 @@
 //! hi = 0` (an empty box for every ray direction) and come after the used ones.
 
 use crate::build::{Aabb, Binary};
+use crate::layout::wide_children;
 use crate::memory::PageArray;
 
 /// A quantised top-level node (see the module docs).
@@ -86,7 +87,7 @@ fn quantise(n: &mut QNode, slot: usize, b: &Aabb) {
     let steps = n.steps();
     for a in 0..3 {
         let (o, s) = (n.origin[a], steps[a]);
-        let decode = |q: u8| (q as f32).mul_add(s, o);
+        let decode = |q: u8| q as f32 * s + o;
         let mut lo = (((b.min[a] - o) / s).floor() - 1.0).clamp(0.0, 255.0) as u8;
         while lo > 0 && decode(lo) > b.min[a] {
             lo -= 1;
@@ -155,49 +156,6 @@ enum Kid {
     Instance(u32),
 }
 
-/// The binary nodes that become the children of the top-level node at binary inner node
-/// `i`: like [`wide_children`], but the inner child opened next is the one with the fewest
-/// instances under it, not the largest: a small subtree left as a child would become a
-/// node of two or three slots, and such nodes made the top level a fifth larger.
-fn top_children(bin: &Binary, i: usize) -> Vec<usize> {
-    let size = |k: usize| {
-        let b = &bin.nodes[k];
-        // The instances under a binary node: its leaves' order ranges are contiguous.
-        if b.count > 0 {
-            b.count
-        } else {
-            subtree_count(bin, k)
-        }
-    };
-    let mut kids: Vec<usize> = vec![bin.nodes[i].a as usize, bin.nodes[i].b as usize];
-    while kids.len() < 8 {
-        let best = kids
-            .iter()
-            .enumerate()
-            .filter(|(_, k)| bin.nodes[**k].count == 0)
-            .min_by_key(|(_, k)| size(**k))
-            .map(|(j, _)| j);
-        let Some(j) = best else { break };
-        let k = kids.swap_remove(j);
-        kids.push(bin.nodes[k].a as usize);
-        kids.push(bin.nodes[k].b as usize);
-    }
-    kids
-}
-
-/// The number of instances under binary node `k`: its leaves cover a contiguous range of
-/// the order, from its leftmost leaf's start to its rightmost leaf's end.
-fn subtree_count(bin: &Binary, k: usize) -> u32 {
-    let (mut lo, mut hi) = (k, k);
-    while bin.nodes[lo].count == 0 {
-        lo = bin.nodes[lo].a as usize;
-    }
-    while bin.nodes[hi].count == 0 {
-        hi = bin.nodes[hi].b as usize;
-    }
-    bin.nodes[hi].a + bin.nodes[hi].count - bin.nodes[lo].a
-}
-
 /// Builds node `me` for `kid` (a node or a bundle), then its node children.
 fn fill(
     bin: &Binary,
@@ -213,7 +171,7 @@ fn fill(
         Kid::Node(i) => {
             let mut kids = Vec::new();
             let mut bundles: Vec<Vec<u32>> = Vec::new();
-            for k in top_children(bin, i) {
+            for k in wide_children(bin, i, 8) {
                 let b = bin.nodes[k];
                 let ids = || (b.a..b.a + b.count).map(|j| bin.order[j as usize]);
                 match b.count {

@@ -28,7 +28,7 @@ impl Lanes<8> for Avx2 {
         // SAFETY: the caller guarantees AVX2 (trait contract); `_mm256_set1_ps` is AVX.
         unsafe {
             let four = prep4(r);
-            let (inv, _) = super::inverse_dir(r.d);
+            let inv = four.sinv;
             WRay {
                 oinv: [
                     _mm256_set1_ps(r.o[0] * inv[0]),

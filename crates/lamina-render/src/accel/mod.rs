@@ -368,9 +368,10 @@ impl Accel {
     #[inline]
     pub fn surface(&self, prim: PrimRef, bary: Vec2) -> (Vec3, PrimInfo) {
         let blas = self.blas_of(prim);
-        let [v0, e1, e2] = blas.verts[prim.prim as usize];
+        let shade = &blas.prims[prim.prim as usize];
+        let [v0, e1, e2] = shade.verts;
         let p = v0 + e1 * bary.x + e2 * bary.y;
-        let info = blas.prims[prim.prim as usize];
+        let info = shade.info;
         if prim.inst == NO_INSTANCE {
             return (p, info);
         }
@@ -421,7 +422,7 @@ impl Accel {
     pub fn uv_tangent(&self, prim: PrimRef, bary: Vec2) -> (Vec3, f32) {
         let blas = self.blas_of(prim);
         let i = prim.prim as usize;
-        let info = &blas.prims[i];
+        let info = &blas.prims[i].info;
         let mut sign = if info.flags & FLAG_UV_MIRRORED != 0 {
             -1.0
         } else {
@@ -459,7 +460,7 @@ impl Accel {
     /// The flags (material or light id and `FLAG_*`) of primitive `prim`.
     #[inline]
     pub fn flags(&self, prim: PrimRef) -> u32 {
-        self.blas_of(prim).prims[prim.prim as usize].flags
+        self.blas_of(prim).prims[prim.prim as usize].info.flags
     }
 
     #[inline(always)]

@@ -24,6 +24,12 @@ pub(crate) const LEAF: u32 = 0x8000_0000;
 pub(crate) const EMPTY: u32 = u32::MAX;
 /// `Pack::flags` bit: the lane is alpha-tested (low bits: index into `Blas::alpha`).
 pub(crate) const ALPHA: u32 = 0x8000_0000;
+/// `Pack::flags` bit with [`ALPHA`]: the lane's texture coordinates are `(0, 0), (1, 0),
+/// (0, 1)` at its vertices (every leaf card), so `uv = (b1, b2)`, and the low bits are the
+/// matte id itself: no record to read for a candidate hit.
+pub(crate) const ALPHA_IDENTITY_UV: u32 = 0x4000_0000;
+/// Mask of the low bits of `Pack::flags`.
+pub(crate) const FLAG_INDEX: u32 = 0x3fff_ffff;
 /// Traversal stack entries: at most `W - 1` pushes per level of a tree of depth at most
 /// `build::SAH_DEPTH + 32` (median splits past the SAH depth halve at least 2³⁰ primitives).
 pub(crate) const STACK: usize = 7 * (crate::build::SAH_DEPTH + 32) + 8;
@@ -47,7 +53,8 @@ pub(crate) struct Pack {
     pub tri: [f32; 4],
     /// The primitive's index in its [`Geometry`]; `u32::MAX` for unused lanes.
     pub id: [u32; 4],
-    /// [`ALPHA`] `|` index into `Blas::alpha`, or 0.
+    /// [`ALPHA`] `|` index into `Blas::alpha`, or [`ALPHA`] `|` [`ALPHA_IDENTITY_UV`] `|`
+    /// matte id, or 0.
     pub flags: [u32; 4],
 }
 
@@ -225,6 +232,12 @@ impl<const W: usize> Blas<W> {
                 p.tri[lane] = if prim.quad { 0.0 } else { 1.0 };
                 p.id[lane] = id;
                 if let Some(al) = prim.alpha {
+                    if al.uv == [glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y]
+                        && al.id <= FLAG_INDEX
+                    {
+                        p.flags[lane] = ALPHA | ALPHA_IDENTITY_UV | al.id;
+                        continue;
+                    }
                     p.flags[lane] = ALPHA | alpha.len() as u32;
                     alpha.push(AlphaRec {
                         id: al.id,

@@ -4,7 +4,9 @@
 
 use crate::desc::Sphere;
 use crate::kernel::{LRay, Lanes};
-use crate::layout::{ALPHA, Blas, EMPTY, InstRec, LEAF, Node, Pack, STACK, Tlas};
+use crate::layout::{
+    ALPHA, ALPHA_IDENTITY_UV, Blas, EMPTY, FLAG_INDEX, InstRec, LEAF, Node, Pack, STACK, Tlas,
+};
 use crate::mask::{OPAQUE, OpacityMask, TRANSPARENT};
 use crate::top::QNode;
 use crate::{AlphaFilter, Counter, Event, Hit, NO_INSTANCE, PrimRef, Ray, SPHERE};
@@ -228,13 +230,20 @@ fn alpha_opaque<const W: usize, F: AlphaFilter, C: Counter>(
     f: &F,
     c: &C,
 ) -> bool {
-    let rec = &blas.alpha[(flags & !ALPHA) as usize];
-    let b0 = 1.0 - b1 - b2;
-    let uv = Vec2::new(
-        rec.uv[0][0] * b0 + rec.uv[1][0] * b1 + rec.uv[2][0] * b2,
-        rec.uv[0][1] * b0 + rec.uv[1][1] * b1 + rec.uv[2][1] * b2,
-    );
-    if let Some(Some(m)) = masks.get(rec.id as usize) {
+    let (id, uv) = if flags & ALPHA_IDENTITY_UV != 0 {
+        (flags & FLAG_INDEX, Vec2::new(b1, b2))
+    } else {
+        let rec = &blas.alpha[(flags & FLAG_INDEX) as usize];
+        let b0 = 1.0 - b1 - b2;
+        (
+            rec.id,
+            Vec2::new(
+                rec.uv[0][0] * b0 + rec.uv[1][0] * b1 + rec.uv[2][0] * b2,
+                rec.uv[0][1] * b0 + rec.uv[1][1] * b1 + rec.uv[2][1] * b2,
+            ),
+        )
+    };
+    if let Some(Some(m)) = masks.get(id as usize) {
         match m.classify(uv) {
             OPAQUE => {
                 c.count(Event::MaskOpaque);
@@ -248,7 +257,7 @@ fn alpha_opaque<const W: usize, F: AlphaFilter, C: Counter>(
         }
     }
     c.count(Event::AlphaLookup);
-    f.opaque(rec.id, uv)
+    f.opaque(id, uv)
 }
 
 /// The closest accepted lane of pack `p` with `t < tmax`: `(t, lane, b1, b2)`.

@@ -1,5 +1,5 @@
 //! The build: a binary BVH by binned SAH (multithreaded), collapsed to the wide layout
-//! ([`crate::layout`]) by opening, at every wide node, the binary child of largest surface
+//! (the `layout` module) by opening, at every wide node, the binary child of largest surface
 //! area until the node has `W` children (the cost-based collapse of Embree's BVH8 and of
 //! Ylitie et al.'s wide BVHs, in its greedy form).
 //!

@@ -6,7 +6,7 @@
 //! preliminary [`Hit`] (distance, primitive, instance, barycentrics) from which the
 //! renderer rebuilds the surface.
 //!
-//! * **Wide BVHs** ([`layout`](crate::layout) docs): a binned-SAH binary build
+//! * **Wide BVHs** (the `layout` module's docs): a binned-SAH binary build
 //!   (multithreaded) collapsed to 8-wide nodes for AVX2 or 4-wide for SSE and the scalar
 //!   kernel, chosen at build time by CPU feature detection ([`Kernel::best`]); leaves hold
 //!   four primitives in structure-of-arrays form, triangles and cards tested together.
@@ -22,7 +22,7 @@
 //!   first), [`Accel::occluded`] (any accepted hit, stops at the first), both skipping the
 //!   primitive a ray leaves ([`PrimRef`]). Directions with `-0` components are fine.
 //! * **Backends**: this crate's engine; with the `embree` feature, Embree 3 through a thin
-//!   FFI of ours ([`embree`] module), for benchmarks and for users who want it.
+//!   FFI of ours (the `embree` module), for benchmarks and for users who want it.
 //!
 //! `unsafe` lives here only (the SIMD kernels and the Embree FFI), each block with the
 //! argument that it is sound. Where this crate sits among the others: ARCHITECTURE.md.

@@ -220,6 +220,141 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
+/// The texels a bilinear lookup reads and their weights: the addressing of
+/// [`Texture::sample`], shared with the packed texel grid of [`crate::LeafMaterial`] so that
+/// both filter with exactly the same arithmetic.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Footprint {
+    /// Row-major texel indices: (x0, y0), (x1, y0), (x0, y1), (x1, y1).
+    idx: [usize; 4],
+    /// Weights of the second column and the second row.
+    fx: f32,
+    fy: f32,
+    /// Read `idx[0]` unfiltered (a 1x1 image, or a non-finite coordinate).
+    single: bool,
+}
+
+/// `x.floor()` for finite `x`, without a libm call (the baseline x86-64 target has no
+/// rounding instruction): exact, since `|x| < 2^23` converts to `i32` exactly and larger
+/// floats are integers.
+#[inline]
+pub(crate) fn floor_finite(x: f32) -> f32 {
+    if x.abs() < 8_388_608.0 {
+        let t = x as i32 as f32;
+        // (An integral `x` is returned as it is, which keeps the sign of `-0.0`.)
+        if t > x {
+            t - 1.0
+        } else if t < x {
+            t
+        } else {
+            x
+        }
+    } else {
+        x
+    }
+}
+
+impl Footprint {
+    /// The footprint of texture coordinates `uv` (`v` up) on a `width x height` image
+    /// addressed by `wrap`.
+    #[inline]
+    pub(crate) fn new(width: u32, height: u32, wrap: Wrap, uv: Vec2) -> Self {
+        let single = Footprint {
+            idx: [0; 4],
+            fx: 0.0,
+            fy: 0.0,
+            single: true,
+        };
+        if width == 1 && height == 1 {
+            return single;
+        }
+        let x = uv.x * width as f32 - 0.5;
+        let y = (1.0 - uv.y) * height as f32 - 0.5;
+        if !(x.is_finite() && y.is_finite()) {
+            return single;
+        }
+        let (x0, y0) = (floor_finite(x), floor_finite(y));
+        let (fx, fy) = (x - x0, y - y0);
+        // Address the two columns and two rows once.
+        let (x0, x1) = neighbours(wrap, x0 as i64, width);
+        let (y0, y1) = neighbours(wrap, y0 as i64, height);
+        let w = width as usize;
+        Footprint {
+            idx: [y0 * w + x0, y0 * w + x1, y1 * w + x0, y1 * w + x1],
+            fx,
+            fy,
+            single: false,
+        }
+    }
+
+    /// The bilinear filter of the values `at` returns for texel indices.
+    #[inline]
+    pub(crate) fn filter<T: Lerp>(&self, at: impl Fn(usize) -> T) -> T {
+        if self.single {
+            return at(self.idx[0]);
+        }
+        let a = at(self.idx[0]).lerp(at(self.idx[1]), self.fx);
+        let b = at(self.idx[2]).lerp(at(self.idx[3]), self.fx);
+        a.lerp(b, self.fy)
+    }
+}
+
+/// [`Texture::gradient`] of the scalar image `at` (texel index to value) of
+/// `width x height` texels addressed by `wrap`.
+#[inline]
+pub(crate) fn gradient(
+    width: u32,
+    height: u32,
+    wrap: Wrap,
+    uv: Vec2,
+    at: impl Fn(usize) -> f32 + Copy,
+) -> Vec2 {
+    if width == 1 && height == 1 {
+        return Vec2::ZERO;
+    }
+    let du = 1.0 / width as f32;
+    let dv = 1.0 / height as f32;
+    let s = |uv: Vec2| Footprint::new(width, height, wrap, uv).filter(at);
+    let gu = s(uv + Vec2::new(du, 0.0)) - s(uv - Vec2::new(du, 0.0));
+    let gv = s(uv + Vec2::new(0.0, dv)) - s(uv - Vec2::new(0.0, dv));
+    Vec2::new(gu / (2.0 * du), gv / (2.0 * dv))
+}
+
+/// Linear interpolation `a (1 - s) + b s` (glam's formula), per channel.
+pub(crate) trait Lerp: Copy {
+    fn lerp(self, b: Self, s: f32) -> Self;
+}
+
+impl Lerp for Vec4 {
+    #[inline]
+    fn lerp(self, b: Self, s: f32) -> Self {
+        Vec4::lerp(self, b, s)
+    }
+}
+
+impl Lerp for f32 {
+    #[inline]
+    fn lerp(self, b: Self, s: f32) -> Self {
+        self * (1.0 - s) + b * s
+    }
+}
+
+/// Indices `i` and `i + 1` on an axis of `n` texels, addressed by `wrap`.
+#[inline]
+fn neighbours(wrap: Wrap, i: i64, n: u32) -> (usize, usize) {
+    let n = n as i64;
+    // (`i < n - 1`, not `i + 1 < n`: a huge texture coordinate saturates `i` to
+    // `i64::MAX`, where `i + 1` would wrap around.)
+    if i >= 0 && i < n - 1 {
+        return (i as usize, i as usize + 1);
+    }
+    let at = |i: i64| match wrap {
+        Wrap::Repeat => i.rem_euclid(n) as usize,
+        Wrap::Clamp => i.clamp(0, n - 1) as usize,
+    };
+    (at(i), at(i.saturating_add(1)))
+}
+
 impl Texture {
     /// A texture from linear RGBA texels, row-major with the top row first.
     ///
@@ -316,40 +451,7 @@ impl Texture {
     /// Bilinearly filtered RGBA at texture coordinates `uv` (`v` up, see the module docs).
     #[inline]
     pub fn sample(&self, uv: Vec2) -> Vec4 {
-        if self.texels.len() == 1 {
-            return self.texels[0];
-        }
-        let x = uv.x * self.width as f32 - 0.5;
-        let y = (1.0 - uv.y) * self.height as f32 - 0.5;
-        if !(x.is_finite() && y.is_finite()) {
-            return self.texels[0];
-        }
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        // Address the two columns and two rows once, then read the four texels directly.
-        let (x0, x1) = self.neighbours(x0 as i64, self.width);
-        let (y0, y1) = self.neighbours(y0 as i64, self.height);
-        let w = self.width as usize;
-        let t = &self.texels;
-        let a = t[y0 * w + x0].lerp(t[y0 * w + x1], fx);
-        let b = t[y1 * w + x0].lerp(t[y1 * w + x1], fx);
-        a.lerp(b, fy)
-    }
-
-    /// Indices `i` and `i + 1` on an axis of `n` texels, addressed by [`Self::wrap`].
-    #[inline]
-    fn neighbours(&self, i: i64, n: u32) -> (usize, usize) {
-        let n = n as i64;
-        // (`i < n - 1`, not `i + 1 < n`: a huge texture coordinate saturates `i` to
-        // `i64::MAX`, where `i + 1` would wrap around.)
-        if i >= 0 && i < n - 1 {
-            return (i as usize, i as usize + 1);
-        }
-        let at = |i: i64| match self.wrap {
-            Wrap::Repeat => i.rem_euclid(n) as usize,
-            Wrap::Clamp => i.clamp(0, n - 1) as usize,
-        };
-        (at(i), at(i.saturating_add(1)))
+        Footprint::new(self.width, self.height, self.wrap, uv).filter(|i| self.texels[i])
     }
 
     /// Filtered RGB at `uv`.
@@ -374,14 +476,7 @@ impl Texture {
     /// coordinate, by central differences one texel apart. Zero for a 1x1 texture.
     #[inline]
     pub fn gradient(&self, uv: Vec2) -> Vec2 {
-        if self.texels.len() == 1 {
-            return Vec2::ZERO;
-        }
-        let du = 1.0 / self.width as f32;
-        let dv = 1.0 / self.height as f32;
-        let gu = self.scalar(uv + Vec2::new(du, 0.0)) - self.scalar(uv - Vec2::new(du, 0.0));
-        let gv = self.scalar(uv + Vec2::new(0.0, dv)) - self.scalar(uv - Vec2::new(0.0, dv));
-        Vec2::new(gu / (2.0 * du), gv / (2.0 * dv))
+        gradient(self.width, self.height, self.wrap, uv, |i| self.texels[i].x)
     }
 
     /// All texels, row-major, top row first.

@@ -20,7 +20,7 @@
 //! which the texture normalisation in [`crate::material`] absorbs.
 
 use crate::layers::{Layer, LayerStack};
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 /// Diffuse (hemispherical) reflectances and transmittances of a slab, per linear-RGB
 /// channel. "Top" is layer 0's side (`+z` for an unflipped stack).
@@ -150,19 +150,65 @@ pub struct Diffusion {
     pub t: Vec3,
 }
 
+/// [`Slab`] in four lanes (linear RGB and an unused fourth, zero), for [`diffusion`]: the
+/// same operations per channel as [`Slab::over`], so the same values, with one division
+/// instruction per step instead of three.
+#[derive(Clone, Copy, Debug)]
+struct Slab4 {
+    r_top: Vec4,
+    t_down: Vec4,
+    r_bottom: Vec4,
+    t_up: Vec4,
+}
+
+impl Slab4 {
+    #[inline]
+    fn interface(r_above: f32, r_below: f32) -> Self {
+        Slab4 {
+            r_top: Vec4::splat(r_above),
+            t_down: Vec4::splat(1.0 - r_above),
+            r_bottom: Vec4::splat(r_below),
+            t_up: Vec4::splat(1.0 - r_below),
+        }
+    }
+
+    #[inline]
+    fn kubelka_munk(layer: &Layer, g: f32) -> Self {
+        let s = Slab::kubelka_munk(layer, g);
+        Slab4 {
+            r_top: s.r_top.extend(0.0),
+            t_down: s.t_down.extend(0.0),
+            r_bottom: s.r_bottom.extend(0.0),
+            t_up: s.t_up.extend(0.0),
+        }
+    }
+
+    /// [`Slab::over`].
+    #[inline]
+    fn over(&self, below: &Slab4) -> Slab4 {
+        let denom = Vec4::ONE / (Vec4::ONE - self.r_bottom * below.r_top).max(Vec4::splat(1e-6));
+        Slab4 {
+            r_top: self.r_top + self.t_down * self.t_up * below.r_top * denom,
+            t_down: self.t_down * below.t_down * denom,
+            r_bottom: below.r_bottom + below.t_up * below.t_down * self.r_bottom * denom,
+            t_up: below.t_up * self.t_up * denom,
+        }
+    }
+}
+
 /// Kubelka-Munk plus adding for the whole stack, outer borders included.
 pub fn diffusion(stack: &LayerStack, borders: &BorderReflectances) -> Diffusion {
-    let iface = |b: usize| Slab::interface(borders.from_above[b], borders.from_below[b]);
+    let iface = |b: usize| Slab4::interface(borders.from_above[b], borders.from_below[b]);
     let mut s = iface(0);
     for k in 0..3 {
         s = s
-            .over(&Slab::kubelka_munk(&stack.layers[k], stack.g))
+            .over(&Slab4::kubelka_munk(&stack.layers[k], stack.g))
             .over(&iface(k + 1));
     }
     Diffusion {
-        r_top: (s.r_top - Vec3::splat(borders.from_above[0])).max(Vec3::ZERO),
-        r_bottom: (s.r_bottom - Vec3::splat(borders.from_below[3])).max(Vec3::ZERO),
-        t: 0.5 * (s.t_down + s.t_up),
+        r_top: (s.r_top.truncate() - Vec3::splat(borders.from_above[0])).max(Vec3::ZERO),
+        r_bottom: (s.r_bottom.truncate() - Vec3::splat(borders.from_below[3])).max(Vec3::ZERO),
+        t: 0.5 * (s.t_down.truncate() + s.t_up.truncate()),
     }
 }
 
@@ -183,6 +229,45 @@ mod tests {
         for (k, s, d) in [(0.5, 2.0, 0.3), (10.0, 40.0, 0.2), (0.0, 1.0, 1.0)] {
             let (r, t) = km(k, s, d);
             assert!(r >= 0.0 && t >= 0.0 && r + t <= 1.0 + 1e-6, "{r} {t}");
+        }
+    }
+
+    /// [`diffusion`] as it was, on [`Slab`].
+    fn old_diffusion(stack: &LayerStack, borders: &BorderReflectances) -> Diffusion {
+        let iface = |b: usize| Slab::interface(borders.from_above[b], borders.from_below[b]);
+        let mut s = iface(0);
+        for k in 0..3 {
+            s = s
+                .over(&Slab::kubelka_munk(&stack.layers[k], stack.g))
+                .over(&iface(k + 1));
+        }
+        Diffusion {
+            r_top: (s.r_top - Vec3::splat(borders.from_above[0])).max(Vec3::ZERO),
+            r_bottom: (s.r_bottom - Vec3::splat(borders.from_below[3])).max(Vec3::ZERO),
+            t: 0.5 * (s.t_down + s.t_up),
+        }
+    }
+
+    #[test]
+    fn four_lane_diffusion_is_bit_identical_to_slab_adding() {
+        let p = crate::LeafParams::default();
+        let borders = BorderReflectances::new(&LayerStack::at_texel(&p, 0.5, 0.5));
+        let mut rng = crate::march::Pcg32::new(3);
+        for i in 0..20_000 {
+            let (t, e) = (rng.next_f32(), rng.next_f32());
+            let mut stack = LayerStack::at_texel(&p, t, e);
+            if i % 3 == 0 {
+                // Extreme coefficients: no scattering, no absorption, very thick.
+                for l in &mut stack.layers {
+                    l.sigma_s *= [0.0, 1e-6, 1e3][i / 3 % 3];
+                    l.sigma_a *= [0.0, 1.0, 1e3][i / 9 % 3];
+                }
+            }
+            assert_eq!(
+                diffusion(&stack, &borders),
+                old_diffusion(&stack, &borders),
+                "{stack:?}"
+            );
         }
     }
 

@@ -41,6 +41,7 @@ pub mod leaf_bsdf;
 pub mod maps;
 pub mod march;
 pub mod material;
+mod packed;
 pub mod params;
 pub mod pbr;
 pub mod sampling;

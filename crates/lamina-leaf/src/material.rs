@@ -43,11 +43,12 @@ use crate::frame::Frame;
 use crate::layers::LayerStack;
 use crate::leaf_bsdf::LeafBsdf;
 use crate::maps::{LeafDescription, LeafMaps};
+use crate::packed::{MapValues, PackedMaps};
 use crate::params::{LeafMode, LeafParams};
 use crate::sampling::luminance;
 use crate::specular;
 use crate::texture::Texture;
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use std::path::Path;
 
 /// Incidence cosines of the albedo integration (midpoints); the energy table has these
@@ -216,14 +217,23 @@ struct Precomputed {
     a_mode: [Vec3; 3],
     /// The same for the layered model (default colours without maps).
     a_layered: [Vec3; 3],
-    /// Light from the adaxial side, then from the abaxial side.
+    /// Light from the adaxial side, then from the abaxial side (the whole table: what the
+    /// tests check `binding` against).
+    #[cfg_attr(not(test), allow(dead_code))]
     table: [[EnergyRow; TABLE_N + 1]; 2],
+    /// The rows of `table` that can set `lambda` (see [`binding_rows`]), per side.
+    binding: [Vec<BindingRow>; 2],
     /// Bound on the total albedo: [`ENERGY_MARGIN`], or exactly 1 where the table is exact
     /// (diffuse mode without specular lobe, so the diffuse limit holds up to `R + T = 1`).
+    #[cfg_attr(not(test), allow(dead_code))]
     margin: f32,
     /// White-sky albedo of each physical lobe at the texel's thickness and extinction
     /// relative to the nominal texel (not used in diffuse mode, where it is exact per texel).
     ratios: AlbedoRatios,
+    /// Kubelka-Munk diffusion of the nominal texel (thickness and extinction maps at 0.5).
+    nominal_diffusion: Diffusion,
+    /// Sine of [`LeafParams::blend_width_deg`] ([`LeafBsdf`]'s blend band).
+    blend: f32,
 }
 
 /// A leaf's maps and validated parameters. `Send + Sync`; per-texel queries are cheap and
@@ -235,6 +245,9 @@ pub struct LeafMaterial {
     /// Read the alpha matte from the alpha channel (it has one) rather than the grey value.
     alpha_from_channel: bool,
     pre: Box<Precomputed>,
+    /// The per-hit maps interleaved (see [`crate::packed`]); `None` where they differ in
+    /// size or are too large, and [`LeafMaterial::bsdf`] reads them one by one.
+    packed: Option<PackedMaps>,
 }
 
 /// Cosines of the incidence angles of the energy table and of the albedo integration
@@ -389,24 +402,123 @@ impl Precomputed {
             r_out,
             a_mode,
             a_layered,
+            binding: [0, 1].map(|side| binding_rows(&table[side], margin)),
             table,
             margin,
             ratios,
+            nominal_diffusion: diffusion(&nominal, &borders),
+            blend: params.blend_width_deg.to_radians().sin(),
         }
     }
 
     /// Largest `lambda <= 1` per channel keeping every tabulated incidence within the bound.
+    #[inline]
     fn energy_scale(&self, c_front: Vec3, c_back: Vec3, c_t: Vec3) -> Vec3 {
-        let mut lambda = Vec3::ONE;
+        // Four lanes at once (the fourth unused): the same operations per channel as on
+        // `Vec3`, so the same values, with one division instruction per row.
+        let c_t = c_t.extend(0.0);
+        let mut lambda = Vec4::ONE;
         for (side, c_r) in [(0, c_front), (1, c_back)] {
-            for row in &self.table[side] {
+            let c_r = c_r.extend(0.0);
+            for row in &self.binding[side] {
                 let demand = c_r * row.refl + c_t * row.trans;
-                let room = (self.margin - row.spec).max(0.0);
-                lambda = lambda.min(Vec3::splat(room) / demand.max(Vec3::splat(1e-12)));
+                lambda = lambda.min(row.room / demand.max(Vec4::splat(1e-12)));
             }
         }
-        lambda.min(Vec3::ONE)
+        lambda.truncate().min(Vec3::ONE)
     }
+}
+
+/// A row of the energy table as [`Precomputed::energy_scale`] uses it: the room
+/// `max(margin - spec, 0)` left by the specular lobe (in every lane), and the lobes'
+/// `rho / A` (linear RGB, fourth lane zero).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct BindingRow {
+    room: Vec4,
+    refl: Vec4,
+    trans: Vec4,
+}
+
+/// Smallest room a row may have to be dropped by [`binding_rows`]: where its demand is
+/// clamped to `1e-12`, its quotient is then at least `1e6`, above the final `min(1)`.
+const MIN_DROPPED_ROOM: f32 = 1e-6;
+
+/// The rows of one side's energy table that can set `lambda` in `energy_scale`, the
+/// minimum over the rows of `q = room / max(c_r refl + c_t trans, 1e-12)` (and 1), for some
+/// colours `c_r, c_t >= 0`; the others are dropped, which leaves the result bit for bit the
+/// same.
+///
+/// Per channel, with `P = (refl, trans) / room`, row `j` is dropped where `room_j >= 1e-6`
+/// and `P_j <= (1 - 1e-5) (s P_a + (1 - s) P_b)` componentwise for some `s` in `[0, 1]`
+/// and rows `a`, `b` still kept (`a = b` allowed). Then for any colours
+/// `c . P_j <= (1 - 1e-5) max(c . P_a, c . P_b)`: where `j`'s demand is clamped, its `q`
+/// is at least `1e6` and does not reach the minimum with 1; otherwise the margin `1e-5`
+/// (about 40 times the relative rounding of two products and a sum, on both rows) keeps
+/// `j`'s computed `room / demand` above the larger-demand row's, before and, rounding being
+/// monotone, after the division. A row is dropped where that holds in all three channels.
+/// Each dropped row thus has a chain of rows with smaller or equal `q` ending in a kept
+/// row. A row with no room at all (`q = 0` whatever the colours) is kept alone.
+fn binding_rows(table: &[EnergyRow], margin: f32) -> Vec<BindingRow> {
+    let rooms: Vec<f32> = table.iter().map(|r| (margin - r.spec).max(0.0)).collect();
+    let row = |k: usize| BindingRow {
+        room: Vec4::splat(rooms[k]),
+        refl: table[k].refl.extend(0.0),
+        trans: table[k].trans.extend(0.0),
+    };
+    if let Some(k) = rooms.iter().position(|&r| r == 0.0) {
+        return vec![row(k)];
+    }
+    let finite = table
+        .iter()
+        .zip(&rooms)
+        .all(|(r, room)| room.is_finite() && r.refl.is_finite() && r.trans.is_finite());
+    if !finite {
+        return (0..table.len()).map(row).collect();
+    }
+    const SLACK: f64 = 1.0 - 1e-5;
+    let point = |k: usize, c: usize| {
+        let room = rooms[k] as f64;
+        (
+            table[k].refl[c] as f64 / room,
+            table[k].trans[c] as f64 / room,
+        )
+    };
+    // Whether `(x, y)` lies below the segment from `a` to `b`: some `s` in `[0, 1]` with
+    // `s a + (1 - s) b >= (x, y)` componentwise.
+    let below = |(x, y): (f64, f64), a: (f64, f64), b: (f64, f64)| {
+        let (mut lo, mut hi) = (0.0f64, 1.0f64);
+        for (v, va, vb) in [(x, a.0, b.0), (y, a.1, b.1)] {
+            let slope = va - vb;
+            if slope > 0.0 {
+                lo = lo.max((v - vb) / slope);
+            } else if slope < 0.0 {
+                hi = hi.min((v - vb) / slope);
+            } else if vb < v {
+                return false;
+            }
+        }
+        lo <= hi
+    };
+    let n = table.len();
+    let mut kept = vec![true; n];
+    for j in 0..n {
+        if rooms[j] < MIN_DROPPED_ROOM {
+            continue;
+        }
+        let dropped = (0..3).all(|c| {
+            let (x, y) = point(j, c);
+            let p = (x / SLACK, y / SLACK);
+            (0..n).filter(|&a| a != j && kept[a]).any(|a| {
+                (a..n)
+                    .filter(|&b| b != j && kept[b])
+                    .any(|b| below(p, point(a, c), point(b, c)))
+            })
+        });
+        if dropped {
+            kept[j] = false;
+        }
+    }
+    (0..n).filter(|&k| kept[k]).map(row).collect()
 }
 
 fn map_range(t: &Option<Texture>) -> (f32, f32) {
@@ -440,11 +552,13 @@ impl LeafMaterial {
             map_range(&maps.thickness),
             map_range(&maps.extinction),
         );
+        let packed = PackedMaps::new(&maps);
         Ok(LeafMaterial {
             maps,
             params,
             alpha_from_channel,
             pre: Box::new(pre),
+            packed,
         })
     }
 
@@ -482,16 +596,22 @@ impl LeafMaterial {
     /// The colours (adaxial R, abaxial R, T) the maps ask for at `uv`, linear RGB in `[0, 1]`,
     /// before the energy bound.
     pub fn map_colours(&self, uv: Vec2) -> [Vec3; 3] {
+        self.colours(&MapValues::read(&self.maps, uv, false))
+    }
+
+    /// [`Self::map_colours`] from the filtered map values.
+    #[inline]
+    fn colours(&self, v: &MapValues) -> [Vec3; 3] {
         let a = &self.pre.a_layered;
         let clamp = |v: Vec3| v.clamp(Vec3::ZERO, Vec3::ONE);
-        let front = self.maps.front.as_ref().map(|t| clamp(t.rgb(uv)));
-        let back = match (&self.maps.back, front) {
-            (Some(t), _) => clamp(t.rgb(uv)),
+        let front = v.front.map(clamp);
+        let back = match (v.back, front) {
+            (Some(c), _) => clamp(c),
             (None, Some(f)) => derive_back(f),
             (None, None) => a[1],
         };
-        let trans = match (&self.maps.translucency, front) {
-            (Some(t), _) => clamp(t.rgb(uv)),
+        let trans = match (v.translucency, front) {
+            (Some(c), _) => clamp(c),
             (None, Some(f)) => clamp(f * a[2] / a[0]),
             (None, None) => a[2],
         };
@@ -500,12 +620,23 @@ impl LeafMaterial {
 
     /// The BSDF at texture coordinates `uv`.
     pub fn bsdf(&self, uv: Vec2) -> LeafBsdf {
+        let with_bump = self.params.bump_scale > 0.0;
+        let v = match &self.packed {
+            Some(p) => p.read(uv, with_bump),
+            None => MapValues::read(&self.maps, uv, with_bump),
+        };
+        self.bsdf_from(&v)
+    }
+
+    /// The BSDF of a texel whose filtered map values are `v`.
+    #[inline]
+    fn bsdf_from(&self, v: &MapValues) -> LeafBsdf {
         let p = &self.params;
-        let t = self.maps.thickness.as_ref().map_or(0.5, |m| m.scalar(uv));
-        let e = self.maps.extinction.as_ref().map_or(0.5, |m| m.scalar(uv));
+        let t = v.thickness.unwrap_or(0.5);
+        let e = v.extinction.unwrap_or(0.5);
         let stack = LayerStack::at_texel(p, t, e);
         let diff = diffusion(&stack, &self.pre.borders);
-        let [cf, cb, ct] = self.map_colours(uv);
+        let [cf, cb, ct] = self.colours(v);
         let lambda = self.pre.energy_scale(cf, cb, ct);
         let a = &self.pre.a_mode;
         let scale = [cf * lambda / a[0], cb * lambda / a[1], ct * lambda / a[2]];
@@ -514,7 +645,7 @@ impl LeafMaterial {
         // colours at the nominal texel). Diffuse mode: the Kubelka-Munk values, exact;
         // otherwise interpolated in the table built with the material.
         let ratio = if p.mode == LeafMode::Diffuse {
-            let nominal = self.nominal_diffusion();
+            let nominal = &self.pre.nominal_diffusion;
             let var = |x: Vec3, x0: Vec3| {
                 Vec3::from_array([0, 1, 2].map(|c| if x0[c] > 0.0 { x[c] / x0[c] } else { 1.0 }))
             };
@@ -531,9 +662,9 @@ impl LeafMaterial {
             (cb * lambda * ratio[1]).min(Vec3::ONE),
             (ct * lambda * ratio[2]).min(Vec3::ONE),
         ];
-        let normal = match &self.maps.bump {
-            Some(m) if p.bump_scale > 0.0 => {
-                let g = m.gradient(uv) * p.bump_scale;
+        let normal = match v.bump_gradient {
+            Some(g) => {
+                let g = g * p.bump_scale;
                 let mut n = Vec3::new(-g.x, -g.y, 1.0).normalize();
                 if !n.is_finite() {
                     n = Vec3::Z;
@@ -546,7 +677,7 @@ impl LeafMaterial {
                 }
                 n
             }
-            _ => Vec3::Z,
+            None => Vec3::Z,
         };
         let mut b = LeafBsdf::physical(p.mode, stack, diff, self.pre.r_out);
         b.scale = scale;
@@ -554,15 +685,8 @@ impl LeafMaterial {
         b.shading = Frame::from_normal_tangent(normal, Vec3::X);
         b.alpha = [p.roughness_adaxial, p.roughness_abaxial];
         b.specular = p.specular;
-        b.blend = p.blend_width_deg.to_radians().sin();
+        b.blend = self.pre.blend;
         b
-    }
-
-    fn nominal_diffusion(&self) -> Diffusion {
-        diffusion(
-            &LayerStack::at_texel(&self.params, 0.5, 0.5),
-            &self.pre.borders,
-        )
     }
 
     /// White-sky albedos (adaxial R, abaxial R, T) of the pure layered model at the nominal
@@ -588,5 +712,354 @@ impl LeafMaterial {
             .alpha
             .as_ref()
             .map(|t| (t, self.alpha_from_channel))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The fast per-hit path against the computation it replaced, kept here verbatim as the
+    //! reference: per-map lookups (libm `floor`), the whole energy table, the nominal
+    //! diffusion and the blend sine recomputed per query. The texel BSDFs must be equal
+    //! bit for bit.
+
+    use super::*;
+    use crate::march::Pcg32;
+    use crate::texture::Wrap;
+
+    /// [`Texture::sample`] as it was.
+    fn old_sample(t: &Texture, uv: Vec2) -> Vec4 {
+        let texels = t.texels();
+        if texels.len() == 1 {
+            return texels[0];
+        }
+        let (width, height) = (t.width(), t.height());
+        let x = uv.x * width as f32 - 0.5;
+        let y = (1.0 - uv.y) * height as f32 - 0.5;
+        if !(x.is_finite() && y.is_finite()) {
+            return texels[0];
+        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let neighbours = |i: i64, n: u32| {
+            let n = n as i64;
+            if i >= 0 && i < n - 1 {
+                return (i as usize, i as usize + 1);
+            }
+            let at = |i: i64| match t.wrap {
+                Wrap::Repeat => i.rem_euclid(n) as usize,
+                Wrap::Clamp => i.clamp(0, n - 1) as usize,
+            };
+            (at(i), at(i.saturating_add(1)))
+        };
+        let (x0, x1) = neighbours(x0 as i64, width);
+        let (y0, y1) = neighbours(y0 as i64, height);
+        let w = width as usize;
+        let a = texels[y0 * w + x0].lerp(texels[y0 * w + x1], fx);
+        let b = texels[y1 * w + x0].lerp(texels[y1 * w + x1], fx);
+        a.lerp(b, fy)
+    }
+
+    fn old_scalar(t: &Texture, uv: Vec2) -> f32 {
+        old_sample(t, uv).x
+    }
+
+    /// [`Texture::gradient`] as it was.
+    fn old_gradient(t: &Texture, uv: Vec2) -> Vec2 {
+        if t.texels().len() == 1 {
+            return Vec2::ZERO;
+        }
+        let du = 1.0 / t.width() as f32;
+        let dv = 1.0 / t.height() as f32;
+        let gu = old_scalar(t, uv + Vec2::new(du, 0.0)) - old_scalar(t, uv - Vec2::new(du, 0.0));
+        let gv = old_scalar(t, uv + Vec2::new(0.0, dv)) - old_scalar(t, uv - Vec2::new(0.0, dv));
+        Vec2::new(gu / (2.0 * du), gv / (2.0 * dv))
+    }
+
+    /// `energy_scale` over the whole table, as it was.
+    fn old_energy_scale(pre: &Precomputed, c_front: Vec3, c_back: Vec3, c_t: Vec3) -> Vec3 {
+        let mut lambda = Vec3::ONE;
+        for (side, c_r) in [(0, c_front), (1, c_back)] {
+            for row in &pre.table[side] {
+                let demand = c_r * row.refl + c_t * row.trans;
+                let room = (pre.margin - row.spec).max(0.0);
+                lambda = lambda.min(Vec3::splat(room) / demand.max(Vec3::splat(1e-12)));
+            }
+        }
+        lambda.min(Vec3::ONE)
+    }
+
+    fn old_map_colours(m: &LeafMaterial, uv: Vec2) -> [Vec3; 3] {
+        let a = &m.pre.a_layered;
+        let clamp = |v: Vec3| v.clamp(Vec3::ZERO, Vec3::ONE);
+        let front = m
+            .maps
+            .front
+            .as_ref()
+            .map(|t| clamp(old_sample(t, uv).truncate()));
+        let back = match (&m.maps.back, front) {
+            (Some(t), _) => clamp(old_sample(t, uv).truncate()),
+            (None, Some(f)) => derive_back(f),
+            (None, None) => a[1],
+        };
+        let trans = match (&m.maps.translucency, front) {
+            (Some(t), _) => clamp(old_sample(t, uv).truncate()),
+            (None, Some(f)) => clamp(f * a[2] / a[0]),
+            (None, None) => a[2],
+        };
+        [front.unwrap_or(a[0]), back, trans]
+    }
+
+    /// `LeafMaterial::bsdf` as it was.
+    fn old_bsdf(m: &LeafMaterial, uv: Vec2) -> LeafBsdf {
+        let p = &m.params;
+        let t = m.maps.thickness.as_ref().map_or(0.5, |t| old_scalar(t, uv));
+        let e = m
+            .maps
+            .extinction
+            .as_ref()
+            .map_or(0.5, |t| old_scalar(t, uv));
+        let stack = LayerStack::at_texel(p, t, e);
+        let diff = diffusion(&stack, &m.pre.borders);
+        let [cf, cb, ct] = old_map_colours(m, uv);
+        let lambda = old_energy_scale(&m.pre, cf, cb, ct);
+        let a = &m.pre.a_mode;
+        let scale = [cf * lambda / a[0], cb * lambda / a[1], ct * lambda / a[2]];
+        let ratio = if p.mode == LeafMode::Diffuse {
+            let nominal = diffusion(&LayerStack::at_texel(p, 0.5, 0.5), &m.pre.borders);
+            let var = |x: Vec3, x0: Vec3| {
+                Vec3::from_array([0, 1, 2].map(|c| if x0[c] > 0.0 { x[c] / x0[c] } else { 1.0 }))
+            };
+            [
+                var(diff.r_top, nominal.r_top),
+                var(diff.r_bottom, nominal.r_bottom),
+                var(diff.t, nominal.t),
+            ]
+        } else {
+            m.pre.ratios.at(t, e)
+        };
+        let albedo = [
+            (cf * lambda * ratio[0]).min(Vec3::ONE),
+            (cb * lambda * ratio[1]).min(Vec3::ONE),
+            (ct * lambda * ratio[2]).min(Vec3::ONE),
+        ];
+        let normal = match &m.maps.bump {
+            Some(t) if p.bump_scale > 0.0 => {
+                let g = old_gradient(t, uv) * p.bump_scale;
+                let mut n = Vec3::new(-g.x, -g.y, 1.0).normalize();
+                if !n.is_finite() {
+                    n = Vec3::Z;
+                }
+                const MIN_Z: f32 = 0.2;
+                if n.z < MIN_Z {
+                    let xy = Vec2::new(n.x, n.y).normalize_or_zero() * (1.0 - MIN_Z * MIN_Z).sqrt();
+                    n = Vec3::new(xy.x, xy.y, MIN_Z);
+                }
+                n
+            }
+            _ => Vec3::Z,
+        };
+        let mut b = LeafBsdf::physical(p.mode, stack, diff, m.pre.r_out);
+        b.scale = scale;
+        b.albedo = albedo;
+        b.shading = Frame::from_normal_tangent(normal, Vec3::X);
+        b.alpha = [p.roughness_adaxial, p.roughness_abaxial];
+        b.specular = p.specular;
+        b.blend = p.blend_width_deg.to_radians().sin();
+        b
+    }
+
+    /// A `w x h` map of `f(u, v)` at the texel centres.
+    fn map(w: u32, h: u32, wrap: Wrap, f: impl Fn(f32, f32) -> Vec4) -> Option<Texture> {
+        let texels = (0..w * h)
+            .map(|i| f((i % w) as f32 / w as f32, (i / w) as f32 / h as f32))
+            .collect();
+        Some(Texture::from_texels(w, h, texels, wrap))
+    }
+
+    /// Seven maps with colours partly outside `[0, 1]` (as EXR maps can be), thickness and
+    /// extinction spanning `[0, 1]` and a steep bump map; `sizes` gives each map's size.
+    fn maps(sizes: [(u32, u32); 7], wrap: Wrap) -> LeafMaps {
+        let [f, b, tr, al, th, ex, bu] = sizes;
+        LeafMaps {
+            front: map(f.0, f.1, wrap, |u, v| {
+                Vec4::new(0.05 + 0.2 * u, 0.2 + v, 0.03 + 0.05 * v, 1.0)
+            }),
+            back: map(b.0, b.1, wrap, |u, _| {
+                Vec4::new(0.1, 0.25 + 0.1 * u, 0.08, 1.0)
+            }),
+            translucency: map(tr.0, tr.1, wrap, |u, v| {
+                Vec4::new(0.1 * u, 0.3, -0.02 + 0.1 * v, 1.0)
+            }),
+            alpha: map(al.0, al.1, wrap, |u, _| {
+                Vec4::splat(if u < 0.9 { 1.0 } else { 0.0 })
+            }),
+            thickness: map(th.0, th.1, wrap, |u, v| {
+                Vec4::splat((0.5 + 0.6 * (20.0 * u).sin() * v).clamp(0.0, 1.0))
+            }),
+            extinction: map(ex.0, ex.1, wrap, |u, v| {
+                Vec4::splat((0.5 + 0.6 * (17.0 * v).sin() * u).clamp(0.0, 1.0))
+            }),
+            bump: map(bu.0, bu.1, wrap, |u, v| {
+                Vec4::splat(0.02 * (30.0 * u).sin() * (25.0 * v).cos())
+            }),
+        }
+    }
+
+    fn materials() -> Vec<(&'static str, LeafMaterial)> {
+        let same = [(48, 40); 7];
+        let mixed = [
+            (48, 40),
+            (32, 32),
+            (1, 1),
+            (16, 16),
+            (20, 24),
+            (48, 40),
+            (64, 8),
+        ];
+        let consts = [(1, 1), (1, 1), (1, 1), (1, 1), (11, 11), (11, 11), (1, 1)];
+        let mut v = Vec::new();
+        for (mode, mname) in [
+            (LeafMode::Layered, "layered"),
+            (LeafMode::Eq1, "eq1"),
+            (LeafMode::Diffuse, "diffuse"),
+        ] {
+            let params = LeafParams {
+                mode,
+                bump_scale: 0.02,
+                ..Default::default()
+            };
+            for (name, sizes, wrap) in [
+                ("same size, repeat", same, Wrap::Repeat),
+                ("same size, clamp", same, Wrap::Clamp),
+                ("mixed sizes", mixed, Wrap::Repeat),
+                ("constants and ramps", consts, Wrap::Clamp),
+            ] {
+                let m = LeafMaterial::new(maps(sizes, wrap), params).unwrap();
+                assert_eq!(m.packed.is_some(), name != "mixed sizes", "{name}");
+                let _ = mname;
+                v.push((name, m));
+            }
+        }
+        // Some maps only, no bump lookups, and no maps at all.
+        let mut some = maps([(48, 40); 7], Wrap::Repeat);
+        some.back = None;
+        some.translucency = None;
+        some.extinction = None;
+        v.push((
+            "front and thickness",
+            LeafMaterial::new(some, LeafParams::default()).unwrap(),
+        ));
+        let flat = LeafParams {
+            bump_scale: 0.0,
+            ..Default::default()
+        };
+        v.push((
+            "bump scale 0",
+            LeafMaterial::new(maps([(48, 40); 7], Wrap::Repeat), flat).unwrap(),
+        ));
+        v.push((
+            "no maps",
+            LeafMaterial::new(LeafMaps::default(), LeafParams::default()).unwrap(),
+        ));
+        v
+    }
+
+    /// Texture coordinates: random ones inside and outside `[0, 1]`, texel centres and
+    /// borders, and absurd ones.
+    fn uvs() -> Vec<Vec2> {
+        let mut rng = Pcg32::new(11);
+        let mut v: Vec<Vec2> = (0..3000)
+            .map(|_| Vec2::new(rng.next_f32(), rng.next_f32()) * 2.0 - Vec2::splat(0.5))
+            .collect();
+        for i in 0..=48 {
+            v.push(Vec2::new(i as f32 / 48.0, 1.0 - i as f32 / 40.0));
+            v.push(Vec2::new((i as f32 + 0.5) / 48.0, (i as f32 + 0.5) / 40.0));
+        }
+        v.extend([
+            Vec2::ZERO,
+            Vec2::ONE,
+            Vec2::new(-0.0, -0.0),
+            Vec2::new(1e30, 0.5),
+            Vec2::new(0.5, -1e30),
+            Vec2::new(f32::MAX, f32::MIN),
+            Vec2::new(f32::NAN, 0.5),
+            Vec2::new(0.5, f32::INFINITY),
+        ]);
+        v
+    }
+
+    #[test]
+    fn texel_bsdf_is_bit_identical_to_the_per_map_computation() {
+        let uvs = uvs();
+        for (name, m) in materials() {
+            for &uv in &uvs {
+                let (new, old) = (m.bsdf(uv), old_bsdf(&m, uv));
+                assert_eq!(new, old, "{name}, mode {:?}, uv {uv:?}", m.params.mode);
+                assert_eq!(m.map_colours(uv), old_map_colours(&m, uv), "{name} {uv:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn floor_without_libm_is_floor() {
+        let mut rng = Pcg32::new(5);
+        for _ in 0..100_000 {
+            let x = (rng.next_f32() - 0.5) * 2f32.powi((rng.next_u32() % 40) as i32 - 8);
+            assert_eq!(
+                crate::texture::floor_finite(x).to_bits(),
+                x.floor().to_bits(),
+                "{x}"
+            );
+        }
+        for x in [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            8_388_607.5,
+            -8_388_607.5,
+            8_388_608.0,
+            1e30,
+            -1e30,
+        ] {
+            assert_eq!(
+                crate::texture::floor_finite(x).to_bits(),
+                x.floor().to_bits(),
+                "{x}"
+            );
+        }
+    }
+
+    #[test]
+    fn pruned_energy_rows_give_the_same_bound() {
+        let mut rng = Pcg32::new(9);
+        for (name, m) in materials() {
+            let kept = m.pre.binding.iter().map(Vec::len).sum::<usize>();
+            assert!(kept <= 2 * (TABLE_N + 1), "{name}");
+            eprintln!(
+                "{name} {:?}: {kept} energy rows of {}",
+                m.params.mode,
+                2 * (TABLE_N + 1)
+            );
+            for k in 0..20_000 {
+                let mut c = || {
+                    // Some zeros, tiny and large values among them.
+                    let r = rng.next_f32();
+                    let x = rng.next_f32();
+                    match k % 4 {
+                        0 => x,
+                        1 if r < 0.3 => 0.0,
+                        1 => x * 1e-6,
+                        2 => x * x * x,
+                        _ => 1.0 - x * 1e-3,
+                    }
+                };
+                let mut v = || Vec3::new(c(), c(), c());
+                let (f, b, t) = (v(), v(), v());
+                let new = m.pre.energy_scale(f, b, t);
+                let old = old_energy_scale(&m.pre, f, b, t);
+                assert_eq!(new, old, "{name}: {f} {b} {t}");
+            }
+        }
     }
 }

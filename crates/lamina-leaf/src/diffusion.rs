@@ -75,6 +75,24 @@ impl Slab {
     }
 }
 
+/// `tanh x` and `sech x = 1 / cosh x` for `x >= 0` from one exponential (libm's `tanh`
+/// and `cosh` take one each): `e^{-2x} - 1` by `exp_m1` below 0.5, where `1 - e^{-2x}`
+/// would cancel, with `sech = sqrt((1 - th)(1 + th))`; `q = e^{-x}` above, with
+/// `tanh = (1 - q^2) / (1 + q^2)`, `sech = 2q / (1 + q^2)`. Within a few units in the last
+/// place of the libm values (see the tests); `sech` keeps its tail `2 e^{-x}` for large `x`.
+#[inline]
+fn tanh_sech(x: f32) -> (f32, f32) {
+    if x < 0.5 {
+        let m = (-2.0 * x).exp_m1();
+        let th = -m / (2.0 + m);
+        (th, ((1.0 - th) * (1.0 + th)).sqrt())
+    } else {
+        let q = (-x).exp();
+        let e = q * q;
+        ((1.0 - e) / (1.0 + e), 2.0 * q / (1.0 + e))
+    }
+}
+
 /// Kubelka-Munk reflectance and transmittance of one slab (`k`, `s` per mm, `d` in mm).
 fn km(k: f32, s: f32, d: f32) -> (f32, f32) {
     if s * d < 1e-7 {
@@ -89,12 +107,7 @@ fn km(k: f32, s: f32, d: f32) -> (f32, f32) {
         return (sd / (1.0 + sd), 1.0 / (1.0 + sd));
     }
     // Divide numerator and denominator by cosh(x) to avoid overflow.
-    let th = x.tanh();
-    let sech = if x > 40.0 {
-        2.0 * (-x).exp()
-    } else {
-        1.0 / x.cosh()
-    };
+    let (th, sech) = tanh_sech(x);
     let den = a * th + b;
     (th / den, b * sech / den)
 }
@@ -213,7 +226,7 @@ pub fn diffusion(stack: &LayerStack, borders: &BorderReflectances) -> Diffusion 
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     #[test]
@@ -232,7 +245,109 @@ mod tests {
         }
     }
 
-    /// [`diffusion`] as it was, on [`Slab`].
+    /// `km` as it was (libm `tanh` and `cosh`).
+    pub(crate) fn old_km(k: f32, s: f32, d: f32) -> (f32, f32) {
+        if s * d < 1e-7 {
+            return (0.0, (-k * d).exp());
+        }
+        let a = (s + k) / s;
+        let b = (a * a - 1.0).max(0.0).sqrt();
+        let x = b * s * d;
+        if x < 1e-6 {
+            let sd = s * d;
+            return (sd / (1.0 + sd), 1.0 / (1.0 + sd));
+        }
+        let th = x.tanh();
+        let sech = if x > 40.0 {
+            2.0 * (-x).exp()
+        } else {
+            1.0 / x.cosh()
+        };
+        let den = a * th + b;
+        (th / den, b * sech / den)
+    }
+
+    /// Relative difference, against an absolute floor of `1e-30`.
+    fn rel(a: f32, b: f32) -> f32 {
+        (a - b).abs() / a.abs().max(b.abs()).max(1e-30)
+    }
+
+    #[test]
+    fn one_exponential_tanh_and_sech_match_libm() {
+        let mut worst = (0.0f32, 0.0f32);
+        for i in 0..200_000 {
+            let x = 1e-6 * 1.0001f32.powi(i);
+            if x > 80.0 {
+                break;
+            }
+            let (th, sech) = tanh_sech(x);
+            worst.0 = worst.0.max(rel(th, x.tanh()));
+            let sech_libm = if x > 40.0 {
+                2.0 * (-x).exp()
+            } else {
+                1.0 / x.cosh()
+            };
+            worst.1 = worst.1.max(rel(sech, sech_libm));
+        }
+        // A few units in the last place (2^-23 = 1.2e-7).
+        eprintln!("tanh, sech: largest relative difference {worst:?}");
+        assert!(worst.0 < 5e-7 && worst.1 < 5e-7, "{worst:?}");
+    }
+
+    #[test]
+    fn kubelka_munk_matches_the_libm_version() {
+        let mut rng = crate::march::Pcg32::new(8);
+        let mut worst = 0.0f32;
+        for _ in 0..200_000 {
+            // Coefficients over many decades (1/mm) and thicknesses 1 um to 10 mm.
+            let k = 10f32.powf(rng.next_f32() * 8.0 - 4.0);
+            let s = 10f32.powf(rng.next_f32() * 8.0 - 4.0);
+            let d = 10f32.powf(rng.next_f32() * 4.0 - 3.0);
+            let (r, t) = km(k, s, d);
+            let (r0, t0) = old_km(k, s, d);
+            // Transmittances below 1e-30 are nothing; compare the rest relatively.
+            worst = worst
+                .max(rel(r, r0))
+                .max(if t0 > 1e-30 { rel(t, t0) } else { 0.0 });
+        }
+        eprintln!("km: largest relative difference {worst}");
+        assert!(worst < 1e-6, "{worst}");
+    }
+
+    /// [`diffusion`] as it was, on [`Slab`] (with the libm `km` when `libm_km`).
+    pub(crate) fn old_diffusion_with(
+        stack: &LayerStack,
+        borders: &BorderReflectances,
+        libm_km: bool,
+    ) -> Diffusion {
+        let km_layer = |l: &Layer| {
+            if !libm_km {
+                return Slab::kubelka_munk(l, stack.g);
+            }
+            let k = 2.0 * l.sigma_a;
+            let s = l.sigma_s * (1.0 - stack.g);
+            let rt = [0, 1, 2].map(|c| old_km(k[c], s[c], l.d));
+            let r = Vec3::new(rt[0].0, rt[1].0, rt[2].0);
+            let t = Vec3::new(rt[0].1, rt[1].1, rt[2].1);
+            Slab {
+                r_top: r,
+                t_down: t,
+                r_bottom: r,
+                t_up: t,
+            }
+        };
+        let iface = |b: usize| Slab::interface(borders.from_above[b], borders.from_below[b]);
+        let mut s = iface(0);
+        for k in 0..3 {
+            s = s.over(&km_layer(&stack.layers[k])).over(&iface(k + 1));
+        }
+        Diffusion {
+            r_top: (s.r_top - Vec3::splat(borders.from_above[0])).max(Vec3::ZERO),
+            r_bottom: (s.r_bottom - Vec3::splat(borders.from_below[3])).max(Vec3::ZERO),
+            t: 0.5 * (s.t_down + s.t_up),
+        }
+    }
+
     fn old_diffusion(stack: &LayerStack, borders: &BorderReflectances) -> Diffusion {
         let iface = |b: usize| Slab::interface(borders.from_above[b], borders.from_below[b]);
         let mut s = iface(0);

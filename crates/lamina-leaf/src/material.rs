@@ -809,8 +809,12 @@ mod tests {
         [front.unwrap_or(a[0]), back, trans]
     }
 
-    /// `LeafMaterial::bsdf` as it was.
-    fn old_bsdf(m: &LeafMaterial, uv: Vec2) -> LeafBsdf {
+    /// `LeafMaterial::bsdf` as it was, with Kubelka-Munk diffusion by [`diffusion`] or, with
+    /// `libm_km`, as it was (libm `tanh` and `cosh`, three-lane adding).
+    fn old_bsdf_with(m: &LeafMaterial, uv: Vec2, libm_km: bool) -> LeafBsdf {
+        let diffusion = |stack: &LayerStack, borders: &BorderReflectances| {
+            crate::diffusion::tests::old_diffusion_with(stack, borders, libm_km)
+        };
         let p = &m.params;
         let t = m.maps.thickness.as_ref().map_or(0.5, |t| old_scalar(t, uv));
         let e = m
@@ -866,6 +870,11 @@ mod tests {
         b.specular = p.specular;
         b.blend = p.blend_width_deg.to_radians().sin();
         b
+    }
+
+    /// `LeafMaterial::bsdf` as it was, with today's Kubelka-Munk slab.
+    fn old_bsdf(m: &LeafMaterial, uv: Vec2) -> LeafBsdf {
+        old_bsdf_with(m, uv, false)
     }
 
     /// A `w x h` map of `f(u, v)` at the texel centres.
@@ -998,6 +1007,49 @@ mod tests {
                 assert_eq!(m.map_colours(uv), old_map_colours(&m, uv), "{name} {uv:?}");
             }
         }
+    }
+
+    /// Largest relative difference of the float fields of two texel BSDFs (floor `1e-30`);
+    /// the others must be equal.
+    fn bsdf_difference(a: &LeafBsdf, b: &LeafBsdf) -> f32 {
+        assert_eq!(
+            (
+                a.mode, a.stack, a.r_out, a.shading, a.alpha, a.specular, a.blend
+            ),
+            (
+                b.mode, b.stack, b.r_out, b.shading, b.alpha, b.specular, b.blend
+            )
+        );
+        let rel = |x: Vec3, y: Vec3| {
+            ((x - y).abs() / x.abs().max(y.abs()).max(Vec3::splat(1e-30))).max_element()
+        };
+        let (da, db) = (&a.diffusion, &b.diffusion);
+        [
+            rel(da.r_top, db.r_top),
+            rel(da.r_bottom, db.r_bottom),
+            rel(da.t, db.t),
+        ]
+        .into_iter()
+        .chain((0..3).map(|k| rel(a.scale[k], b.scale[k])))
+        .chain((0..3).map(|k| rel(a.albedo[k], b.albedo[k])))
+        .fold(0.0, f32::max)
+    }
+
+    /// End to end against the old computation including its libm Kubelka-Munk: equal up
+    /// to float rounding (relative `5e-6`; the one-exponential `tanh`/`sech` differ from
+    /// libm's by a few units in the last place).
+    #[test]
+    fn texel_bsdf_matches_the_old_computation_with_libm_kubelka_munk() {
+        let uvs = uvs();
+        let mut worst = 0.0f32;
+        for (name, m) in materials() {
+            for &uv in &uvs {
+                let d = bsdf_difference(&m.bsdf(uv), &old_bsdf_with(&m, uv, true));
+                assert!(d < 5e-6, "{name}, mode {:?}, uv {uv:?}: {d}", m.params.mode);
+                worst = worst.max(d);
+            }
+        }
+        eprintln!("texel BSDF: largest relative difference {worst}");
     }
 
     #[test]

@@ -22,7 +22,7 @@
 //! normals; diffuse lobes: cosine-weighted on the respective side. [`Bsdf::pdf`] returns the
 //! mixture density, so `sample`'s weight is exactly `eval / pdf`.
 
-use crate::analytic::single_scatter;
+use crate::analytic::{single_scatter, single_scatter_mirrored};
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::diffusion::Diffusion;
 use crate::frame::Frame;
@@ -193,9 +193,7 @@ impl LeafBsdf {
     #[inline]
     fn single(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if wo.z * wi.z < 0.0 {
-            let m = Vec3::new(1.0, 1.0, -1.0);
-            0.5 * (single_scatter(&self.stack, wo, wi)
-                + single_scatter(&self.stack, wo * m, wi * m))
+            single_scatter_mirrored(&self.stack, wo, wi)
         } else {
             single_scatter(&self.stack, wo, wi)
         }
@@ -320,7 +318,8 @@ impl Bsdf for LeafBsdf {
         if wo.z == 0.0 {
             return None;
         }
-        let [ps, pr, _] = self.lobe_probabilities(wo);
+        let probs = self.lobe_probabilities(wo);
+        let [ps, pr, _] = probs;
         let wi = if u.x < ps {
             let (lo, _, side) = self.shading_dirs(wo, wo);
             let li = specular::sample(lo, self.alpha[side], Vec2::new(u.y, u.z))?;
@@ -336,7 +335,8 @@ impl Bsdf for LeafBsdf {
         if wi.z == 0.0 {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
+        // (`pdf` with the lobe probabilities already at hand.)
+        let pdf = self.pdf_with(wo, wi, probs);
         (pdf > 0.0).then(|| BsdfSample {
             wi,
             f: self.eval(wo, wi),
@@ -348,7 +348,14 @@ impl Bsdf for LeafBsdf {
         if wo.z == 0.0 || wi.z == 0.0 {
             return 0.0;
         }
-        let [ps, pr, pt] = self.lobe_probabilities(wo);
+        self.pdf_with(wo, wi, self.lobe_probabilities(wo))
+    }
+}
+
+impl LeafBsdf {
+    /// [`Bsdf::pdf`] for `wo.z != 0`, `wi.z != 0`, given `lobe_probabilities(wo)`.
+    #[inline]
+    fn pdf_with(&self, wo: Vec3, wi: Vec3, [ps, pr, pt]: [f32; 3]) -> f32 {
         let mut p = if wo.z * wi.z > 0.0 { pr } else { pt } * wi.z.abs() * FRAC_1_PI;
         if ps > 0.0 {
             let (lo, li, side) = self.shading_dirs(wo, wi);

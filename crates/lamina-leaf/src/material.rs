@@ -540,7 +540,11 @@ pub fn derive_back(front: Vec3) -> Vec3 {
 
 impl LeafMaterial {
     /// A material from maps already in memory; validates `params` and precomputes the
-    /// normalisation of the maps (a few tens of milliseconds).
+    /// normalisation of the maps (a few tens of milliseconds). The maps [`Self::bsdf`] reads
+    /// per hit (colours, thickness, extinction, bump) are also copied into one interleaved
+    /// texel grid, 48 bytes a texel, where all of them that are larger than 1 x 1 share one
+    /// size and wrap mode of at most 2048 x 2048 texels (192 MiB); otherwise `bsdf` reads
+    /// them one by one, with the same results.
     pub fn new(maps: LeafMaps, params: LeafParams) -> Result<Self, LeafError> {
         params.validate()?;
         let alpha_from_channel = maps

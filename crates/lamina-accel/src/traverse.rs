@@ -509,25 +509,16 @@ struct KernelOf<K>(std::marker::PhantomData<K>);
 impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit
     for (TlasClosest<'_, W, F, C>, KernelOf<K>)
 {
-    /// The instance record: with a million instances nearly every first read of one is a
-    /// cache miss (a third of a camera ray's time in the tree benchmark).
     #[inline(always)]
     fn prefetch(&self, i: u32) {
-        if let Some(r) = self.0.levels.recs.get(i as usize) {
-            prefetch_lines(
-                r as *const InstRec as *const u8,
-                std::mem::size_of::<InstRec>(),
-            );
-        }
+        self.0.levels.prefetch_record(i);
     }
 
     #[inline(always)]
     unsafe fn leaf(&mut self, i: u32, _: f32) -> Step {
         let v = &mut self.0;
         v.c.count(Event::Instance);
-        let rec = &v.levels.recs[i as usize];
-        let lr = to_local(rec, v.o, v.d, v.skip, i);
-        let blas = &v.levels.protos[rec.proto as usize];
+        let (blas, lr) = v.levels.enter(i, v.o, v.d, v.skip);
         // SAFETY: forwarded.
         v.found |= unsafe {
             blas_closest::<K, W, F, C>(blas, &v.levels.masks, &lr, &mut v.best, i, v.f, v.c)
@@ -550,25 +541,16 @@ struct TlasAny<'a, const W: usize, F, C> {
 impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit
     for (TlasAny<'_, W, F, C>, KernelOf<K>)
 {
-    /// The instance record: with a million instances nearly every first read of one is a
-    /// cache miss (a third of a camera ray's time in the tree benchmark).
     #[inline(always)]
     fn prefetch(&self, i: u32) {
-        if let Some(r) = self.0.levels.recs.get(i as usize) {
-            prefetch_lines(
-                r as *const InstRec as *const u8,
-                std::mem::size_of::<InstRec>(),
-            );
-        }
+        self.0.levels.prefetch_record(i);
     }
 
     #[inline(always)]
     unsafe fn leaf(&mut self, i: u32, tmax: f32) -> Step {
         let v = &mut self.0;
         v.c.count(Event::Instance);
-        let rec = &v.levels.recs[i as usize];
-        let lr = to_local(rec, v.o, v.d, v.skip, i);
-        let blas = &v.levels.protos[rec.proto as usize];
+        let (blas, lr) = v.levels.enter(i, v.o, v.d, v.skip);
         // SAFETY: forwarded.
         if unsafe { blas_any::<K, W, F, C>(blas, &v.levels.masks, &lr, tmax, v.f, v.c) } {
             v.hit = true;
@@ -635,6 +617,28 @@ pub(crate) fn intersect_sphere(s: &Sphere, o: Vec3, d: Vec3, tmax: f32) -> f32 {
 }
 
 impl<const W: usize> Levels<W> {
+    /// Prefetches instance record `i`: with a million instances nearly every first read of
+    /// one is a cache miss (a third of a camera ray's time in the tree benchmark).
+    #[inline(always)]
+    fn prefetch_record(&self, i: u32) {
+        if let Some(r) = self.recs.get(i as usize) {
+            prefetch_lines(
+                r as *const InstRec as *const u8,
+                std::mem::size_of::<InstRec>(),
+            );
+        }
+    }
+
+    /// Instance `i`'s prototype and the ray in its object space.
+    #[inline(always)]
+    fn enter(&self, i: u32, o: Vec3A, d: Vec3A, skip: PrimRef) -> (&Blas<W>, LRay) {
+        let rec = &self.recs[i as usize];
+        (
+            &self.protos[rec.proto as usize],
+            to_local(rec, o, d, skip, i),
+        )
+    }
+
     /// The closest accepted hit.
     ///
     /// # Safety

@@ -10,6 +10,30 @@ use std::arch::x86_64::*;
 
 pub(crate) struct Avx2;
 
+/// The children whose slabs overlap within `(0, tmax)`: entry distance the largest near
+/// plane, exit the smallest far plane, the exit widened by [`ROBUST`].
+///
+/// # Safety
+/// AVX (part of the AVX2 kernel's instruction set).
+#[inline(always)]
+unsafe fn slab_hits(near: [__m256; 3], far: [__m256; 3], tmax: f32) -> (u32, [f32; 8]) {
+    // SAFETY: the caller guarantees AVX; the store writes all of `tn`.
+    unsafe {
+        let n = _mm256_max_ps(
+            _mm256_max_ps(near[0], near[1]),
+            _mm256_max_ps(near[2], _mm256_setzero_ps()),
+        );
+        let f = _mm256_min_ps(
+            _mm256_min_ps(far[0], far[1]),
+            _mm256_min_ps(far[2], _mm256_set1_ps(tmax)),
+        );
+        let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(n, _mm256_mul_ps(f, _mm256_set1_ps(ROBUST)));
+        let mut tn = [0.0f32; 8];
+        _mm256_storeu_ps(tn.as_mut_ptr(), n);
+        (_mm256_movemask_ps(hit) as u32, tn)
+    }
+}
+
 /// The ray for 8-wide node tests and 4-wide leaf tests.
 #[derive(Clone, Copy)]
 pub(crate) struct WRay {
@@ -63,18 +87,7 @@ impl Lanes<8> for Avx2 {
             let (x0, x1) = slab(0);
             let (y0, y1) = slab(1);
             let (z0, z1) = slab(2);
-            let near = _mm256_max_ps(
-                _mm256_max_ps(x0, y0),
-                _mm256_max_ps(z0, _mm256_setzero_ps()),
-            );
-            let far = _mm256_min_ps(
-                _mm256_min_ps(x1, y1),
-                _mm256_min_ps(z1, _mm256_set1_ps(tmax)),
-            );
-            let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(near, _mm256_mul_ps(far, _mm256_set1_ps(ROBUST)));
-            let mut tn = [0.0f32; 8];
-            _mm256_storeu_ps(tn.as_mut_ptr(), near);
-            (_mm256_movemask_ps(hit) as u32, tn)
+            slab_hits([x0, y0, z0], [x1, y1, z1], tmax)
         }
     }
 
@@ -93,18 +106,7 @@ impl Lanes<8> for Avx2 {
             let (x0, x1) = (t(0, r.near[0]), t(0, far_index(r.near[0])));
             let (y0, y1) = (t(1, r.near[1]), t(1, far_index(r.near[1])));
             let (z0, z1) = (t(2, r.near[2]), t(2, far_index(r.near[2])));
-            let near = _mm256_max_ps(
-                _mm256_max_ps(x0, y0),
-                _mm256_max_ps(z0, _mm256_setzero_ps()),
-            );
-            let far = _mm256_min_ps(
-                _mm256_min_ps(x1, y1),
-                _mm256_min_ps(z1, _mm256_set1_ps(tmax)),
-            );
-            let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(near, _mm256_mul_ps(far, _mm256_set1_ps(ROBUST)));
-            let mut tn = [0.0f32; 8];
-            _mm256_storeu_ps(tn.as_mut_ptr(), near);
-            (_mm256_movemask_ps(hit) as u32, tn)
+            slab_hits([x0, y0, z0], [x1, y1, z1], tmax)
         }
     }
 

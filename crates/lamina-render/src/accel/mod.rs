@@ -148,38 +148,9 @@ pub fn spawn_origin(p: Vec3, n: Vec3, dir: Vec3) -> Vec3 {
     }
 }
 
-/// Memory held by an [`Accel`], in bytes (heap arrays: BVH nodes, primitive records,
-/// shading records, instance records).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct AccelMemory {
-    /// The BVH and primitives of the world-space meshes and quad lights.
-    pub world: usize,
-    /// The BVHs and primitives of all prototypes (object space), each stored once.
-    pub prototypes: usize,
-    /// The instance records (52 bytes each) plus the top-level BVH over them.
-    pub instances: usize,
-    /// The opacity masks of the mattes (one byte per texel cell, once per material).
-    pub masks: usize,
-    /// Number of instances.
-    pub instance_count: usize,
-}
-
-impl AccelMemory {
-    /// All of it (bytes).
-    pub fn total(&self) -> usize {
-        self.world + self.prototypes + self.instances + self.masks
-    }
-
-    /// Bytes per instance of the instance level (record + its share of the top-level
-    /// BVH); 0 without instances.
-    pub fn bytes_per_instance(&self) -> f64 {
-        if self.instance_count == 0 {
-            0.0
-        } else {
-            self.instances as f64 / self.instance_count as f64
-        }
-    }
-}
+/// Memory held by an [`Accel`], in bytes, by level: lamina-accel's trees, packs and
+/// records plus, in `world` and `prototypes`, the renderer's shading records.
+pub use lamina_accel::AccelMemory;
 
 /// The acceleration structure of a scene: lamina-accel's levels plus the shading side of
 /// every level.

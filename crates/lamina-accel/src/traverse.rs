@@ -346,7 +346,91 @@ pub(crate) struct Best {
     pub bary: Vec2,
 }
 
-/// Closest hit in `blas` for `lr`, improving `best` (its `t` is the bound).
+/// One bottom level queried with one prepared ray: what both leaf visits share.
+struct LevelQuery<'a, K: Lanes<W>, const W: usize, F, C> {
+    blas: &'a Blas<W>,
+    masks: &'a [Option<OpacityMask>],
+    r: &'a K::R,
+    /// The primitive id to skip (`u32::MAX`: none).
+    skip: u32,
+    f: &'a F,
+    c: &'a C,
+}
+
+impl<K: Lanes<W>, const W: usize, F, C> LevelQuery<'_, K, W, F, C> {
+    #[inline(always)]
+    fn prefetch_pack(&self, k: u32) {
+        if let Some(p) = self.blas.packs.get(k as usize) {
+            prefetch_lines(p as *const Pack as *const u8, std::mem::size_of::<Pack>());
+        }
+    }
+}
+
+/// The leaf visit of [`blas_closest`].
+struct ClosestVisit<'a, K: Lanes<W>, const W: usize, F, C> {
+    q: LevelQuery<'a, K, W, F, C>,
+    best: &'a mut Best,
+    inst: u32,
+    found: bool,
+}
+
+impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit
+    for ClosestVisit<'_, K, W, F, C>
+{
+    #[inline(always)]
+    fn prefetch(&self, k: u32) {
+        self.q.prefetch_pack(k);
+    }
+
+    #[inline(always)]
+    unsafe fn leaf(&mut self, k: u32, tmax: f32) -> Step {
+        let q = &self.q;
+        let p = &q.blas.packs[k as usize];
+        // SAFETY: forwarded.
+        let hit =
+            unsafe { pack_closest::<K, W, F, C>(q.blas, q.masks, p, q.r, tmax, q.skip, q.f, q.c) };
+        let Some((t, lane, b1, b2)) = hit else {
+            return Step::Go(tmax);
+        };
+        *self.best = Best {
+            t,
+            prim: p.id[lane],
+            inst: self.inst,
+            bary: Vec2::new(b1, b2),
+        };
+        self.found = true;
+        Step::Go(t)
+    }
+}
+
+/// The leaf visit of [`blas_any`].
+struct AnyVisit<'a, K: Lanes<W>, const W: usize, F, C> {
+    q: LevelQuery<'a, K, W, F, C>,
+    hit: bool,
+}
+
+impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit for AnyVisit<'_, K, W, F, C> {
+    #[inline(always)]
+    fn prefetch(&self, k: u32) {
+        self.q.prefetch_pack(k);
+    }
+
+    #[inline(always)]
+    unsafe fn leaf(&mut self, k: u32, tmax: f32) -> Step {
+        let q = &self.q;
+        let p = &q.blas.packs[k as usize];
+        // SAFETY: forwarded.
+        if unsafe { pack_any::<K, W, F, C>(q.blas, q.masks, p, q.r, tmax, q.skip, q.f, q.c) } {
+            self.hit = true;
+            Step::Stop
+        } else {
+            Step::Go(tmax)
+        }
+    }
+}
+
+/// Closest hit in `blas` for the prepared ray `r` (skipping id `skip`), improving `best`
+/// (its `t` is the bound).
 ///
 /// # Safety
 /// As [`walk`].
@@ -354,7 +438,8 @@ pub(crate) struct Best {
 unsafe fn blas_closest<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
     blas: &Blas<W>,
     masks: &[Option<OpacityMask>],
-    lr: &LRay,
+    r: &K::R,
+    skip: u32,
     best: &mut Best,
     inst: u32,
     f: &F,
@@ -363,69 +448,28 @@ unsafe fn blas_closest<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
     if blas.root == EMPTY {
         return false;
     }
-    // SAFETY: forwarded.
-    let r = unsafe { K::prep(lr) };
-    let mut found = false;
     let t0 = best.t;
-    struct V<'a, K: Lanes<W>, const W: usize, F, C> {
-        blas: &'a Blas<W>,
-        masks: &'a [Option<OpacityMask>],
-        r: K::R,
-        skip: u32,
-        best: &'a mut Best,
-        inst: u32,
-        found: &'a mut bool,
-        f: &'a F,
-        c: &'a C,
-    }
-    impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit for V<'_, K, W, F, C> {
-        #[inline(always)]
-        fn prefetch(&self, k: u32) {
-            if let Some(p) = self.blas.packs.get(k as usize) {
-                prefetch_lines(p as *const Pack as *const u8, std::mem::size_of::<Pack>());
-            }
-        }
-
-        #[inline(always)]
-        unsafe fn leaf(&mut self, k: u32, tmax: f32) -> Step {
-            let p = &self.blas.packs[k as usize];
-            // SAFETY: forwarded.
-            let hit = unsafe {
-                pack_closest::<K, W, F, C>(
-                    self.blas, self.masks, p, &self.r, tmax, self.skip, self.f, self.c,
-                )
-            };
-            if let Some((t, lane, b1, b2)) = hit {
-                *self.best = Best {
-                    t,
-                    prim: p.id[lane],
-                    inst: self.inst,
-                    bary: Vec2::new(b1, b2),
-                };
-                *self.found = true;
-                Step::Go(t)
-            } else {
-                Step::Go(tmax)
-            }
-        }
-    }
-    let mut v = V::<K, W, F, C> {
+    let q = LevelQuery::<K, W, F, C> {
         blas,
         masks,
         r,
-        skip: lr.skip,
-        best,
-        inst,
-        found: &mut found,
+        skip,
         f,
         c,
     };
+    let mut v = ClosestVisit {
+        q,
+        best,
+        inst,
+        found: false,
+    };
     // SAFETY: forwarded.
-    unsafe { walk::<K, W, W, [Node<W>], true, C>(&blas.nodes, blas.root, &r, t0, c, &mut v) };
-    found
+    unsafe { walk::<K, W, W, [Node<W>], true, C>(&blas.nodes, blas.root, r, t0, c, &mut v) };
+    v.found
 }
 
-/// Whether `blas` has an accepted hit for `lr` within `tmax`.
+/// Whether `blas` has an accepted hit for the prepared ray `r` (skipping id `skip`)
+/// within `tmax`.
 ///
 /// # Safety
 /// As [`walk`].
@@ -433,7 +477,8 @@ unsafe fn blas_closest<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
 unsafe fn blas_any<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
     blas: &Blas<W>,
     masks: &[Option<OpacityMask>],
-    lr: &LRay,
+    r: &K::R,
+    skip: u32,
     tmax: f32,
     f: &F,
     c: &C,
@@ -441,54 +486,18 @@ unsafe fn blas_any<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
     if blas.root == EMPTY {
         return false;
     }
-    // SAFETY: forwarded.
-    let r = unsafe { K::prep(lr) };
-    let mut hit = false;
-    struct V<'a, K: Lanes<W>, const W: usize, F, C> {
-        blas: &'a Blas<W>,
-        masks: &'a [Option<OpacityMask>],
-        r: K::R,
-        skip: u32,
-        hit: &'a mut bool,
-        f: &'a F,
-        c: &'a C,
-    }
-    impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit for V<'_, K, W, F, C> {
-        #[inline(always)]
-        fn prefetch(&self, k: u32) {
-            if let Some(p) = self.blas.packs.get(k as usize) {
-                prefetch_lines(p as *const Pack as *const u8, std::mem::size_of::<Pack>());
-            }
-        }
-
-        #[inline(always)]
-        unsafe fn leaf(&mut self, k: u32, tmax: f32) -> Step {
-            let p = &self.blas.packs[k as usize];
-            // SAFETY: forwarded.
-            if unsafe {
-                pack_any::<K, W, F, C>(
-                    self.blas, self.masks, p, &self.r, tmax, self.skip, self.f, self.c,
-                )
-            } {
-                *self.hit = true;
-                Step::Stop
-            } else {
-                Step::Go(tmax)
-            }
-        }
-    }
-    let mut v = V::<K, W, F, C> {
+    let q = LevelQuery::<K, W, F, C> {
         blas,
         masks,
         r,
-        skip: lr.skip,
-        hit: &mut hit,
+        skip,
         f,
         c,
     };
+    let mut v = AnyVisit { q, hit: false };
     // SAFETY: forwarded.
-    unsafe { walk::<K, W, W, [Node<W>], false, C>(&blas.nodes, blas.root, &r, tmax, c, &mut v) };
-    hit
+    unsafe { walk::<K, W, W, [Node<W>], false, C>(&blas.nodes, blas.root, r, tmax, c, &mut v) };
+    v.hit
 }
 
 /// The top level's leaf visit for closest hits: the instance's prototype, in its space.
@@ -521,7 +530,8 @@ impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit
         let (blas, lr) = v.levels.enter(i, v.o, v.d, v.skip);
         // SAFETY: forwarded.
         v.found |= unsafe {
-            blas_closest::<K, W, F, C>(blas, &v.levels.masks, &lr, &mut v.best, i, v.f, v.c)
+            let r = K::prep(&lr);
+            blas_closest::<K, W, F, C>(blas, &v.levels.masks, &r, lr.skip, &mut v.best, i, v.f, v.c)
         };
         Step::Go(v.best.t)
     }
@@ -552,7 +562,10 @@ impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit
         v.c.count(Event::Instance);
         let (blas, lr) = v.levels.enter(i, v.o, v.d, v.skip);
         // SAFETY: forwarded.
-        if unsafe { blas_any::<K, W, F, C>(blas, &v.levels.masks, &lr, tmax, v.f, v.c) } {
+        // SAFETY: forwarded.
+        let r = unsafe { K::prep(&lr) };
+        // SAFETY: forwarded.
+        if unsafe { blas_any::<K, W, F, C>(blas, &v.levels.masks, &r, lr.skip, tmax, v.f, v.c) } {
             v.hit = true;
             Step::Stop
         } else {
@@ -668,18 +681,23 @@ impl<const W: usize> Levels<W> {
                 u32::MAX
             },
         };
+        // One prepared world ray serves the world level and the top level.
+        // SAFETY: forwarded.
+        let tr = unsafe { K::prep(&wr) };
         // SAFETY: forwarded.
         let mut found = unsafe {
-            blas_closest::<K, W, F, C>(&self.world, &self.masks, &wr, &mut best, NO_INSTANCE, f, c)
+            blas_closest::<K, W, F, C>(
+                &self.world,
+                &self.masks,
+                &tr,
+                wr.skip,
+                &mut best,
+                NO_INSTANCE,
+                f,
+                c,
+            )
         };
         if let Some(tlas) = &self.tlas {
-            // SAFETY: forwarded.
-            let tr = unsafe {
-                K::prep(&LRay {
-                    skip: u32::MAX,
-                    ..wr
-                })
-            };
             let t0 = best.t;
             let mut v = (
                 TlasClosest {
@@ -751,19 +769,16 @@ impl<const W: usize> Levels<W> {
                 u32::MAX
             },
         };
+        // One prepared world ray serves the world level and the top level.
         // SAFETY: forwarded.
-        if unsafe { blas_any::<K, W, F, C>(&self.world, &self.masks, &wr, ray.tmax, f, c) } {
+        let tr = unsafe { K::prep(&wr) };
+        // SAFETY: forwarded.
+        if unsafe { blas_any::<K, W, F, C>(&self.world, &self.masks, &tr, wr.skip, ray.tmax, f, c) }
+        {
             return true;
         }
         let Some(tlas) = &self.tlas else {
             return false;
-        };
-        // SAFETY: forwarded.
-        let tr = unsafe {
-            K::prep(&LRay {
-                skip: u32::MAX,
-                ..wr
-            })
         };
         let mut v = (
             TlasAny {

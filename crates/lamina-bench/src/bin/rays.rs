@@ -28,7 +28,7 @@
 //! same `t`), `edge` (the nearer answer within 1e-4 of its primitive's boundary) and
 //! `matte edge` (the nearer answer where the matte is within 5e-3 of its cutoff).
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::Parser;
 use glam::Vec2;
 use lamina_accel::{Accel, Kernel, PrimRef, Ray, SceneDesc, TraversalStats};
@@ -38,6 +38,7 @@ use lamina_bench::rays::{
 };
 use rayon::prelude::*;
 use serde::Serialize;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -57,8 +58,12 @@ struct Args {
     #[arg(long)]
     embree_fast: bool,
     /// Write the results as JSON to FILE (atomically: a temporary file, then a rename).
+    /// An existing FILE is replaced only when it is an earlier report of this benchmark.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
+    /// Replace the `--json` file even when it is not an earlier report of this benchmark.
+    #[arg(long)]
+    force: bool,
     /// Thread counts to run every case on, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "1,2")]
     threads: Vec<usize>,
@@ -220,8 +225,13 @@ struct Machine {
     unix_time: u64,
 }
 
+/// `Report::generator`: what marks a JSON file as this benchmark's, so that a rerun may
+/// replace it.
+const REPORT_GENERATOR: &str = "lamina-bench rays";
+
 #[derive(Serialize, Debug)]
 struct Report {
+    generator: &'static str,
     machine: Machine,
     cases: Vec<CaseRow>,
     builds: Vec<BuildRow>,
@@ -458,23 +468,27 @@ fn cross_check(case: &Case, e: &EmbreeAccel, matte: &LeafMatte) -> Mismatches {
 
 /// Writes `bytes` to `path` atomically: a temporary file beside it, then a rename (the
 /// folder is created if missing).
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let name = path
-        .file_name()
-        .with_context(|| format!("{} is not a file path", path.display()))?;
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+/// Refuses a `--json` target that exists and is not an earlier report of this benchmark
+/// (unless `force`), and a folder always: checked before the run and again before writing.
+fn check_json_target(path: &Path, force: bool) -> Result<()> {
+    let Ok(meta) = std::fs::metadata(path) else {
+        return Ok(()); // nothing there
+    };
+    if meta.is_dir() {
+        bail!("--json {}: is a folder; name a file", path.display());
     }
-    let tmp = path.with_file_name(format!(
-        ".{}.tmp{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| {
-        let _ = std::fs::remove_file(&tmp);
-        format!("renaming {} to {}", tmp.display(), path.display())
-    })
+    let ours = std::fs::read(path)
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        .is_some_and(|v| v.get("generator").and_then(|g| g.as_str()) == Some(REPORT_GENERATOR));
+    if !ours && !force {
+        bail!(
+            "--json {}: the file exists and is not a report of this benchmark; \
+             it is left as it is (pass --force to replace it, or name another file)",
+            path.display()
+        );
+    }
+    Ok(())
 }
 
 fn run_cases(
@@ -571,6 +585,9 @@ fn print_builds(builds: &[BuildRow]) {
 
 fn main() -> Result<()> {
     let args = Args::parse();
+    if let Some(path) = &args.json {
+        check_json_target(path, args.force)?;
+    }
     if args.embree && !cfg!(feature = "embree") {
         eprintln!(
             "error: --embree needs lamina-bench built with the `embree` feature (and libembree-dev):\n  \
@@ -735,12 +752,17 @@ fn main() -> Result<()> {
     }
     if let Some(path) = &args.json {
         let report = Report {
+            generator: REPORT_GENERATOR,
             machine,
             cases: rows,
             builds,
         };
         let json = serde_json::to_vec_pretty(&report)?;
-        write_atomic(path, &json)?;
+        check_json_target(path, args.force)?;
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
+        lamina_io::write_file(path, |w| w.write_all(&json))?;
         println!("wrote {}", path.display());
     }
     Ok(())

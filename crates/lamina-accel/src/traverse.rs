@@ -11,6 +11,7 @@ use crate::mask::{OPAQUE, OpacityMask, TRANSPARENT};
 use crate::top::QNode;
 use crate::{AlphaFilter, Counter, Event, Hit, NO_INSTANCE, PrimRef, Ray, SPHERE};
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
+use std::marker::PhantomData;
 use std::mem::MaybeUninit;
 
 /// What a leaf visit tells the walk.
@@ -501,7 +502,8 @@ unsafe fn blas_any<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
 }
 
 /// The top level's leaf visit for closest hits: the instance's prototype, in its space.
-struct TlasClosest<'a, const W: usize, F, C> {
+struct TlasClosest<'a, K, const W: usize, F, C> {
+    kernel: PhantomData<K>,
     levels: &'a Levels<W>,
     o: Vec3A,
     d: Vec3A,
@@ -512,20 +514,17 @@ struct TlasClosest<'a, const W: usize, F, C> {
     c: &'a C,
 }
 
-/// Marker so that [`TlasClosest`] knows its kernel without storing a value of it.
-struct KernelOf<K>(std::marker::PhantomData<K>);
-
 impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit
-    for (TlasClosest<'_, W, F, C>, KernelOf<K>)
+    for TlasClosest<'_, K, W, F, C>
 {
     #[inline(always)]
     fn prefetch(&self, i: u32) {
-        self.0.levels.prefetch_record(i);
+        self.levels.prefetch_record(i);
     }
 
     #[inline(always)]
     unsafe fn leaf(&mut self, i: u32, _: f32) -> Step {
-        let v = &mut self.0;
+        let v = self;
         v.c.count(Event::Instance);
         let (blas, lr) = v.levels.enter(i, v.o, v.d, v.skip);
         // SAFETY: forwarded.
@@ -538,7 +537,8 @@ impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit
 }
 
 /// The top level's leaf visit for occlusion.
-struct TlasAny<'a, const W: usize, F, C> {
+struct TlasAny<'a, K, const W: usize, F, C> {
+    kernel: PhantomData<K>,
     levels: &'a Levels<W>,
     o: Vec3A,
     d: Vec3A,
@@ -548,20 +548,17 @@ struct TlasAny<'a, const W: usize, F, C> {
     c: &'a C,
 }
 
-impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit
-    for (TlasAny<'_, W, F, C>, KernelOf<K>)
-{
+impl<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> Visit for TlasAny<'_, K, W, F, C> {
     #[inline(always)]
     fn prefetch(&self, i: u32) {
-        self.0.levels.prefetch_record(i);
+        self.levels.prefetch_record(i);
     }
 
     #[inline(always)]
     unsafe fn leaf(&mut self, i: u32, tmax: f32) -> Step {
-        let v = &mut self.0;
+        let v = self;
         v.c.count(Event::Instance);
         let (blas, lr) = v.levels.enter(i, v.o, v.d, v.skip);
-        // SAFETY: forwarded.
         // SAFETY: forwarded.
         let r = unsafe { K::prep(&lr) };
         // SAFETY: forwarded.
@@ -699,25 +696,23 @@ impl<const W: usize> Levels<W> {
         };
         if let Some(tlas) = &self.tlas {
             let t0 = best.t;
-            let mut v = (
-                TlasClosest {
-                    levels: self,
-                    o,
-                    d,
-                    skip,
-                    best,
-                    found: false,
-                    f,
-                    c,
-                },
-                KernelOf::<K>(std::marker::PhantomData),
-            );
+            let mut v = TlasClosest::<K, W, F, C> {
+                kernel: PhantomData,
+                levels: self,
+                o,
+                d,
+                skip,
+                best,
+                found: false,
+                f,
+                c,
+            };
             // SAFETY: forwarded.
             unsafe {
                 walk::<K, W, 8, [QNode], true, C>(&tlas.nodes, tlas.root, &tr, t0, c, &mut v)
             };
-            best = v.0.best;
-            found |= v.0.found;
+            best = v.best;
+            found |= v.found;
         }
         for (k, s) in self.spheres.iter().enumerate() {
             let t = intersect_sphere(s, ray.origin, ray.dir, best.t);
@@ -780,22 +775,20 @@ impl<const W: usize> Levels<W> {
         let Some(tlas) = &self.tlas else {
             return false;
         };
-        let mut v = (
-            TlasAny {
-                levels: self,
-                o,
-                d,
-                skip,
-                hit: false,
-                f,
-                c,
-            },
-            KernelOf::<K>(std::marker::PhantomData),
-        );
+        let mut v = TlasAny::<K, W, F, C> {
+            kernel: PhantomData,
+            levels: self,
+            o,
+            d,
+            skip,
+            hit: false,
+            f,
+            c,
+        };
         // SAFETY: forwarded.
         unsafe {
             walk::<K, W, 8, [QNode], false, C>(&tlas.nodes, tlas.root, &tr, ray.tmax, c, &mut v)
         };
-        v.0.hit
+        v.hit
     }
 }

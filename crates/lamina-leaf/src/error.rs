@@ -16,6 +16,16 @@ pub enum LeafError {
         /// The allowed range or rule, in words.
         allowed: String,
     },
+    /// A PROSPECT input (pigment content or structure) is NaN or outside its published range.
+    #[error("`{field}` = {value} is invalid: {allowed}")]
+    InvalidPigment {
+        /// The key or flag as the user wrote it (e.g. `pigments.cab`, `--cab`).
+        field: String,
+        /// The offending value, formatted.
+        value: String,
+        /// The allowed range or rule, in words.
+        allowed: String,
+    },
     /// One of the seven maps could not be loaded.
     #[error("leaf map `{map}` ('{path}') cannot be loaded: {source}")]
     Map {

@@ -44,6 +44,7 @@ pub mod material;
 mod packed;
 pub mod params;
 pub mod pbr;
+pub mod prospect;
 pub mod sampling;
 pub mod specular;
 #[doc(hidden)]
@@ -58,4 +59,5 @@ pub use maps::{LeafDescription, LeafMapPaths, LeafMaps};
 pub use material::LeafMaterial;
 pub use params::{LayerParams, LeafMode, LeafParams};
 pub use pbr::PbrBsdf;
+pub use prospect::{LeafSpectrum, Pigments, ProspectModel, prospect};
 pub use texture::{Encoding, Texture, TextureError, Wrap};

@@ -46,6 +46,7 @@ pub mod params;
 pub mod pbr;
 pub mod prospect;
 pub mod sampling;
+pub mod spectrum;
 pub mod specular;
 #[doc(hidden)]
 pub mod testing;

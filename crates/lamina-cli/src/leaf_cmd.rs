@@ -1,6 +1,7 @@
 //! `lamina leaf ...`: make leaf folders (the seven maps and `leaf.toml`) procedurally or from
 //! captures, and contact sheets of them. The work is done by `lamina-leafmaps`.
 
+use crate::leaf_spectra_cmd::PigmentArgs;
 use crate::output_file::{claim, files_in, replace_mode};
 use anyhow::Context;
 use lamina_leafmaps::sheet::SheetOptions;
@@ -103,6 +104,19 @@ pub enum LeafCommand {
         /// Exposure multiplier of the back-lit render.
         #[arg(long, default_value_t = 1.0)]
         backlit_exposure: f32,
+    },
+    /// A leaf's reflectance and transmittance, 400-2500 nm at 1 nm, from its pigments
+    /// (PROSPECT-D or PROSPECT-PRO), as CSV `wavelength_nm,reflectance,transmittance`.
+    Prospect {
+        #[command(flatten)]
+        pigments: PigmentArgs,
+        /// Output CSV (written atomically). An existing file is replaced only if lamina wrote
+        /// it; see --force.
+        #[arg(short, long)]
+        out: PathBuf,
+        /// Replace an output file lamina did not write.
+        #[arg(long)]
+        force: bool,
     },
 }
 
@@ -233,6 +247,11 @@ pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
             };
             write_sheet(&dir, &out, &options, force)?;
         }
+        LeafCommand::Prospect {
+            pigments,
+            out,
+            force,
+        } => crate::leaf_spectra_cmd::run_prospect(&pigments, &out, force)?,
     }
     Ok(())
 }

@@ -15,6 +15,7 @@ mod demo;
 mod gpu_cmd;
 mod interrupted;
 mod leaf_cmd;
+mod leaf_spectra_cmd;
 mod output_file;
 mod plant_cmd;
 mod render_cmd;
@@ -36,7 +37,7 @@ enum Command {
     View(view_cmd::ViewArgs),
     /// Render the built-in demo: a leaf lit from the front and from behind, and a bush.
     Demo(demo::DemoArgs),
-    /// Leaf maps: generate procedural leaves, prepare captures, make contact sheets.
+    /// Leaf maps and spectra: procedural leaves, captures, contact sheets, PROSPECT.
     #[command(subcommand)]
     Leaf(leaf_cmd::LeafCommand),
     /// Procedural plants.

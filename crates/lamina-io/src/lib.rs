@@ -28,4 +28,4 @@ pub mod owned;
 pub use atomic::{WriteError, write_bytes, write_file};
 pub use folder::{FolderError, FolderSpec, FolderState, Replace, Staged, check_folder, stage};
 pub use image_out::{ImageOutError, save_image};
-pub use owned::{FileError, FileState, GENERATOR, check_file, file_state};
+pub use owned::{FileError, FileState, GENERATOR, check_file, file_state, text_mark_line};

@@ -9,6 +9,7 @@
 //! | JPEG | a `COM` (comment) segment after the `APPn` segments |
 //! | OpenEXR | the standard `software` string attribute of the (first) header |
 //! | GLB (binary glTF) | `asset.generator` in the JSON chunk |
+//! | CSV and other text tables | a first line `# lamina <version>...` ([`text_mark_line`]), a comment to `numpy.loadtxt`, R's `read.csv(comment.char = "#")` and pandas' `comment="#"` |
 //!
 //! The mark's text is [`GENERATOR`] (`lamina <version>`); a file is lamina's when its mark
 //! starts with `lamina`. Viewers and other tools ignore the mark; lamina's own readers do
@@ -180,8 +181,24 @@ pub fn mark_of(bytes: &[u8]) -> Option<String> {
         exr_mark(bytes)
     } else if bytes.starts_with(b"glTF") {
         glb_mark(bytes)
+    } else if let Some(rest) = bytes.strip_prefix(b"# lamina") {
+        let line = rest.split(|&b| b == b'\n').next().unwrap_or_default();
+        Some(format!(
+            "lamina{}",
+            String::from_utf8_lossy(line).trim_end()
+        ))
     } else {
         None
+    }
+}
+
+/// The first line of a text table lamina writes (CSV): `# lamina <version>`, then `detail`
+/// (what made it, e.g. the model and its inputs) when not empty. No line break.
+pub fn text_mark_line(detail: &str) -> String {
+    if detail.is_empty() {
+        format!("# {GENERATOR}")
+    } else {
+        format!("# {GENERATOR}: {detail}")
     }
 }
 
@@ -434,6 +451,16 @@ mod tests {
             std::fs::write(&p, bytes).unwrap();
             assert_eq!(file_state(&p).unwrap(), FileState::Foreign, "{name}");
         }
+    }
+
+    #[test]
+    fn text_tables_carry_the_mark_on_their_first_line() {
+        let line = text_mark_line("PROSPECT-D");
+        let csv = format!("{line}\nwavelength_nm,reflectance\n400,0.1\n");
+        let mark = mark_of(csv.as_bytes()).unwrap();
+        assert!(mark.starts_with(GENERATOR), "{mark}");
+        assert!(mark_of(b"wavelength_nm,reflectance\n400,0.1\n").is_none());
+        assert!(mark_of(b"# measured by hand\n400,0.1\n").is_none());
     }
 
     #[test]

@@ -29,6 +29,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod albedo;
 pub mod analytic;
 pub mod bsdf;
 pub mod diffusion;
@@ -44,6 +45,7 @@ pub mod material;
 mod packed;
 pub mod params;
 pub mod pbr;
+pub mod pigment_leaf;
 pub mod prospect;
 pub mod sampling;
 pub mod spectrum;
@@ -60,5 +62,6 @@ pub use maps::{LeafDescription, LeafMapPaths, LeafMaps};
 pub use material::LeafMaterial;
 pub use params::{LayerParams, LeafMode, LeafParams};
 pub use pbr::PbrBsdf;
+pub use pigment_leaf::PigmentLeaf;
 pub use prospect::{LeafSpectrum, Pigments, ProspectModel, prospect};
 pub use texture::{Encoding, Texture, TextureError, Wrap};

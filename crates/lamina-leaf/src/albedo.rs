@@ -133,7 +133,7 @@ pub fn opaque_texels(leaf: &LeafMaterial, max: u32) -> Vec<Vec2> {
     }
     // A grid of g x g cells over the card; the opaque centres of a finer grid, thinned to
     // `max`, keep the average unbiased where the matte covers part of the card.
-    let g = (size.min(512)).max(2);
+    let g = size.clamp(2, 512);
     let mut all = Vec::new();
     for y in 0..g {
         for x in 0..g {

@@ -56,6 +56,10 @@ pub struct LeafDescription {
     pub maps: LeafMapPaths,
     /// The physical parameters.
     pub params: LeafParams,
+    /// PROSPECT pigments: when given, the leaf's colours come from them
+    /// ([`crate::PigmentLeaf`]) and colour maps are refused.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pigments: Option<crate::Pigments>,
 }
 
 /// Largest `leaf.toml` accepted (bytes): 1 MiB; a description is a few hundred bytes.

@@ -566,6 +566,20 @@ impl LeafMaterial {
         })
     }
 
+    /// A material from maps, parameters and optional PROSPECT pigments: without pigments
+    /// [`Self::new`]; with them the RGB material of a [`crate::PigmentLeaf`] (colours from
+    /// PROSPECT, 10 nm integration; `maps` may not hold colour maps).
+    pub fn from_parts(
+        maps: LeafMaps,
+        params: LeafParams,
+        pigments: Option<crate::Pigments>,
+    ) -> Result<Self, LeafError> {
+        match pigments {
+            None => Self::new(maps, params),
+            Some(p) => crate::PigmentLeaf::new(p, params, maps)?.rgb_material(10.0),
+        }
+    }
+
     /// Loads the maps of `desc` (paths relative to `base_dir`) and validates its parameters.
     /// The error names the map and the file, or the parameter.
     ///
@@ -577,7 +591,7 @@ impl LeafMaterial {
             crate::guard::fault_point("leaf_material");
             desc.params.validate()?;
             let maps = LeafMaps::load(&desc.maps, base_dir)?;
-            Self::new(maps, desc.params)
+            Self::from_parts(maps, desc.params, desc.pigments)
         })
         .unwrap_or_else(|message| {
             Err(LeafError::Panicked {

@@ -60,36 +60,65 @@ impl std::fmt::Display for ProspectModel {
 /// A leaf's structure and biochemistry, the inputs of PROSPECT. Contents are per unit of
 /// (one-sided) leaf area. The model is implied: `prot` or `cbc` non-zero makes it
 /// PROSPECT-PRO, which then needs `cm = 0` (see [`Pigments::validate`]).
+///
+/// In a `leaf.toml` or scene file (`pigments = { n = 1.8, cab = 45 }`) every key is optional:
+/// a missing one takes [`Pigments::default`]'s value, except that `cm` defaults to 0 where
+/// `prot` or `cbc` is given (PROSPECT-PRO). Unknown keys are errors.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(from = "PigmentKeys")]
 pub struct Pigments {
     /// Leaf structure parameter: the number of elementary plates (1 = compact monocot,
     /// 1.5-2.5 = dicots with more intercellular air). Dimensionless, real.
     pub n: f64,
     /// Chlorophyll a + b, µg/cm².
-    #[serde(default)]
     pub cab: f64,
     /// Carotenoids, µg/cm².
-    #[serde(default)]
     pub car: f64,
     /// Anthocyanins, µg/cm².
-    #[serde(default)]
     pub anth: f64,
     /// Brown pigments (senescence), arbitrary units (0 for a green leaf, about 1 for brown).
-    #[serde(default)]
     pub cbrown: f64,
     /// Equivalent water thickness, cm (= g/cm² of water).
-    #[serde(default)]
     pub cw: f64,
     /// Dry matter content (leaf mass per area), g/cm². PROSPECT-D only.
-    #[serde(default)]
     pub cm: f64,
     /// Proteins, g/cm². PROSPECT-PRO only.
-    #[serde(default)]
     pub prot: f64,
     /// Carbon-based constituents (cellulose, lignin, sugars...), g/cm². PROSPECT-PRO only.
-    #[serde(default)]
     pub cbc: f64,
+}
+
+/// [`Pigments`] as written in a file: every key optional.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PigmentKeys {
+    n: Option<f64>,
+    cab: Option<f64>,
+    car: Option<f64>,
+    anth: Option<f64>,
+    cbrown: Option<f64>,
+    cw: Option<f64>,
+    cm: Option<f64>,
+    prot: Option<f64>,
+    cbc: Option<f64>,
+}
+
+impl From<PigmentKeys> for Pigments {
+    fn from(k: PigmentKeys) -> Self {
+        let d = Pigments::default();
+        let pro = k.prot.is_some() || k.cbc.is_some();
+        Pigments {
+            n: k.n.unwrap_or(d.n),
+            cab: k.cab.unwrap_or(d.cab),
+            car: k.car.unwrap_or(d.car),
+            anth: k.anth.unwrap_or(d.anth),
+            cbrown: k.cbrown.unwrap_or(d.cbrown),
+            cw: k.cw.unwrap_or(d.cw),
+            cm: k.cm.unwrap_or(if pro { 0.0 } else { d.cm }),
+            prot: k.prot.unwrap_or(0.0),
+            cbc: k.cbc.unwrap_or(0.0),
+        }
+    }
 }
 
 impl Default for Pigments {
@@ -518,5 +547,16 @@ mod tests {
             ..Pigments::default()
         };
         assert!(p.validate("").is_err());
+    }
+
+    #[test]
+    fn pigments_read_from_toml_with_defaults() {
+        let p: Pigments = toml::from_str("cab = 20.0").unwrap();
+        assert_eq!(p.cab, 20.0);
+        assert_eq!(p.cm, Pigments::default().cm);
+        let p: Pigments = toml::from_str("prot = 0.001\ncbc = 0.008").unwrap();
+        assert_eq!((p.cm, p.model()), (0.0, ProspectModel::Pro));
+        let e = toml::from_str::<Pigments>("chlorophyll = 3.0").unwrap_err();
+        assert!(e.to_string().contains("chlorophyll"), "{e}");
     }
 }

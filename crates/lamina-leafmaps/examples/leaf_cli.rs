@@ -4,6 +4,8 @@
 
 #[path = "../../lamina-cli/src/leaf_cmd.rs"]
 mod leaf_cmd;
+#[path = "../../lamina-cli/src/leaf_spectra_cmd.rs"]
+mod leaf_spectra_cmd;
 #[path = "../../lamina-cli/src/output_file.rs"]
 mod output_file;
 

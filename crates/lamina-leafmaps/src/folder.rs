@@ -381,6 +381,7 @@ pub fn write_leaf_folder(
             wrap: Wrap::Clamp,
         },
         params: *params,
+        pigments: None,
     };
     let mut text = String::new();
     for c in comments {

@@ -239,3 +239,45 @@ fn deeply_nested_input_is_an_error_not_a_stack_overflow() {
         .unwrap_err();
     assert!(e.to_string().contains("c.json"), "{e}");
 }
+
+#[test]
+fn pigment_leaves_load_and_bad_pigments_name_the_key() {
+    let scene = |pigments: &str, extra: &str| {
+        format!(
+            "{SCENE}[[material]]\nname = \"l\"\ntype = \"leaf\"\n{extra}pigments = {{ {pigments} }}\n"
+        )
+    };
+    let path = Path::new("/tmp/pigments.toml");
+    let ok = crate::loader::parse_scene(&scene("cab = 30, anth = 4", ""), path).unwrap();
+    let crate::scene::Material::Leaf { leaf, .. } = &ok.materials[0] else {
+        panic!("not a leaf");
+    };
+    // Colours from PROSPECT: a green leaf, green brighter than red and blue.
+    let [front, _, trans] = leaf.map_colours(glam::Vec2::splat(0.5));
+    assert!(front.y > front.x && front.y > front.z, "{front}");
+    assert!(trans.y > trans.z, "{trans}");
+    // A species keeps its shape maps and takes its colours from the pigments.
+    crate::loader::parse_scene(
+        &scene("cab = 30", "species = \"oak\"\nresolution = 32\n"),
+        path,
+    )
+    .unwrap();
+    for (pigments, words) in [
+        ("cab = 300", &["pigments.cab", "300", "[0, 120]"][..]),
+        ("chlorophyll = 3", &["chlorophyll"][..]),
+        ("prot = 0.001, cm = 0.01", &["cm", "prot + cbc"][..]),
+        ("n = \"two\"", &["n"][..]),
+    ] {
+        let e = crate::loader::parse_scene(&scene(pigments, ""), path)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("pigments.toml"), "{e}");
+        for w in words {
+            assert!(e.contains(w), "expected '{w}' in: {e}");
+        }
+    }
+    let e = crate::loader::parse_scene(&scene("cab = 30", "maps = { front = \"f.png\" }\n"), path)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("f.png") || e.contains("maps.front"), "{e}");
+}

@@ -11,6 +11,7 @@
 //! | `resolution` | pixels, 16-4096 | `512` | `species` only: the maps' longer side |
 //! | `maps` | table of paths | none | map paths overriding the file's: `front`, `back`, `translucency`, `alpha`, `thickness`, `extinction`, `bump` (relative to the scene file) |
 //! | `params` | table | none | leaf parameters overriding the file's; see the lamina-leaf crate docs for each parameter, its unit and range |
+//! | `pigments` | table | none | PROSPECT pigments `n`, `cab` (µg/cm²), `car`, `anth`, `cbrown`, `cw` (cm), `cm` (g/cm²), PRO's `prot`, `cbc` (g/cm²), each within its published range: the leaf's colours come from PROSPECT instead of colour maps (a `species` leaf then keeps only its shape maps: alpha, thickness, extinction, bump); see lamina-leaf's README, "Pigment leaves" |
 //!
 //! ```toml
 //! [[material]]
@@ -37,6 +38,7 @@ pub(crate) const KEYS: Keys = super::keys(&[
     ("resolution", Kind::Int),
     ("maps", Kind::Table),
     ("params", Kind::Table),
+    ("pigments", Kind::Table),
 ]);
 
 /// Reads a leaf material.
@@ -168,10 +170,18 @@ fn load_leaf_material(d: &Dict) -> Result<LeafMaterial, SceneError> {
             toml::Value::Table(table_to_toml(params.get_ref())),
         );
     }
+    let pigments = d.table("pigments")?;
+    if let Some(p) = &pigments {
+        over.insert(
+            "pigments".into(),
+            toml::Value::Table(table_to_toml(p.get_ref())),
+        );
+    }
     merge(&mut table, over);
-    let anchor = params
+    let anchor = pigments
         .as_ref()
         .map(|s| s.span())
+        .or(params.as_ref().map(|s| s.span()))
         .or(maps.as_ref().map(|s| s.span()))
         .or(file.as_ref().map(|f| f.span()))
         .or(species.as_ref().map(|f| f.span()))
@@ -189,16 +199,21 @@ fn load_leaf_material(d: &Dict) -> Result<LeafMaterial, SceneError> {
         Some(g) => {
             // Maps named in the scene replace the generated ones.
             let o = LeafMaps::load(&desc.maps, Path::new("")).map_err(fail)?;
+            // With pigments the procedural colour maps give way to PROSPECT (colour maps
+            // the scene names itself are still refused, by the pigment leaf).
+            let generated_colour = |m: Option<lamina_leaf::Texture>| {
+                if desc.pigments.is_some() { None } else { m }
+            };
             let maps = LeafMaps {
-                front: o.front.or(g.front),
-                back: o.back.or(g.back),
-                translucency: o.translucency.or(g.translucency),
+                front: o.front.or(generated_colour(g.front)),
+                back: o.back.or(generated_colour(g.back)),
+                translucency: o.translucency.or(generated_colour(g.translucency)),
                 alpha: o.alpha.or(g.alpha),
                 thickness: o.thickness.or(g.thickness),
                 extinction: o.extinction.or(g.extinction),
                 bump: o.bump.or(g.bump),
             };
-            LeafMaterial::new(maps, desc.params).map_err(fail)
+            LeafMaterial::from_parts(maps, desc.params, desc.pigments).map_err(fail)
         }
     }
 }

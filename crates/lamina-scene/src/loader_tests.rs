@@ -281,3 +281,25 @@ fn pigment_leaves_load_and_bad_pigments_name_the_key() {
         .to_string();
     assert!(e.contains("f.png") || e.contains("maps.front"), "{e}");
 }
+
+#[test]
+fn a_leaf_folder_with_its_wrap_mode_loads_from_a_scene() {
+    // A folder as `lamina leaf generate` writes it: its leaf.toml says `wrap = "clamp"`,
+    // which is a mode, not a map path to resolve against the folder.
+    let d = scratch("wrap");
+    let leaf = lamina_leafmaps::generate(&lamina_leafmaps::LeafSpec::new(
+        lamina_leafmaps::Species::Oak,
+        1,
+        32,
+    ));
+    leaf.write_folder_with(&d.join("oak"), &lamina_leafmaps::FolderWrite::default())
+        .unwrap();
+    let text = std::fs::read_to_string(d.join("oak/leaf.toml")).unwrap();
+    assert!(text.contains("wrap = \"clamp\""), "{text}");
+    for extra in ["", "maps = { wrap = \"repeat\" }\n"] {
+        let scene = format!(
+            "{SCENE}[[material]]\nname = \"l\"\ntype = \"leaf\"\nfile = \"oak/leaf.toml\"\n{extra}"
+        );
+        crate::loader::parse_scene(&scene, &d.join("scene.toml")).unwrap();
+    }
+}

@@ -66,10 +66,16 @@ fn read_leaf_file(path: &Path) -> Result<toml::Table, SceneError> {
     Ok(table)
 }
 
-/// Makes every string under `maps` relative to `dir`.
+/// The one key under `maps` that is not a file path: the addressing mode.
+const WRAP_KEY: &str = "wrap";
+
+/// Makes every map path under `maps` relative to `dir` (not `wrap`, which is a mode).
 fn absolutise_maps(table: &mut toml::Table, dir: &Path) {
     if let Some(toml::Value::Table(maps)) = table.get_mut("maps") {
-        for (_, v) in maps.iter_mut() {
+        for (k, v) in maps.iter_mut() {
+            if k == WRAP_KEY {
+                continue;
+            }
             if let toml::Value::String(s) = v {
                 let joined = dir.join(s.as_str()).to_string_lossy().into_owned();
                 *s = joined;
@@ -148,6 +154,9 @@ fn load_leaf_material(d: &Dict) -> Result<LeafMaterial, SceneError> {
         let mut t = toml::Table::new();
         for (name, v) in maps.get_ref().iter() {
             match v.get_ref() {
+                Value::String(s) if name.get_ref() == WRAP_KEY => {
+                    t.insert(name.get_ref().clone(), toml::Value::String(s.clone()));
+                }
                 Value::String(s) => {
                     let joined = cx.base.join(s.as_str()).to_string_lossy().into_owned();
                     t.insert(name.get_ref().clone(), toml::Value::String(joined));

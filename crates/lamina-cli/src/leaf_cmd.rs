@@ -1,7 +1,7 @@
 //! `lamina leaf ...`: make leaf folders (the seven maps and `leaf.toml`) procedurally or from
 //! captures, and contact sheets of them. The work is done by `lamina-leafmaps`.
 
-use crate::leaf_spectra_cmd::PigmentArgs;
+use crate::leaf_spectra_cmd::{AlbedoArgs, FitArgs, PigmentArgs};
 use crate::output_file::{claim, files_in, replace_mode};
 use anyhow::Context;
 use lamina_leafmaps::sheet::SheetOptions;
@@ -118,6 +118,14 @@ pub enum LeafCommand {
         #[arg(long)]
         force: bool,
     },
+    /// A leaf's directional-hemispherical reflectance and transmittance, integrated from
+    /// the BSDF the renderer evaluates, averaged over its opaque texels; CSV
+    /// `wavelength_nm,reflectance,transmittance` (an RGB leaf: one row per channel at its
+    /// nominal wavelength, 464/549/611 nm for blue/green/red).
+    Albedo(AlbedoArgs),
+    /// Fit a leaf to a measured R (and T) spectrum: PROSPECT pigments, written as a leaf
+    /// folder with fit.csv and fit.png.
+    Fit(FitArgs),
 }
 
 fn parse_species(s: &str) -> Result<Species, String> {
@@ -252,6 +260,8 @@ pub fn run(cmd: LeafCommand) -> anyhow::Result<()> {
             out,
             force,
         } => crate::leaf_spectra_cmd::run_prospect(&pigments, &out, force)?,
+        LeafCommand::Albedo(a) => crate::leaf_spectra_cmd::run_albedo(&a)?,
+        LeafCommand::Fit(a) => crate::leaf_spectra_cmd::run_fit(&a)?,
     }
     Ok(())
 }

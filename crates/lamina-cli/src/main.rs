@@ -11,6 +11,7 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod chart;
 mod demo;
 mod gpu_cmd;
 mod interrupted;

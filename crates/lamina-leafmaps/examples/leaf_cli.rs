@@ -2,6 +2,8 @@
 //! compile-check the subcommands without the full CLI:
 //! `cargo run --release -p lamina-leafmaps --example leaf_cli -- generate -s maple -o out/maple`
 
+#[path = "../../lamina-cli/src/chart.rs"]
+mod chart;
 #[path = "../../lamina-cli/src/leaf_cmd.rs"]
 mod leaf_cmd;
 #[path = "../../lamina-cli/src/leaf_spectra_cmd.rs"]

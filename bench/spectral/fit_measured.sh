@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Fits `lamina leaf fit` to real measured leaves (USGS Spectral Library v7, via
+# bench/spectral/measured_leaves.py) and prints each fit's RMSE and band-mean errors.
+# Usage: bench/spectral/fit_measured.sh [OUT_DIR]   (needs pip access once, for the data)
+set -euo pipefail
+root="$(cd "$(dirname "$0")/../.." && pwd)"
+out="${1:-/tmp/lamina-fit-measured}"
+mkdir -p "$out"
+cargo build --release -q -p lamina-cli --manifest-path "$root/Cargo.toml"
+python3 "$root/bench/spectral/measured_leaves.py" -o "$out/spectra" >/dev/null
+for f in "$out"/spectra/*.csv; do
+  name="$(basename "$f" .csv)"
+  echo "== $name"
+  "$root/target/release/lamina" leaf fit --spectrum "$f" -o "$out/$name" --force 2>&1 \
+    | grep -E "pigments|RMSE|    "
+done

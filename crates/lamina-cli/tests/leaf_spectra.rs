@@ -1,0 +1,259 @@
+//! `lamina leaf prospect | albedo | fit` through the real binary: the files they write,
+//! their numbers, and clear errors on bad input with nothing left behind.
+
+mod common;
+
+use common::{names, scratch};
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn lamina(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lamina"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn ok(o: &Output) -> String {
+    let e = stderr(o);
+    assert!(o.status.success(), "failed:\n{e}");
+    e
+}
+
+fn fails(o: &Output, words: &[&str]) {
+    let e = stderr(o);
+    assert!(!o.status.success(), "should fail:\n{e}");
+    assert!(!e.contains("panicked"), "panic:\n{e}");
+    for w in words {
+        assert!(e.contains(w), "expected '{w}' in:\n{e}");
+    }
+}
+
+/// `(nm, R, T)` rows of a lamina CSV (skipping its mark and header).
+fn rows(path: &Path) -> Vec<Vec<f64>> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .skip(2)
+        .map(|l| {
+            l.split(',')
+                .map(|x| x.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn prospect_writes_the_model_at_every_nanometre() {
+    let d = scratch("spectra", "prospect");
+    ok(&lamina(
+        &[
+            "leaf", "prospect", "--n", "1.8", "--cab", "45", "--anth", "2", "-o", "p.csv",
+        ],
+        &d,
+    ));
+    let text = std::fs::read_to_string(d.join("p.csv")).unwrap();
+    let mut lines = text.lines();
+    assert!(lines.next().unwrap().starts_with("# lamina"));
+    assert_eq!(
+        lines.next().unwrap(),
+        "wavelength_nm,reflectance,transmittance"
+    );
+    let r = rows(&d.join("p.csv"));
+    assert_eq!(r.len(), 2101);
+    let want = lamina_leaf::prospect(&lamina_leaf::Pigments {
+        n: 1.8,
+        cab: 45.0,
+        anth: 2.0,
+        ..Default::default()
+    });
+    for (i, row) in r.iter().enumerate() {
+        assert_eq!(row[0], 400.0 + i as f64);
+        assert!((row[1] - want.r[i]).abs() < 1e-6 && (row[2] - want.t[i]).abs() < 1e-6);
+    }
+    // PRO.
+    ok(&lamina(
+        &[
+            "leaf", "prospect", "--model", "pro", "--prot", "0.0015", "-o", "p.csv",
+        ],
+        &d,
+    ));
+    // Bad flags: named, nothing written.
+    let e = scratch("spectra", "prospect-bad");
+    fails(
+        &lamina(&["leaf", "prospect", "--cab", "300", "-o", "x.csv"], &e),
+        &["--cab", "300", "[0, 120]"],
+    );
+    fails(
+        &lamina(&["leaf", "prospect", "--prot", "0.001", "-o", "x.csv"], &e),
+        &["--prot", "--model pro"],
+    );
+    fails(
+        &lamina(
+            &[
+                "leaf", "prospect", "--model", "pro", "--cm", "0.01", "-o", "x.csv",
+            ],
+            &e,
+        ),
+        &["--cm", "prot"],
+    );
+    fails(
+        &lamina(&["leaf", "prospect", "--n", "nan", "-o", "x.csv"], &e),
+        &["--n"],
+    );
+    assert!(names(&e).is_empty(), "{:?}", names(&e));
+    // A file lamina did not write is kept.
+    std::fs::write(e.join("mine.csv"), "my data").unwrap();
+    fails(
+        &lamina(&["leaf", "prospect", "-o", "mine.csv"], &e),
+        &["mine.csv", "--force"],
+    );
+    assert_eq!(
+        std::fs::read_to_string(e.join("mine.csv")).unwrap(),
+        "my data"
+    );
+}
+
+#[test]
+fn fit_recovers_a_leaf_and_the_folder_renders_and_integrates() {
+    let d = scratch("spectra", "fit");
+    ok(&lamina(
+        &[
+            "leaf", "prospect", "--n", "1.6", "--cab", "55", "--car", "12", "--cw", "0.014",
+            "--cm", "0.007", "-o", "full.csv",
+        ],
+        &d,
+    ));
+    // Every 10 nm, as a spectrometer export with a header and whitespace.
+    let r = rows(&d.join("full.csv"));
+    let mut text = String::from("lambda R T\n");
+    for row in r.iter().step_by(10) {
+        text += &format!("{} {} {}\n", row[0], row[1], row[2]);
+    }
+    std::fs::write(d.join("meas.txt"), text).unwrap();
+    let e = ok(&lamina(
+        &["leaf", "fit", "--spectrum", "meas.txt", "-o", "fitted"],
+        &d,
+    ));
+    assert!(e.contains("RMSE") && e.contains("NIR 800-900 nm"), "{e}");
+    assert_eq!(
+        names(&d.join("fitted")),
+        ["fit.csv", "fit.png", "leaf.toml"]
+    );
+    let desc = lamina_leaf::LeafDescription::from_toml_file(&d.join("fitted/leaf.toml")).unwrap();
+    let p = desc.pigments.unwrap();
+    assert!(
+        (p.n - 1.6).abs() < 0.02 && (p.cab - 55.0).abs() < 1.0,
+        "{p:?}"
+    );
+    assert!(
+        (p.cw - 0.014).abs() < 5e-4 && (p.cm - 0.007).abs() < 5e-4,
+        "{p:?}"
+    );
+    // fit.csv: measured and model columns, the model (the BSDF) within 0.01 of the data.
+    let f = rows(&d.join("fitted/fit.csv"));
+    assert_eq!(f.len(), 211);
+    let rmse = |a: usize, b: usize| {
+        (f.iter().map(|x| (x[a] - x[b]).powi(2)).sum::<f64>() / f.len() as f64).sqrt()
+    };
+    assert!(
+        rmse(1, 3) < 0.01 && rmse(2, 4) < 0.01,
+        "{} {}",
+        rmse(1, 3),
+        rmse(2, 4)
+    );
+    // The folder is a leaf: albedo integrates it, a scene renders it.
+    ok(&lamina(
+        &[
+            "leaf",
+            "albedo",
+            "fitted",
+            "--wavelengths",
+            "550:850:300",
+            "-o",
+            "a.csv",
+        ],
+        &d,
+    ));
+    let a = rows(&d.join("a.csv"));
+    assert_eq!(a.len(), 2);
+    assert!(a[1][1] > 0.35 && a[1][2] > 0.35 && a[0][1] < 0.2, "{a:?}");
+    std::fs::write(
+        d.join("scene.toml"),
+        "[camera]\nposition = [0, 0, 1]\nlook_at = [0, 0, 0]\n[film]\nwidth = 16\nheight = 16\nspp = 2\n\
+         [[light]]\ntype = \"sun\"\ndirection = [0, 0, 1]\nirradiance = 2\n\
+         [[material]]\nname = \"l\"\ntype = \"leaf\"\nfile = \"fitted/leaf.toml\"\n\
+         [[object]]\ntype = \"quad\"\nmaterial = \"l\"\ncorner = [-0.5, -0.5, 0]\nedge_u = [1, 0, 0]\nedge_v = [0, 1, 0]\n",
+    )
+    .unwrap();
+    ok(&lamina(&["render", "scene.toml", "-o", "leaf.png"], &d));
+    // Fitting again replaces lamina's folder.
+    ok(&lamina(
+        &["leaf", "fit", "--spectrum", "meas.txt", "-o", "fitted"],
+        &d,
+    ));
+}
+
+#[test]
+fn fit_refuses_bad_spectra_naming_file_and_line() {
+    let d = scratch("spectra", "fit-bad");
+    let good: String = (0..20)
+        .map(|i| format!("{},0.1,0.2\n", 400 + 50 * i))
+        .collect();
+    for (name, text, words) in [
+        (
+            "unsorted.csv",
+            format!("{good}500,0.1,0.2\n"),
+            vec!["unsorted.csv", "line 21", "below"],
+        ),
+        (
+            "sum.csv",
+            good.replace("450,0.1,0.2", "450,0.7,0.6"),
+            vec!["sum.csv", "line 2", "above 1"],
+        ),
+        (
+            "few.csv",
+            "400,0.1\n500,0.1\n".into(),
+            vec!["few.csv", "at least 10"],
+        ),
+        (
+            "nan.csv",
+            good.replace("450,0.1,0.2", "450,nan,0.2"),
+            vec!["nan.csv", "line 2", "NaN"],
+        ),
+    ] {
+        std::fs::write(d.join(name), text).unwrap();
+        fails(
+            &lamina(&["leaf", "fit", "--spectrum", name, "-o", "out"], &d),
+            &words,
+        );
+        assert!(!d.join("out").exists());
+    }
+    fails(
+        &lamina(&["leaf", "fit", "--spectrum", "none.csv", "-o", "out"], &d),
+        &["none.csv"],
+    );
+    // Reflectance only: fitted with a warning.
+    let r_only: String = (0..30)
+        .map(|i| format!("{},{}\n", 400 + 70 * i, if i < 5 { 0.05 } else { 0.45 }))
+        .collect();
+    std::fs::write(d.join("r.csv"), r_only).unwrap();
+    let e = ok(&lamina(
+        &["leaf", "fit", "--spectrum", "r.csv", "-o", "out"],
+        &d,
+    ));
+    assert!(e.contains("reflectance only"), "{e}");
+    // A folder lamina did not write is refused, and kept as it was.
+    std::fs::create_dir_all(d.join("mine")).unwrap();
+    std::fs::write(d.join("mine/notes.txt"), "mine").unwrap();
+    fails(
+        &lamina(&["leaf", "fit", "--spectrum", "r.csv", "-o", "mine"], &d),
+        &["mine", "--force"],
+    );
+    assert_eq!(names(&d.join("mine")), ["notes.txt"]);
+}

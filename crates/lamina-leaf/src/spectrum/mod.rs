@@ -16,6 +16,7 @@
 //! `scripts/spectral/make_tables.py`).
 
 pub mod tables;
+pub mod upsample;
 
 use glam::Vec3;
 

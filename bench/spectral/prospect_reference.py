@@ -25,12 +25,13 @@ ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "crates/lamina-leaf/tests/data/prospect_reference.tsv"
 SPEC = ROOT.parent / "shared/data/prospect/dataSpec_PRO.txt"
 
-# name, model, N, cab, car, anth, cbrown, cw, cm, prot, cbc
+# name, model, N, cab, car, anth, cbrown, cw, cm, prot, cbc, alpha (PROSPECT's surface cone, deg)
 CASES = [
-    ("green", "d", 1.5, 40.0, 8.0, 0.0, 0.0, 0.010, 0.009, 0.0, 0.0),
-    ("dark_red", "d", 2.2, 70.0, 15.0, 10.0, 0.5, 0.020, 0.012, 0.0, 0.0),
-    ("thin_pale", "d", 1.0, 5.0, 1.0, 2.0, 0.0, 0.002, 0.002, 0.0, 0.0),
-    ("pro", "pro", 1.8, 45.0, 10.0, 1.0, 0.1, 0.015, 0.0, 0.001, 0.009),
+    ("green", "d", 1.5, 40.0, 8.0, 0.0, 0.0, 0.010, 0.009, 0.0, 0.0, 40.0),
+    ("dark_red", "d", 2.2, 70.0, 15.0, 10.0, 0.5, 0.020, 0.012, 0.0, 0.0, 40.0),
+    ("thin_pale", "d", 1.0, 5.0, 1.0, 2.0, 0.0, 0.002, 0.002, 0.0, 0.0, 40.0),
+    ("pro", "pro", 1.8, 45.0, 10.0, 1.0, 0.1, 0.015, 0.0, 0.001, 0.009, 40.0),
+    ("hairy", "d", 1.7, 35.0, 9.0, 1.0, 0.0, 0.012, 0.006, 0.0, 0.0, 70.0),
 ]
 
 spec = np.loadtxt(SPEC, skiprows=1)
@@ -41,18 +42,19 @@ kprot, kcbc = spec[:, 8], spec[:, 9]
 
 columns = []
 header = ["wavelength_nm"]
-for name, model, n, cab, car, anth, cbrown, cw, cm, prot, cbc in CASES:
+for name, model, n, cab, car, anth, cbrown, cw, cm, prot, cbc, alpha in CASES:
     if model == "d":
-        wl, r, t = prosail.run_prospect(n, cab, car, cbrown, cw, cm, ant=anth, prospect_version="D")
+        wl, r, t = prosail.run_prospect(n, cab, car, cbrown, cw, cm, ant=anth,
+                                        prospect_version="D", alpha=alpha)
     else:
         km = prot * kprot + cbc * kcbc
         wl, r, t = prosail.run_prospect(n, cab, car, cbrown, cw, 1.0, ant=anth,
-                                        prospect_version="D", km=km)
+                                        prospect_version="D", km=km, alpha=alpha)
     columns += [np.rint(r * 1e5).astype(int), np.rint(t * 1e5).astype(int)]
     header += [f"{name}_r", f"{name}_t"]
 
 lines = ["# PROSPECT reference from prosail 2.0.5 (bench/spectral/prospect_reference.py); R, T in 1e-5.",
-         "# cases: name model N cab car anth cbrown cw cm prot cbc"]
+         "# cases: name model N cab car anth cbrown cw cm prot cbc alpha"]
 for c in CASES:
     lines.append("# case " + " ".join(str(x) for x in c))
 lines.append("\t".join(header))

@@ -44,6 +44,10 @@ pub struct PigmentArgs {
     /// Carbon-based constituents, g/cm² (PROSPECT-PRO only) [default: 0.0078].
     #[arg(long)]
     pub cbc: Option<f64>,
+    /// PROSPECT's surface parameter: the top face's incidence cone, degrees (10-90; the
+    /// standard model uses 40).
+    #[arg(long)]
+    pub alpha: Option<f64>,
 }
 
 fn parse_model(s: &str) -> Result<ProspectModel, String> {
@@ -69,6 +73,7 @@ impl PigmentArgs {
             cm: self.cm.unwrap_or(d.cm),
             prot: 0.0,
             cbc: 0.0,
+            alpha: self.alpha.unwrap_or(d.alpha),
         };
         match self.model {
             ProspectModel::D => {
@@ -113,6 +118,9 @@ pub fn describe(p: &Pigments) -> String {
     match p.model() {
         ProspectModel::D => s += &format!(" cm={}", p.cm),
         ProspectModel::Pro => s += &format!(" prot={} cbc={}", p.prot, p.cbc),
+    }
+    if p.alpha != Pigments::default().alpha {
+        s += &format!(" alpha={}", p.alpha);
     }
     s
 }

@@ -1,6 +1,9 @@
 //! Fitting PROSPECT pigments to a measured leaf spectrum (PROSPECT inversion).
 //!
-//! The unknowns are PROSPECT-D's seven inputs (N, Cab, Car, Anth, Cbrown, Cw, Cm), each
+//! The unknowns are PROSPECT-D's seven inputs (N, Cab, Car, Anth, Cbrown, Cw, Cm) and its
+//! surface parameter `alpha` (the top face's incidence cone, 40° in standard PROSPECT: real
+//! leaves with hairs or wax reflect more at the surface, in the blue and red where nothing
+//! else reflects, and a fixed 40° misses that by 0.01-0.05), each
 //! kept inside its published range ([`crate::prospect::PIGMENT_RANGES`]) by working in
 //! `u = (x - lo) / (hi - lo)` clamped to `[0, 1]`. The cost is the squared difference of R
 //! and T (R only for a reflectance-only spectrum) summed over the measured wavelengths, each
@@ -12,7 +15,7 @@
 //! around each), with the border transmissivities cached: a fit takes well under a second.
 
 use crate::measured::MeasuredSpectrum;
-use crate::prospect::{PIGMENT_RANGES, Pigments, constants, plate_transmissivity, stern_tav};
+use crate::prospect::{PIGMENT_RANGES, Pigments, constants, plate_pile_with, stern_tav};
 
 /// The fit's result.
 #[derive(Clone, Debug, PartialEq)]
@@ -31,8 +34,11 @@ pub struct ProspectFit {
     pub iterations: usize,
 }
 
-/// Index of the seven fitted inputs in [`PIGMENT_RANGES`] order (PRO's prot and cbc stay 0).
-const FITTED: usize = 7;
+/// How many inputs are fitted.
+const FITTED: usize = 8;
+/// Their indices in [`PIGMENT_RANGES`]: N, Cab, Car, Anth, Cbrown, Cw, Cm and the surface
+/// parameter alpha (PRO's prot and cbc stay 0).
+const FIT_INDEX: [usize; FITTED] = [0, 1, 2, 3, 4, 5, 6, 9];
 
 /// PROSPECT at a fixed set of wavelengths, with everything that does not depend on the
 /// pigments precomputed.
@@ -41,8 +47,8 @@ struct Kernel {
     at: Vec<(usize, usize, f64)>,
     /// Distinct grid indices needed, sorted.
     nodes: Vec<usize>,
-    /// Per node: (nr, t_av(40), t_av(90)).
-    borders: Vec<(f64, f64, f64)>,
+    /// Per node: (nr, t_av(90)).
+    borders: Vec<(f64, f64)>,
 }
 
 impl Kernel {
@@ -62,7 +68,7 @@ impl Kernel {
         let c = constants();
         let borders = nodes
             .iter()
-            .map(|&i| (c[i].nr, stern_tav(40.0, c[i].nr), stern_tav(90.0, c[i].nr)))
+            .map(|&i| (c[i].nr, stern_tav(90.0, c[i].nr)))
             .collect();
         // Turn grid indices into positions in `nodes`.
         let pos = |i: usize| nodes.binary_search(&i).unwrap_or(0);
@@ -79,7 +85,10 @@ impl Kernel {
             .nodes
             .iter()
             .zip(&self.borders)
-            .map(|(&i, &(nr, t_alpha, t12))| pile(p.n, nr, t_alpha, t12, p.plate_absorption(i)))
+            .map(|(&i, &(nr, t12))| {
+                let t_alpha = stern_tav(p.alpha, nr);
+                plate_pile_with(p.n, nr, p.plate_absorption(i), t_alpha, t12)
+            })
             .collect();
         self.at
             .iter()
@@ -92,44 +101,11 @@ impl Kernel {
     }
 }
 
-/// [`crate::prospect::plate_pile`] with the border transmissivities given.
-fn pile(n: f64, nr: f64, t_alpha: f64, t12: f64, k: f64) -> (f64, f64) {
-    let tau = plate_transmissivity(k);
-    let r_alpha = 1.0 - t_alpha;
-    let r12 = 1.0 - t12;
-    let t21 = t12 / (nr * nr);
-    let r21 = 1.0 - t21;
-    let bounce = 1.0 - r21 * r21 * tau * tau;
-    let t_top = t_alpha * tau * t21 / bounce;
-    let r_top = r_alpha + r21 * tau * t_top;
-    let t_one = t12 * tau * t21 / bounce;
-    let r_one = r12 + r21 * tau * t_one;
-    let m = n - 1.0;
-    let (r_sub, t_sub) = if r_one + t_one >= 1.0 - 1e-12 {
-        let t_m = t_one / (t_one + (1.0 - t_one) * m);
-        (1.0 - t_m, t_m)
-    } else {
-        let (r, t) = (r_one, t_one);
-        let d = ((1.0 + r + t) * (1.0 + r - t) * (1.0 - r + t) * (1.0 - r - t)).sqrt();
-        let a = (1.0 + r * r - t * t + d) / (2.0 * r);
-        let b = (1.0 - r * r + t * t + d) / (2.0 * t);
-        let b_m = b.powf(m);
-        let b_2m = b_m * b_m;
-        let denom = a * a * b_2m - 1.0;
-        (a * (b_2m - 1.0) / denom, b_m * (a * a - 1.0) / denom)
-    };
-    let between = 1.0 - r_sub * r_one;
-    (
-        r_top + t_top * r_sub * t_one / between,
-        t_top * t_sub / between,
-    )
-}
-
 fn from_unit(u: &[f64; FITTED]) -> Pigments {
-    let mut v = [0.0; 9];
-    for k in 0..FITTED {
-        let (_, lo, hi, _) = PIGMENT_RANGES[k];
-        v[k] = lo + u[k].clamp(0.0, 1.0) * (hi - lo);
+    let mut v = [0.0; 10];
+    for (k, &i) in FIT_INDEX.iter().enumerate() {
+        let (_, lo, hi, _) = PIGMENT_RANGES[i];
+        v[i] = lo + u[k].clamp(0.0, 1.0) * (hi - lo);
     }
     Pigments::from_values(v)
 }
@@ -137,8 +113,8 @@ fn from_unit(u: &[f64; FITTED]) -> Pigments {
 fn to_unit(p: &Pigments) -> [f64; FITTED] {
     let v = p.values();
     std::array::from_fn(|k| {
-        let (_, lo, hi, _) = PIGMENT_RANGES[k];
-        ((v[k] - lo) / (hi - lo)).clamp(0.0, 1.0)
+        let (_, lo, hi, _) = PIGMENT_RANGES[FIT_INDEX[k]];
+        ((v[FIT_INDEX[k]] - lo) / (hi - lo)).clamp(0.0, 1.0)
     })
 }
 
@@ -206,7 +182,15 @@ pub fn fit_prospect(m: &MeasuredSpectrum) -> ProspectFit {
     ];
     let mut best: Option<([f64; FITTED], f64, usize)> = None;
     for s in &starts {
-        let (u, cost, it) = levenberg_marquardt(to_unit(s), &residuals);
+        // Standard PROSPECT first (alpha held at the start's 40°), then alpha freed from
+        // there: Levenberg-Marquardt only takes steps that lower the cost, so the second
+        // stage can only improve on the first (from scratch, the extra freedom can lead
+        // into a worse local minimum).
+        let mut hold_alpha = [true; FITTED];
+        hold_alpha[FITTED - 1] = false;
+        let (u, _, it1) = levenberg_marquardt(to_unit(s), &hold_alpha, &residuals);
+        let (u, cost, it2) = levenberg_marquardt(u, &[true; FITTED], &residuals);
+        let it = it1 + it2;
         if best.as_ref().is_none_or(|b| cost < b.1) {
             best = Some((u, cost, it));
         }
@@ -231,10 +215,11 @@ fn cost_of(r: &[f64]) -> f64 {
     r.iter().map(|x| x * x).sum()
 }
 
-/// Minimises `|res(u)|²` over the unit box from `u`: returns the point, its cost and the
-/// iterations used.
+/// Minimises `|res(u)|²` over the unit box from `u`, moving only the coordinates `free`
+/// marks: returns the point, its cost and the iterations used.
 fn levenberg_marquardt(
     mut u: [f64; FITTED],
+    free: &[bool; FITTED],
     res: &dyn Fn(&[f64; FITTED]) -> Vec<f64>,
 ) -> ([f64; FITTED], f64, usize) {
     let mut r = res(&u);
@@ -245,7 +230,7 @@ fn levenberg_marquardt(
         it += 1;
         // Forward-difference Jacobian, stepping inward at the box's upper face.
         let mut jac = vec![[0.0f64; FITTED]; r.len()];
-        for k in 0..FITTED {
+        for k in (0..FITTED).filter(|&k| free[k]) {
             let h = if u[k] > 1.0 - 1e-4 { -1e-5 } else { 1e-5 };
             let mut v = u;
             v[k] += h;
@@ -263,6 +248,15 @@ fn levenberg_marquardt(
                     jtj[a][b] += row[a] * row[b];
                 }
             }
+        }
+        // A held coordinate: a unit row and no gradient, so its step is zero.
+        for k in (0..FITTED).filter(|&k| !free[k]) {
+            jtj[k] = [0.0; FITTED];
+            for row in jtj.iter_mut() {
+                row[k] = 0.0;
+            }
+            jtj[k][k] = 1.0;
+            jtr[k] = 0.0;
         }
         let mut improved = false;
         for _ in 0..10 {
@@ -386,9 +380,16 @@ mod tests {
                 cm: 0.004,
                 ..Pigments::default()
             },
+            // A leaf that reflects more at its surface (hairs, wax).
+            Pigments {
+                n: 1.7,
+                cab: 35.0,
+                alpha: 70.0,
+                ..Pigments::default()
+            },
         ];
         for truth in &leaves {
-            let m = synthetic(truth, 2, 0.003, true);
+            let m = synthetic(truth, 4, 0.003, true);
             let fit = fit_prospect(&m);
             let p = fit.pigments;
             let rel = |a: f64, b: f64, tol: f64, abs: f64| (a - b).abs() <= tol * b.abs() + abs;
@@ -399,7 +400,8 @@ mod tests {
                     && rel(p.anth, truth.anth, 0.3, 1.0)
                     && rel(p.cbrown, truth.cbrown, 0.3, 0.05)
                     && rel(p.cw, truth.cw, 0.08, 0.0005)
-                    && rel(p.cm, truth.cm, 0.1, 0.0005),
+                    && rel(p.cm, truth.cm, 0.1, 0.0005)
+                    && rel(p.alpha, truth.alpha, 0.0, 8.0),
                 "fit {p:?}\ntruth {truth:?}"
             );
             // The noise is 0.003: the residual should be that, not more.

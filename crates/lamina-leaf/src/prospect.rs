@@ -86,6 +86,12 @@ pub struct Pigments {
     pub prot: f64,
     /// Carbon-based constituents (cellulose, lignin, sugars...), g/cm². PROSPECT-PRO only.
     pub cbc: f64,
+    /// Not a pigment: PROSPECT's surface parameter, the half-angle (degrees) of the cone of
+    /// incidence for which the leaf's top face is averaged (Stern's `t_av(α, n)`). 40° is
+    /// the model's standard (a near-normal beam plus the surface's roughness); a larger `α`
+    /// reflects more at the surface, as hairy or waxy leaves do in an integrating sphere.
+    /// `lamina leaf fit` fits it.
+    pub alpha: f64,
 }
 
 /// [`Pigments`] as written in a file: every key optional.
@@ -101,6 +107,7 @@ struct PigmentKeys {
     cm: Option<f64>,
     prot: Option<f64>,
     cbc: Option<f64>,
+    alpha: Option<f64>,
 }
 
 impl From<PigmentKeys> for Pigments {
@@ -117,6 +124,7 @@ impl From<PigmentKeys> for Pigments {
             cm: k.cm.unwrap_or(if pro { 0.0 } else { d.cm }),
             prot: k.prot.unwrap_or(0.0),
             cbc: k.cbc.unwrap_or(0.0),
+            alpha: k.alpha.unwrap_or(d.alpha),
         }
     }
 }
@@ -135,6 +143,7 @@ impl Default for Pigments {
             cm: 0.009,
             prot: 0.0,
             cbc: 0.0,
+            alpha: 40.0,
         }
     }
 }
@@ -145,8 +154,9 @@ type Range = (&'static str, f64, f64, &'static str);
 /// The ranges each input is accepted in. They are the ranges of the data sets PROSPECT-D and
 /// -PRO were calibrated and validated on (ANGERS, LOPEX93 and the PRO data sets; Féret et
 /// al. 2017 table 2, 2021 table 1), widened by about a third, and the usual bounds of PROSPECT
-/// inversions. Outside them the specific absorption coefficients were never tested.
-pub const PIGMENT_RANGES: [Range; 9] = [
+/// inversions. Outside them the specific absorption coefficients were never tested. `alpha`
+/// (last) is the surface parameter, 10-90°.
+pub const PIGMENT_RANGES: [Range; 10] = [
     ("n", 1.0, 3.5, "plates"),
     ("cab", 0.0, 120.0, "µg/cm²"),
     ("car", 0.0, 40.0, "µg/cm²"),
@@ -156,11 +166,12 @@ pub const PIGMENT_RANGES: [Range; 9] = [
     ("cm", 0.0, 0.05, "g/cm²"),
     ("prot", 0.0, 0.01, "g/cm²"),
     ("cbc", 0.0, 0.05, "g/cm²"),
+    ("alpha", 10.0, 90.0, "degrees"),
 ];
 
 impl Pigments {
-    /// The nine inputs in [`PIGMENT_RANGES`] order.
-    pub fn values(&self) -> [f64; 9] {
+    /// The ten inputs in [`PIGMENT_RANGES`] order.
+    pub fn values(&self) -> [f64; 10] {
         [
             self.n,
             self.cab,
@@ -171,11 +182,12 @@ impl Pigments {
             self.cm,
             self.prot,
             self.cbc,
+            self.alpha,
         ]
     }
 
-    /// Builds pigments from the nine inputs in [`PIGMENT_RANGES`] order.
-    pub fn from_values(v: [f64; 9]) -> Self {
+    /// Builds pigments from the ten inputs in [`PIGMENT_RANGES`] order.
+    pub fn from_values(v: [f64; 10]) -> Self {
         Pigments {
             n: v[0],
             cab: v[1],
@@ -186,6 +198,7 @@ impl Pigments {
             cm: v[6],
             prot: v[7],
             cbc: v[8],
+            alpha: v[9],
         }
     }
 
@@ -332,7 +345,7 @@ pub fn prospect(p: &Pigments) -> LeafSpectrum {
     let mut r = Vec::with_capacity(PROSPECT_LEN);
     let mut t = Vec::with_capacity(PROSPECT_LEN);
     for (i, c) in table.iter().enumerate() {
-        let (ri, ti) = plate_pile(p.n, c.nr, p.plate_absorption(i));
+        let (ri, ti) = plate_pile(p.n, c.nr, p.plate_absorption(i), p.alpha);
         r.push(ri);
         t.push(ti);
     }
@@ -340,14 +353,18 @@ pub fn prospect(p: &Pigments) -> LeafSpectrum {
 }
 
 /// `(R, T)` of a pile of `n` plates of refractive index `nr`, each with absorption `k`, lit
-/// within 40° on top.
-pub fn plate_pile(n: f64, nr: f64, k: f64) -> (f64, f64) {
+/// within `alpha_deg` (PROSPECT: 40°) on top.
+pub fn plate_pile(n: f64, nr: f64, k: f64, alpha_deg: f64) -> (f64, f64) {
+    plate_pile_with(n, nr, k, stern_tav(alpha_deg, nr), stern_tav(90.0, nr))
+}
+
+/// [`plate_pile`] with the top face's transmissivity `t_alpha` and the inner faces' `t12`
+/// given (they depend on the wavelength only through `nr`: a fit caches them).
+pub fn plate_pile_with(n: f64, nr: f64, k: f64, t_alpha: f64, t12: f64) -> (f64, f64) {
     let tau = plate_transmissivity(k);
-    // Borders: the top face lit within 40°, the inner faces isotropically; from inside, a
+    // Borders: the top face lit within alpha, the inner faces isotropically; from inside, a
     // border passes t12 / n² (reciprocity of radiance across an index step).
-    let t_alpha = stern_tav(40.0, nr);
     let r_alpha = 1.0 - t_alpha;
-    let t12 = stern_tav(90.0, nr);
     let r12 = 1.0 - t12;
     let t21 = t12 / (nr * nr);
     let r21 = 1.0 - t21;
@@ -451,7 +468,8 @@ pub fn stern_tav(alpha_deg: f64, n: f64) -> f64 {
     let b1 = if alpha_deg >= 90.0 {
         0.0
     } else {
-        ((sa2 - np / 2.0).powi(2) + k).sqrt()
+        // Zero at 90° exactly; clamp the rounding just below it.
+        ((sa2 - np / 2.0).powi(2) + k).max(0.0).sqrt()
     };
     let b2 = sa2 - np / 2.0;
     let b = b1 - b2;
@@ -507,9 +525,9 @@ mod tests {
 
     #[test]
     fn no_absorption_conserves_energy() {
-        let (r, t) = plate_pile(1.7, 1.45, 0.0);
+        let (r, t) = plate_pile(1.7, 1.45, 0.0, 40.0);
         assert!((r + t - 1.0).abs() < 1e-9, "{r} + {t}");
-        let (r, t) = plate_pile(1.7, 1.45, 0.3);
+        let (r, t) = plate_pile(1.7, 1.45, 0.3, 40.0);
         assert!(r + t < 1.0 && r > 0.0 && t > 0.0);
     }
 

@@ -48,7 +48,7 @@ fn reference() -> Vec<Case> {
 #[test]
 fn prospect_equals_prosail_at_every_wavelength() {
     let cases = reference();
-    assert_eq!(cases.len(), 4);
+    assert_eq!(cases.len(), 5);
     for c in &cases {
         assert_eq!(c.r.len(), PROSPECT_LEN, "{}", c.name);
         c.pigments.validate("").unwrap();

@@ -303,3 +303,88 @@ fn a_leaf_folder_with_its_wrap_mode_loads_from_a_scene() {
         crate::loader::parse_scene(&scene, &d.join("scene.toml")).unwrap();
     }
 }
+
+#[test]
+fn a_sun_placed_by_latitude_longitude_and_time() {
+    let path = Path::new("/tmp/sun.toml");
+    let scene = |position: &str| {
+        format!("{SCENE}[[light]]\ntype = \"sun\"\nirradiance = 3\nposition = {{ {position} }}\n")
+    };
+    // Golden, Colorado (the SPA paper's example): zenith 50.108°, azimuth 194.340°.
+    let s = crate::loader::parse_scene(
+        &scene("latitude = 39.742476, longitude = -105.1786, elevation = 1830.14, time = \"2003-10-17T12:30:30-07:00\""),
+        path,
+    )
+    .unwrap();
+    let crate::scene::Light::Sun { direction, .. } = s.lights[0] else {
+        panic!("not a sun");
+    };
+    let zenith = direction.y.acos().to_degrees();
+    // Azimuth clockwise from north (-z) toward east (+x).
+    let azimuth = direction
+        .x
+        .atan2(-direction.z)
+        .to_degrees()
+        .rem_euclid(360.0);
+    assert!(
+        (zenith - 50.1078).abs() < 1e-3 && (azimuth - 194.3402).abs() < 1e-3,
+        "{zenith} {azimuth}"
+    );
+    // North along +x turns the sun by 90 degrees about y.
+    let s = crate::loader::parse_scene(
+        &scene("latitude = 39.742476, longitude = -105.1786, elevation = 1830.14, time = \"2003-10-17T12:30:30-07:00\", north = [1, 0, 0]"),
+        path,
+    )
+    .unwrap();
+    let crate::scene::Light::Sun { direction: d2, .. } = s.lights[0] else {
+        panic!("not a sun");
+    };
+    assert!(
+        (d2 - glam::Vec3::new(-direction.z, direction.y, direction.x)).length() < 1e-5,
+        "{d2} {direction}"
+    );
+    for (position, words) in [
+        (
+            "latitude = 52.5, longitude = 13.4, time = \"2024-06-21T23:30:00+02:00\"",
+            &["time", "below the horizon"][..],
+        ),
+        (
+            "latitude = 52.5, longitude = 13.4, time = \"2024-06-21T12:00\"",
+            &["time", "UTC offset"][..],
+        ),
+        (
+            "latitude = 95, longitude = 13.4, time = \"2024-06-21T12:00Z\"",
+            &["latitude"][..],
+        ),
+        (
+            "latitude = 52.5, longitude = 13.4, time = \"2024-02-30T12:00Z\"",
+            &["day"][..],
+        ),
+        (
+            "latitude = 52.5, longitude = 13.4, time = \"2024-06-21T12:00Z\", lat = 3",
+            &["lat"][..],
+        ),
+        (
+            "latitude = 52.5, longitude = 13.4, time = \"2024-06-21T12:00Z\", north = [0, 1, 0]",
+            &["north", "horizontal"][..],
+        ),
+    ] {
+        let e = crate::loader::parse_scene(&scene(position), path)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("sun.toml") && e.contains("light[0].position"),
+            "{e}"
+        );
+        for w in words {
+            assert!(e.contains(w), "expected '{w}' in: {e}");
+        }
+    }
+    let both = format!(
+        "{SCENE}[[light]]\ntype = \"sun\"\nirradiance = 3\ndirection = [0, 1, 0]\nposition = {{ latitude = 0, longitude = 0, time = \"2024-03-20T12:00Z\" }}\n"
+    );
+    let e = crate::loader::parse_scene(&both, path)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not both"), "{e}");
+}

@@ -2,26 +2,171 @@
 //!
 //! | key | unit | default | meaning |
 //! |---|---|---|---|
-//! | `direction` | direction, non-zero | required | toward the sun |
+//! | `direction` | direction, non-zero | required unless `position` | toward the sun |
+//! | `position` | table | none | the sun's direction from a place and a time instead of `direction` (NREL's Solar Position Algorithm, lamina-sky): `latitude` (degrees, north positive), `longitude` (degrees, east positive), `elevation` (m, default 0), `time` (local date and time with its UTC offset, ISO 8601: `"2024-06-21T14:30:00+02:00"`, or `Z` for UTC), `north` (the scene's horizontal north direction, default `[0, 0, -1]`: x east, y up, z south); the apparent (refracted) position; a sun below the horizon is an error |
 //! | `irradiance` | colour, W m⁻² | required | on a surface facing the sun |
 //! | `angular_diameter` | degrees, [0, 90] | `0.53` | the sun's disc; 0 = hard shadows |
 
 use crate::dict::{Dict, Keys, Kind};
 use crate::error::SceneError;
 use crate::scene::Light;
+use glam::Vec3;
 
 /// The keys of the table above.
 pub(crate) const KEYS: Keys = super::keys(&[
     ("direction", Kind::Vec3),
+    ("position", Kind::Table),
     ("irradiance", Kind::Color),
     ("angular_diameter", Kind::Num),
 ]);
 
+/// The keys of `position`.
+const POSITION_KEYS: Keys = Keys::plain(&[
+    ("latitude", Kind::Num),
+    ("longitude", Kind::Num),
+    ("elevation", Kind::Num),
+    ("time", Kind::Str),
+    ("north", Kind::Vec3),
+]);
+
 /// Reads a sun.
 pub(crate) fn read(d: &Dict) -> Result<Light, SceneError> {
+    let direction = match (d.get("direction"), d.table("position")?) {
+        (Some(dir), Some(_)) => {
+            return Err(d.err(
+                dir.span(),
+                "direction",
+                "give either 'direction' or 'position', not both",
+            ));
+        }
+        (_, Some(pos)) => from_position(d, pos)?,
+        (_, None) => d.req_direction("direction")?,
+    };
     Ok(Light::Sun {
-        direction: d.req_direction("direction")?,
+        direction,
         irradiance: d.req_color("irradiance")?,
         angular_diameter_deg: d.float("angular_diameter", 0.0, 90.0, false, 0.53)?,
     })
+}
+
+/// The direction toward the sun for `position = { ... }`.
+fn from_position(d: &Dict, pos: toml::Spanned<&crate::dict::Table>) -> Result<Vec3, SceneError> {
+    let p = Dict::open(
+        d.ld,
+        d.key("position"),
+        None,
+        pos.span(),
+        pos.get_ref(),
+        POSITION_KEYS,
+    )?;
+    let latitude = p.req_float("latitude", -90.0, 90.0, false)?;
+    let longitude = p.req_float("longitude", -180.0, 180.0, false)?;
+    let elevation = p.float("elevation", -500.0, 9000.0, false, 0.0)?;
+    let time_s = p.req_string("time")?;
+    let time = parse_time(time_s.get_ref()).map_err(|m| p.err(time_s.span(), "time", m))?;
+    let north = p.direction_opt("north")?.unwrap_or(Vec3::NEG_Z);
+    let north_h = Vec3::new(north.x, 0.0, north.z);
+    if north_h.length() < 1e-3 {
+        return Err(p.err(
+            p.get("north").map_or(pos.span(), |v| v.span()),
+            "north",
+            "must be horizontal (y is up): it has no x or z component",
+        ));
+    }
+    let north = north_h.normalize();
+    let observer = lamina_sky::Observer {
+        latitude: latitude as f64,
+        longitude: longitude as f64,
+        elevation: elevation as f64,
+    };
+    let sun = lamina_sky::solar_position(&lamina_sky::SolarQuery::new(observer, time))
+        .map_err(|e| p.err(pos.span(), e.field(), e.to_string()))?;
+    if sun.zenith >= 90.0 {
+        return Err(p.err(
+            time_s.span(),
+            "time",
+            format!(
+                "the sun is below the horizon then (zenith {:.2} degrees, azimuth {:.2}):                  choose a daytime, or light the scene another way",
+                sun.zenith, sun.azimuth
+            ),
+        ));
+    }
+    // lamina-sky's frame is x east, y up, z south; the scene's north may be any
+    // horizontal direction.
+    let east = north.cross(Vec3::Y);
+    let v = sun.direction;
+    let dir = east * v.x as f32 + Vec3::Y * v.y as f32 - north * v.z as f32;
+    p.finish()?;
+    Ok(dir.normalize())
+}
+
+/// Parses an ISO 8601 local date and time with its UTC offset:
+/// `YYYY-MM-DDTHH:MM[:SS[.fff]]` then `Z` or `±HH[:MM]` (a space may stand for `T`).
+fn parse_time(s: &str) -> Result<lamina_sky::LocalTime, String> {
+    let bad = || {
+        format!(
+            "'{s}' is not a local date and time with its UTC offset, e.g.              \"2024-06-21T14:30:00+02:00\" (or ...Z for UTC)"
+        )
+    };
+    let s = s.trim();
+    let (date, rest) = s.split_once(['T', ' ']).ok_or_else(bad)?;
+    let mut dp = date.split('-');
+    let year: i32 = dp.next().and_then(|x| x.parse().ok()).ok_or_else(bad)?;
+    let month: u32 = dp.next().and_then(|x| x.parse().ok()).ok_or_else(bad)?;
+    let day: u32 = dp.next().and_then(|x| x.parse().ok()).ok_or_else(bad)?;
+    if dp.next().is_some() {
+        return Err(bad());
+    }
+    let (clock, tz) = if let Some(c) = rest.strip_suffix('Z') {
+        (c, 0.0)
+    } else if let Some(i) = rest.rfind(['+', '-']) {
+        let (c, z) = rest.split_at(i);
+        let sign = if z.starts_with('-') { -1.0 } else { 1.0 };
+        let z = &z[1..];
+        let (h, m) = z.split_once(':').unwrap_or((z, "0"));
+        let h: f64 = h.parse().map_err(|_| bad())?;
+        let m: f64 = m.parse().map_err(|_| bad())?;
+        (c, sign * (h + m / 60.0))
+    } else {
+        return Err(format!(
+            "'{s}' has no UTC offset: end it with Z (UTC) or the local offset such as +02:00"
+        ));
+    };
+    let mut cp = clock.split(':');
+    let hour: u32 = cp.next().and_then(|x| x.parse().ok()).ok_or_else(bad)?;
+    let minute: u32 = cp.next().and_then(|x| x.parse().ok()).ok_or_else(bad)?;
+    let second: f64 = match cp.next() {
+        Some(x) => x.parse().map_err(|_| bad())?,
+        None => 0.0,
+    };
+    if cp.next().is_some() {
+        return Err(bad());
+    }
+    Ok(lamina_sky::LocalTime::new(
+        year, month, day, hour, minute, second, tz,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_time;
+
+    #[test]
+    fn times_parse_with_their_offsets() {
+        let t = parse_time("2024-06-21T14:30:15+02:00").unwrap();
+        assert_eq!(
+            (t.year, t.month, t.day, t.hour, t.minute),
+            (2024, 6, 21, 14, 30)
+        );
+        assert_eq!((t.second, t.timezone), (15.0, 2.0));
+        assert_eq!(parse_time("2003-10-17 12:30-07:00").unwrap().timezone, -7.0);
+        assert_eq!(parse_time("2024-01-01T00:00Z").unwrap().timezone, 0.0);
+        assert_eq!(parse_time("2024-01-01T10:00+05:30").unwrap().timezone, 5.5);
+        assert!(
+            parse_time("2024-06-21T14:30")
+                .unwrap_err()
+                .contains("no UTC offset")
+        );
+        assert!(parse_time("June 21").is_err());
+    }
 }

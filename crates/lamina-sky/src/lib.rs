@@ -1,17 +1,20 @@
 //! The sun and sky for lamina.
 //!
-//! This crate is where a physical sun and sky are computed from a place and a time. Today it
-//! holds
+//! This crate is where a physical sun and sky are computed from a place and a time:
 //!
-//! * [`solar_position`]: the sun's position by NREL's Solar Position Algorithm (SPA,
-//!   Reda & Andreas 2004/2008), ±0.0003° over the years −2000 to 6000, as topocentric zenith
-//!   (apparent, with atmospheric refraction, and geometric, without it), azimuth (degrees
-//!   clockwise from north) and a unit vector toward the sun in lamina's world frame;
-//! * [`spectral2`](mod@spectral2): the clear-sky solar spectrum at the ground by Bird & Riordan's SPCTRAL2
-//!   (1984/1986): direct normal, direct horizontal and diffuse horizontal spectral
-//!   irradiance at 122 wavelengths from 300 to 4000 nm, for a sun at a given apparent zenith
-//!   through a given atmosphere (pressure, water, ozone, aerosol, ground albedo), with band
-//!   integrals and resampling to a uniform grid.
+//! * [`solar_position()`]: the sun's position by NREL's Solar Position Algorithm (SPA,
+//!   Reda & Andreas 2004/2008), ±0.0003° over the years −2000 to 6000, as topocentric
+//!   zenith (apparent, with atmospheric refraction, and geometric, without it), azimuth
+//!   (degrees clockwise from north) and a unit vector toward the sun in lamina's world frame.
+//! * [`spectral2`](mod@spectral2): the clear-sky solar spectrum at the ground by Bird &
+//!   Riordan's SPCTRAL2 (1984/1986): direct normal, direct horizontal and diffuse horizontal
+//!   spectral irradiance at 122 wavelengths from 300 to 4000 nm, for a sun at a given
+//!   apparent zenith through a given atmosphere (pressure, water, ozone, aerosol, ground
+//!   albedo), with band integrals and resampling to a uniform grid.
+//! * [`preetham`]: the clear sky of Preetham, Shirley & Smits (SIGGRAPH 99) for a sun
+//!   position and a turbidity: [`PreethamSky`] gives the sky's chromaticity and luminance in
+//!   every direction above the horizon, its radiance in CIE XYZ and linear Rec.709, and its
+//!   spectral radiance (300–830 nm) through the CIE daylight basis.
 //!
 //! # World frame
 //! lamina's scenes are **Y up**. This crate puts **x = east, y = up, z = south** (so north is
@@ -38,14 +41,31 @@
 //! assert!(visible.direct_horizontal > 2.0 * visible.diffuse_horizontal);
 //! ```
 //!
-//! The crate depends on nothing of lamina's; the scene loader and the renderers may call it.
+//! ```
+//! use glam::DVec3;
+//! use lamina_sky::PreethamSky;
+//!
+//! // The sun 40° from the zenith, due south; a clear sky (turbidity 3).
+//! let sky = PreethamSky::new(40.0, 3.0).unwrap();
+//! let zenith = sky.zenith_xyY(); // x, y and Y_z in kcd/m²
+//! let north = DVec3::new(0.0, 0.5, -1.0); // 27° above the northern horizon
+//! let rgb = sky.linear_rec709(north); // W m⁻² sr⁻¹, linear Rec.709
+//! assert!(rgb.z > rgb.x); // blue, away from the sun
+//! let l_550 = sky.spectral_radiance(north, 550.0); // W m⁻² sr⁻¹ nm⁻¹
+//! assert!(zenith.luminance > 0.0 && l_550 > 0.0);
+//! ```
+//!
+//! Of lamina's crates it depends on lamina-leaf only, for the CIE observer and the Rec.709
+//! matrix (`lamina_leaf::spectrum`); the scene loader and the renderers may call it.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod preetham;
 pub mod solar_position;
 pub mod spectral2;
 
+pub use preetham::{DaylightSpectrum, Perez, PreethamSky, SkyError, SkySpectrum, XyY};
 pub use solar_position::{
     LocalTime, Observer, SolarError, SolarPosition, SolarQuery, solar_position, sun_direction,
 };

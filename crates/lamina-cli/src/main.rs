@@ -20,6 +20,7 @@ mod leaf_spectra_cmd;
 mod output_file;
 mod plant_cmd;
 mod render_cmd;
+mod sky_cmd;
 mod view_cmd;
 
 /// A renderer for plant leaves and whole plants.
@@ -44,6 +45,9 @@ enum Command {
     /// Procedural plants.
     #[command(subcommand)]
     Plant(PlantCommand),
+    /// The sun and clear sky for a place and a time: the sun's position, the direct/diffuse
+    /// split per band (SPCTRAL2), and the sky as an equirectangular EXR (Preetham).
+    Sky(sky_cmd::SkyArgs),
 }
 
 #[derive(Subcommand, Debug)]
@@ -64,6 +68,7 @@ fn main() -> ExitCode {
         Command::View(args) => view_cmd::run(args),
         Command::Leaf(cmd) => leaf_cmd::run(cmd),
         Command::Plant(PlantCommand::Generate(args)) => plant_cmd::run_generate(args),
+        Command::Sky(args) => sky_cmd::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

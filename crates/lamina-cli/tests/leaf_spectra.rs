@@ -257,3 +257,101 @@ fn fit_refuses_bad_spectra_naming_file_and_line() {
     );
     assert_eq!(names(&d.join("mine")), ["notes.txt"]);
 }
+
+#[test]
+fn sky_prints_the_sun_and_its_split_and_writes_a_sky_a_scene_uses() {
+    let d = scratch("spectra", "sky");
+    let e = ok(&lamina(
+        &[
+            "sky",
+            "--latitude",
+            "39.742476",
+            "--longitude",
+            "-105.1786",
+            "--elevation",
+            "1830.14",
+            "--pressure",
+            "820",
+            "--time",
+            "2003-10-17T12:30:30-07:00",
+            "--width",
+            "64",
+            "-o",
+            "sky.exr",
+            "--spectrum",
+            "sun.csv",
+        ],
+        &d,
+    ));
+    // The SPA paper's example: zenith 50.11162, azimuth 194.34024 at 820 hPa, 11 °C (we
+    // use 12 °C: a 1e-4° difference).
+    assert!(
+        e.contains("zenith 50.11") && e.contains("azimuth 194.340"),
+        "{e}"
+    );
+    for band in [
+        "PAR 400-700 nm",
+        "NIR 700-1300 nm",
+        "diffuse %",
+        "irradiance = [",
+    ] {
+        assert!(e.contains(band), "{band} in {e}");
+    }
+    assert_eq!(names(&d), ["sky.exr", "sun.csv"]);
+    let sun = std::fs::read_to_string(d.join("sun.csv")).unwrap();
+    assert!(
+        sun.starts_with("# lamina") && sun.lines().count() == 2 + 741,
+        "{}",
+        sun.lines().count()
+    );
+    std::fs::write(
+        d.join("scene.toml"),
+        "[camera]\nposition = [0, 1, 0]\nlook_at = [0, 1, -1]\n[film]\nwidth = 8\nheight = 8\nspp = 2\n\
+         [sky]\ntype = \"image\"\nfile = \"sky.exr\"\n",
+    )
+    .unwrap();
+    ok(&lamina(&["render", "scene.toml", "-o", "view.exr"], &d));
+    // Night, bad time, bad latitude: named, nothing written.
+    let n = scratch("spectra", "sky-bad");
+    for (args, words) in [
+        (
+            vec![
+                "--latitude",
+                "52.5",
+                "--longitude",
+                "13.4",
+                "--time",
+                "2024-06-21T23:30:00+02:00",
+            ],
+            vec!["below the horizon"],
+        ),
+        (
+            vec![
+                "--latitude",
+                "52.5",
+                "--longitude",
+                "13.4",
+                "--time",
+                "2024-06-21T12:00",
+            ],
+            vec!["--time", "UTC offset"],
+        ),
+        (
+            vec![
+                "--latitude",
+                "95",
+                "--longitude",
+                "13.4",
+                "--time",
+                "2024-06-21T12:00Z",
+            ],
+            vec!["--latitude"],
+        ),
+    ] {
+        let mut all = vec!["sky"];
+        all.extend(args);
+        all.extend(["-o", "s.exr"]);
+        fails(&lamina(&all, &n), &words);
+    }
+    assert!(names(&n).is_empty(), "{:?}", names(&n));
+}

@@ -64,6 +64,7 @@
 pub mod preetham;
 pub mod solar_position;
 pub mod spectral2;
+pub mod time;
 
 pub use preetham::{DaylightSpectrum, Perez, PreethamSky, SkyError, SkySpectrum, XyY};
 pub use solar_position::{
@@ -73,3 +74,4 @@ pub use spectral2::{
     AirMass, BandIrradiance, EarthSun, Formulation, ResampledSpectrum, Spectral2Error,
     Spectral2Query, Spectral2Spectrum, UniformGrid, spectral2,
 };
+pub use time::parse_local_time;

@@ -63,7 +63,8 @@ fn from_position(d: &Dict, pos: toml::Spanned<&crate::dict::Table>) -> Result<Ve
     let longitude = p.req_float("longitude", -180.0, 180.0, false)?;
     let elevation = p.float("elevation", -500.0, 9000.0, false, 0.0)?;
     let time_s = p.req_string("time")?;
-    let time = parse_time(time_s.get_ref()).map_err(|m| p.err(time_s.span(), "time", m))?;
+    let time = lamina_sky::parse_local_time(time_s.get_ref())
+        .map_err(|m| p.err(time_s.span(), "time", m))?;
     let north = p.direction_opt("north")?.unwrap_or(Vec3::NEG_Z);
     let north_h = Vec3::new(north.x, 0.0, north.z);
     if north_h.length() < 1e-3 {
@@ -98,75 +99,4 @@ fn from_position(d: &Dict, pos: toml::Spanned<&crate::dict::Table>) -> Result<Ve
     let dir = east * v.x as f32 + Vec3::Y * v.y as f32 - north * v.z as f32;
     p.finish()?;
     Ok(dir.normalize())
-}
-
-/// Parses an ISO 8601 local date and time with its UTC offset:
-/// `YYYY-MM-DDTHH:MM[:SS[.fff]]` then `Z` or `±HH[:MM]` (a space may stand for `T`).
-fn parse_time(s: &str) -> Result<lamina_sky::LocalTime, String> {
-    let bad = || {
-        format!(
-            "'{s}' is not a local date and time with its UTC offset, e.g.              \"2024-06-21T14:30:00+02:00\" (or ...Z for UTC)"
-        )
-    };
-    let s = s.trim();
-    let (date, rest) = s.split_once(['T', ' ']).ok_or_else(bad)?;
-    let mut dp = date.split('-');
-    let year: i32 = dp.next().and_then(|x| x.parse().ok()).ok_or_else(bad)?;
-    let month: u32 = dp.next().and_then(|x| x.parse().ok()).ok_or_else(bad)?;
-    let day: u32 = dp.next().and_then(|x| x.parse().ok()).ok_or_else(bad)?;
-    if dp.next().is_some() {
-        return Err(bad());
-    }
-    let (clock, tz) = if let Some(c) = rest.strip_suffix('Z') {
-        (c, 0.0)
-    } else if let Some(i) = rest.rfind(['+', '-']) {
-        let (c, z) = rest.split_at(i);
-        let sign = if z.starts_with('-') { -1.0 } else { 1.0 };
-        let z = &z[1..];
-        let (h, m) = z.split_once(':').unwrap_or((z, "0"));
-        let h: f64 = h.parse().map_err(|_| bad())?;
-        let m: f64 = m.parse().map_err(|_| bad())?;
-        (c, sign * (h + m / 60.0))
-    } else {
-        return Err(format!(
-            "'{s}' has no UTC offset: end it with Z (UTC) or the local offset such as +02:00"
-        ));
-    };
-    let mut cp = clock.split(':');
-    let hour: u32 = cp.next().and_then(|x| x.parse().ok()).ok_or_else(bad)?;
-    let minute: u32 = cp.next().and_then(|x| x.parse().ok()).ok_or_else(bad)?;
-    let second: f64 = match cp.next() {
-        Some(x) => x.parse().map_err(|_| bad())?,
-        None => 0.0,
-    };
-    if cp.next().is_some() {
-        return Err(bad());
-    }
-    Ok(lamina_sky::LocalTime::new(
-        year, month, day, hour, minute, second, tz,
-    ))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::parse_time;
-
-    #[test]
-    fn times_parse_with_their_offsets() {
-        let t = parse_time("2024-06-21T14:30:15+02:00").unwrap();
-        assert_eq!(
-            (t.year, t.month, t.day, t.hour, t.minute),
-            (2024, 6, 21, 14, 30)
-        );
-        assert_eq!((t.second, t.timezone), (15.0, 2.0));
-        assert_eq!(parse_time("2003-10-17 12:30-07:00").unwrap().timezone, -7.0);
-        assert_eq!(parse_time("2024-01-01T00:00Z").unwrap().timezone, 0.0);
-        assert_eq!(parse_time("2024-01-01T10:00+05:30").unwrap().timezone, 5.5);
-        assert!(
-            parse_time("2024-06-21T14:30")
-                .unwrap_err()
-                .contains("no UTC offset")
-        );
-        assert!(parse_time("June 21").is_err());
-    }
 }

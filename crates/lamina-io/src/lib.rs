@@ -21,6 +21,7 @@
 
 pub mod atomic;
 pub mod folder;
+pub mod font;
 pub mod image_out;
 pub mod interrupt;
 pub mod owned;

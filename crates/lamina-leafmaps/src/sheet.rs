@@ -199,52 +199,11 @@ fn render(m: &LeafMaterial, aspect: f32, t: usize, backlit: bool, exposure: f32)
     })
 }
 
-/// 3x5 glyphs, rows top to bottom, 3 bits per row (bit 2 = left column).
-fn glyph(c: char) -> [u8; 5] {
-    match c {
-        'A' => [2, 5, 7, 5, 5],
-        'B' => [6, 5, 6, 5, 6],
-        'C' => [3, 4, 4, 4, 3],
-        'D' => [6, 5, 5, 5, 6],
-        'E' => [7, 4, 6, 4, 7],
-        'F' => [7, 4, 6, 4, 4],
-        'G' => [3, 4, 5, 5, 3],
-        'H' => [5, 5, 7, 5, 5],
-        'I' => [7, 2, 2, 2, 7],
-        'K' => [5, 5, 6, 5, 5],
-        'L' => [4, 4, 4, 4, 7],
-        'M' => [5, 7, 7, 5, 5],
-        'N' => [6, 5, 5, 5, 5],
-        'O' => [2, 5, 5, 5, 2],
-        'P' => [6, 5, 6, 4, 4],
-        'R' => [6, 5, 6, 5, 5],
-        'S' => [3, 4, 2, 1, 6],
-        'T' => [7, 2, 2, 2, 2],
-        'U' => [5, 5, 5, 5, 7],
-        'V' => [5, 5, 5, 5, 2],
-        'W' => [5, 5, 7, 7, 5],
-        'X' => [5, 5, 2, 5, 5],
-        'Y' => [5, 5, 2, 2, 2],
-        '0' => [7, 5, 5, 5, 7],
-        '1' => [2, 6, 2, 2, 7],
-        '2' => [6, 1, 2, 4, 7],
-        '3' => [6, 1, 2, 1, 6],
-        '4' => [5, 5, 7, 1, 1],
-        '5' => [7, 4, 6, 1, 6],
-        '6' => [3, 4, 7, 5, 7],
-        '7' => [7, 1, 2, 2, 2],
-        '8' => [7, 5, 7, 5, 7],
-        '9' => [7, 5, 7, 1, 6],
-        '.' => [0, 0, 0, 0, 2],
-        _ => [0; 5],
-    }
-}
-
 /// Draws `text` (upper case) with 2x2-pixel dots at `(x0, y0)`.
 fn draw_text(img: &mut RgbImage, text: &str, x0: u32, y0: u32) {
     let mut x = x0;
     for c in text.chars() {
-        let g = glyph(c.to_ascii_uppercase());
+        let g = lamina_io::font::glyph(c).unwrap_or([0; 5]);
         for (r, bits) in g.iter().enumerate() {
             for col in 0..3 {
                 if bits & (4 >> col) != 0 {

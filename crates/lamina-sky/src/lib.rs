@@ -61,6 +61,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+mod input;
 pub mod preetham;
 pub mod solar_position;
 pub mod spectral2;

@@ -153,17 +153,20 @@ fn check(
     hi: f64,
     range: &'static str,
 ) -> Result<(), SkyError> {
-    if !value.is_finite() {
-        return Err(SkyError::NotFinite { field, value });
+    crate::input::check(field, value, lo, hi, range)
+}
+
+impl crate::input::InputError for SkyError {
+    fn not_finite(field: &'static str, value: f64) -> Self {
+        SkyError::NotFinite { field, value }
     }
-    if value < lo || value > hi {
-        return Err(SkyError::OutOfRange {
+    fn out_of_range(field: &'static str, value: f64, range: &'static str) -> Self {
+        SkyError::OutOfRange {
             field,
             value,
             range,
-        });
+        }
     }
-    Ok(())
 }
 
 fn check_turbidity(turbidity: f64) -> Result<(), SkyError> {

@@ -259,17 +259,20 @@ fn check(
     hi: f64,
     range: &'static str,
 ) -> Result<(), SolarError> {
-    if !value.is_finite() {
-        return Err(SolarError::NotFinite { field, value });
+    crate::input::check(field, value, lo, hi, range)
+}
+
+impl crate::input::InputError for SolarError {
+    fn not_finite(field: &'static str, value: f64) -> Self {
+        SolarError::NotFinite { field, value }
     }
-    if value < lo || value > hi {
-        return Err(SolarError::OutOfRange {
+    fn out_of_range(field: &'static str, value: f64, range: &'static str) -> Self {
+        SolarError::OutOfRange {
             field,
             value,
             range,
-        });
+        }
     }
-    Ok(())
 }
 
 /// Whether `(year, month, day)` is a Gregorian date (15 October 1582 or later).

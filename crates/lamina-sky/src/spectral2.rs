@@ -322,17 +322,20 @@ fn check(
     hi: f64,
     range: &'static str,
 ) -> Result<(), Spectral2Error> {
-    if !value.is_finite() {
-        return Err(Spectral2Error::NotFinite { field, value });
+    crate::input::check(field, value, lo, hi, range)
+}
+
+impl crate::input::InputError for Spectral2Error {
+    fn not_finite(field: &'static str, value: f64) -> Self {
+        Spectral2Error::NotFinite { field, value }
     }
-    if value < lo || value > hi {
-        return Err(Spectral2Error::OutOfRange {
+    fn out_of_range(field: &'static str, value: f64, range: &'static str) -> Self {
+        Spectral2Error::OutOfRange {
             field,
             value,
             range,
-        });
+        }
     }
-    Ok(())
 }
 
 /// Validates every field of `q`, in the order they are declared.

@@ -17,6 +17,14 @@ if [[ $what == all ]]; then
   mkdir -p docs/images/leaf-model
   cp "$out/rt_vs_angle.png" "$out/rt_modes.png" docs/images/leaf-model/
   rm -rf "$out"
+  # Leaves from pigments under a sun placed by time (README, "Leaves from pigments and spectra").
+  $lamina render examples/pigment_leaves.toml -o docs/images/pigment_leaves.png --quiet
+  # The clear sky (Preetham, turbidity 2.5) at four sun elevations, for lamina-sky's README.
+  out=$(mktemp -d)
+  cargo run --release -q -p lamina-sky --example sky_images -- "$out"
+  mkdir -p docs/images/sky
+  for e in 60 30 10 03; do cp "$out/sky_e${e}_t2.5.png" docs/images/sky/; done
+  rm -rf "$out"
   # The GPU path next to a converged offline render (GPU left), for the README's GPU section.
   cargo run --release -q -p lamina-gpu --example compare -- docs/images/gpu 192 1024
 fi

@@ -332,3 +332,16 @@ fn a_key_of_a_nested_table_is_checked_too() {
     assert_eq!(e.key, "object[0].instances[1].rotate", "{e}");
     assert!(e.to_string().contains("did you mean `rotate_x`?"), "{e}");
 }
+
+#[test]
+fn the_pigment_leaves_example_loads_with_its_sun_placed_by_time() {
+    let s = lamina_scene::load_scene(&examples().join("pigment_leaves.toml")).unwrap();
+    assert_eq!(s.materials.len(), 4);
+    let Light::Sun { direction, .. } = s.lights[0] else {
+        panic!("not a sun");
+    };
+    // Paris, 21 June 2024, 14:30 CEST: elevation 63.5°, azimuth 199.6° (south-south-west).
+    let elevation = direction.y.asin().to_degrees();
+    let azimuth = direction.x.atan2(-direction.z).to_degrees().rem_euclid(360.0);
+    assert!((elevation - 63.53).abs() < 0.02 && (azimuth - 199.58).abs() < 0.02, "{elevation} {azimuth}");
+}

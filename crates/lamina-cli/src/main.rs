@@ -11,6 +11,7 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod bands_render;
 mod chart;
 mod demo;
 mod gpu_cmd;

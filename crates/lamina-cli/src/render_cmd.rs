@@ -252,8 +252,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if !args.flags.quiet && !std::io::stderr().is_terminal() {
         eprintln!("loading {}", args.scene.display());
     }
-    let scene = lamina_scene::load_scene(&args.scene)?;
+    let (scene, spectral) = lamina_scene::load_scene_with_output(&args.scene)?;
     let label = args.scene.display().to_string();
+    if let Some(spectral) = &spectral {
+        if args.gpu {
+            bail!("--gpu renders RGB only: the scene's [film] asks for spectral bands");
+        }
+        return crate::bands_render::render_bands(&scene, spectral, &args.flags, &label, &outputs);
+    }
     if args.gpu {
         return crate::gpu_cmd::render_gpu(&scene, &label, &outputs);
     }

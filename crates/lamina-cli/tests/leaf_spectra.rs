@@ -355,3 +355,41 @@ fn sky_prints_the_sun_and_its_split_and_writes_a_sky_a_scene_uses() {
     }
     assert!(names(&n).is_empty(), "{:?}", names(&n));
 }
+
+#[test]
+fn a_scene_renders_in_bands_to_a_named_channel_exr_and_a_false_colour_png() {
+    let d = scratch("spectra", "bands");
+    std::fs::write(
+        d.join("scene.toml"),
+        "[camera]\nposition = [0, 0, 1]\nlook_at = [0, 0, 0]\n\
+         [film]\nwidth = 16\nheight = 12\nspp = 4\n\
+         bands = [{ name = \"red\", center = 665, width = 30 }, { name = \"green\", center = 560, width = 30 }, \
+                  { name = \"blue\", center = 490, width = 60 }, { name = \"nir\", center = 842, width = 100 }]\n\
+         false_color = [\"nir\", \"red\", \"green\"]\n\
+         [sky]\ntype = \"constant\"\nradiance = 0.5\n\
+         [[light]]\ntype = \"sun\"\ndirection = [0, 0, 1]\nirradiance = 2\n\
+         [[material]]\nname = \"l\"\ntype = \"leaf\"\npigments = { cab = 40 }\n\
+         [[object]]\ntype = \"quad\"\nmaterial = \"l\"\ncorner = [-2, -2, 0]\nedge_u = [4, 0, 0]\nedge_v = [0, 4, 0]\n",
+    )
+    .unwrap();
+    let e = ok(&lamina(
+        &["render", "scene.toml", "-o", "b.exr", "-o", "b.png"],
+        &d,
+    ));
+    assert!(e.contains("4 bands in 2 render(s)"), "{e}");
+    let meta = exr::meta::MetaData::read_from_file(d.join("b.exr"), false).unwrap();
+    let names: Vec<String> = meta.headers[0]
+        .channels
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
+    assert_eq!(names, ["blue", "green", "nir", "red"]);
+    assert!(d.join("b.png").is_file());
+    // The GPU path renders RGB only.
+    fails(
+        &lamina(&["render", "scene.toml", "--gpu", "-o", "g.png"], &d),
+        &["--gpu", "bands"],
+    );
+    assert!(!d.join("g.png").exists());
+}

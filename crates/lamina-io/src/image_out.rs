@@ -157,6 +157,57 @@ fn encode_exr(
     Ok(bytes.into_inner())
 }
 
+/// Saves float channels with names (e.g. spectral bands) as one OpenEXR image: channel `k`
+/// is `channels[k].1`, `width * height` samples, rows top first. Lossless, deterministic
+/// bytes, lamina's mark in `software`, written atomically.
+pub fn save_named_channels(
+    path: &Path,
+    width: u32,
+    height: u32,
+    channels: &[(String, Vec<f32>)],
+) -> Result<(), ImageOutError> {
+    use exr::prelude::{
+        AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, LineOrder,
+        WritableImage,
+    };
+    let encode_error = |e: exr::error::Error| ImageOutError::Encode {
+        path: path.to_owned(),
+        source: image::ImageError::Encoding(image::error::EncodingError::new(
+            ImageFormat::OpenExr.into(),
+            e,
+        )),
+    };
+    let n = width as usize * height as usize;
+    assert!(
+        !channels.is_empty() && channels.iter().all(|c| c.1.len() == n),
+        "every channel has width * height samples"
+    );
+    let list: Vec<AnyChannel<FlatSamples>> = channels
+        .iter()
+        .map(|(name, v)| AnyChannel::new(name.as_str(), FlatSamples::F32(v.clone())))
+        .collect();
+    let encoding = Encoding {
+        line_order: LineOrder::Increasing,
+        ..Encoding::FAST_LOSSLESS
+    };
+    let attributes = LayerAttributes {
+        software_name: Some(crate::owned::GENERATOR.into()),
+        ..LayerAttributes::default()
+    };
+    let layer = Layer::new(
+        (width as usize, height as usize),
+        attributes,
+        encoding,
+        AnyChannels::sort(list.into()),
+    );
+    let mut bytes = Cursor::new(Vec::new());
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(&mut bytes)
+        .map_err(encode_error)?;
+    Ok(write_bytes(path, &bytes.into_inner())?)
+}
+
 /// Saves raw pixels to `path` (type from the extension), atomically, with lamina's mark;
 /// see the module docs.
 pub fn save_pixels(

@@ -248,6 +248,9 @@ pub struct LeafMaterial {
     /// The per-hit maps interleaved (see [`crate::packed`]); `None` where they differ in
     /// size or are too large, and [`LeafMaterial::bsdf`] reads them one by one.
     packed: Option<PackedMaps>,
+    /// The pigment leaf this RGB material was made from, if any (band renders rebuild the
+    /// leaf per wavelength from it).
+    pigment: Option<Box<crate::PigmentLeaf>>,
 }
 
 /// Cosines of the incidence angles of the energy table and of the albedo integration
@@ -563,6 +566,7 @@ impl LeafMaterial {
             alpha_from_channel,
             pre: Box::new(pre),
             packed,
+            pigment: None,
         })
     }
 
@@ -576,7 +580,12 @@ impl LeafMaterial {
     ) -> Result<Self, LeafError> {
         match pigments {
             None => Self::new(maps, params),
-            Some(p) => crate::PigmentLeaf::new(p, params, maps)?.rgb_material(10.0),
+            Some(p) => {
+                let leaf = crate::PigmentLeaf::new(p, params, maps)?;
+                let mut m = leaf.rgb_material(10.0)?;
+                m.pigment = Some(Box::new(leaf));
+                Ok(m)
+            }
         }
     }
 
@@ -711,6 +720,11 @@ impl LeafMaterial {
     /// texel: the colours a leaf without maps has.
     pub fn physical_albedos(&self) -> [Vec3; 3] {
         self.pre.a_layered
+    }
+
+    /// The pigment leaf this material was made from ([`Self::from_parts`] with pigments).
+    pub fn pigment_leaf(&self) -> Option<&crate::PigmentLeaf> {
+        self.pigment.as_deref()
     }
 
     /// The validated parameters.

@@ -28,6 +28,7 @@
 #![warn(missing_docs)]
 
 pub mod accel;
+pub mod bands;
 pub mod camera;
 pub mod distribution;
 pub mod film;

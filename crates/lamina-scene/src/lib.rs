@@ -29,6 +29,6 @@ mod table;
 
 pub use error::SceneError;
 pub use lamina_core::{scene, transform};
-pub use loader::{load_scene, parse_scene};
+pub use loader::{SpectralOutput, load_scene, load_scene_with_output, parse_scene};
 pub use object::apply_transform;
 pub use scene::*;

@@ -21,10 +21,24 @@ use std::path::{Path, PathBuf};
 /// refers to. Every limit of [`crate::limits`] is checked before the allocation it bounds;
 /// a panic inside a dependency is an error naming the file being loaded.
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    load_scene_with_output(path).map(|(s, _)| s)
+}
+
+/// [`load_scene`], and the film's spectral output (`[film] bands`), if it asks for one.
+pub fn load_scene_with_output(path: &Path) -> Result<(Scene, Option<SpectralOutput>), SceneError> {
     guarded(path, || {
         let text = read_text(path, "scene file", crate::limits::MAX_SCENE_FILE_BYTES)?;
-        parse_with(&text, path, Budgets::default())
+        parse_with_output(&text, path, Budgets::default())
     })
+}
+
+/// What `[film] bands` asks for: render these bands (three at a time) instead of RGB.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpectralOutput {
+    /// The bands, in file order (the EXR's channel order).
+    pub bands: Vec<lamina_leaf::spectrum::bands::Band>,
+    /// Indices into `bands` of the PNG's red, green and blue.
+    pub false_color: [usize; 3],
 }
 
 /// Parses scene-file text; `path` names the file in errors and anchors relative paths.
@@ -51,6 +65,14 @@ struct SceneFile {
 
 /// [`parse_scene`] with the scene-wide budgets `budgets` (tests use small ones).
 pub(crate) fn parse_with(text: &str, path: &Path, budgets: Budgets) -> Result<Scene, SceneError> {
+    parse_with_output(text, path, budgets).map(|(s, _)| s)
+}
+
+pub(crate) fn parse_with_output(
+    text: &str,
+    path: &Path,
+    budgets: Budgets,
+) -> Result<(Scene, Option<SpectralOutput>), SceneError> {
     crate::error::fault_point("scene");
     let ld = Loader {
         file: path.to_owned(),
@@ -60,9 +82,11 @@ pub(crate) fn parse_with(text: &str, path: &Path, budgets: Budgets) -> Result<Sc
         instances: Cell::new(0),
         leaves: Cell::new(0),
         leaf_texels: Cell::new(0),
+        spectral: std::cell::RefCell::new(None),
     };
     let doc: SceneFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
-    ld.build(doc)
+    let scene = ld.build(doc)?;
+    Ok((scene, ld.spectral.into_inner()))
 }
 
 /// Converts a TOML error into ours, with the line of its span.
@@ -134,6 +158,8 @@ pub(crate) struct Loader {
     leaves: Cell<u64>,
     /// Texels of procedural leaf maps generated so far.
     leaf_texels: Cell<u64>,
+    /// `[film] bands`, when the film asks for them.
+    pub(crate) spectral: std::cell::RefCell<Option<SpectralOutput>>,
 }
 
 impl Loader {

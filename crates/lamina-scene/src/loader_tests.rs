@@ -388,3 +388,68 @@ fn a_sun_placed_by_latitude_longitude_and_time() {
         .to_string();
     assert!(e.contains("not both"), "{e}");
 }
+
+#[test]
+fn film_bands_parse_and_bad_bands_name_the_key() {
+    let path = Path::new("/tmp/bands.toml");
+    let scene = |film: &str| format!("{SCENE}[film]\n{film}\n");
+    let (_, out) = crate::loader::parse_with_output(
+        &scene("bands = [{ name = \"red\", center = 665, width = 30 }, { name = \"nir\", min = 785, max = 900 }]\nfalse_color = [\"nir\", \"red\", \"red\"]"),
+        path,
+        Budgets::default(),
+    )
+    .unwrap();
+    let out = out.unwrap();
+    assert_eq!(out.bands.len(), 2);
+    assert_eq!((out.bands[0].lo_nm, out.bands[0].hi_nm), (650.0, 680.0));
+    assert_eq!((out.bands[1].lo_nm, out.bands[1].hi_nm), (785.0, 900.0));
+    assert_eq!(out.false_color, [1, 0, 0]);
+    let (_, none) =
+        crate::loader::parse_with_output(&scene("width = 8"), path, Budgets::default()).unwrap();
+    assert!(none.is_none());
+    for (film, words) in [
+        ("bands = []", &["film.bands", "give 1 to 64"][..]),
+        (
+            "bands = [{ name = \"x\", center = 300, width = 10 }]",
+            &["center", "300"][..],
+        ),
+        (
+            "bands = [{ name = \"x\", center = 2490, width = 40 }]",
+            &["360-2500"][..],
+        ),
+        ("bands = [{ name = \"x\", center = 500 }]", &["width"][..]),
+        (
+            "bands = [{ name = \"x\", min = 600, max = 500 }]",
+            &["wider than 0"][..],
+        ),
+        (
+            "bands = [{ name = \"a b\", center = 500, width = 10 }]",
+            &["'a b'", "EXR channel"][..],
+        ),
+        (
+            "bands = [{ name = \"x\", center = 500, width = 10 }, { name = \"x\", center = 600, width = 10 }]",
+            &["names two bands"][..],
+        ),
+        (
+            "bands = [{ name = \"x\", centre = 500, width = 10 }]",
+            &["centre"][..],
+        ),
+        ("bands = [\"red\"]", &["each band is a table"][..]),
+        (
+            "bands = [{ name = \"x\", center = 500, width = 10 }]\nfalse_color = [\"x\", \"y\", \"x\"]",
+            &["no band named 'y'", "x"][..],
+        ),
+        (
+            "false_color = [\"a\", \"b\", \"c\"]",
+            &["needs `bands`"][..],
+        ),
+    ] {
+        let e = crate::loader::parse_scene(&scene(film), path)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("bands.toml") && e.contains("film"), "{e}");
+        for w in words {
+            assert!(e.contains(w), "expected '{w}' in: {e}");
+        }
+    }
+}

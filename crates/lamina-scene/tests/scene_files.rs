@@ -342,6 +342,13 @@ fn the_pigment_leaves_example_loads_with_its_sun_placed_by_time() {
     };
     // Paris, 21 June 2024, 14:30 CEST: elevation 63.5°, azimuth 199.6° (south-south-west).
     let elevation = direction.y.asin().to_degrees();
-    let azimuth = direction.x.atan2(-direction.z).to_degrees().rem_euclid(360.0);
-    assert!((elevation - 63.53).abs() < 0.02 && (azimuth - 199.58).abs() < 0.02, "{elevation} {azimuth}");
+    let azimuth = direction
+        .x
+        .atan2(-direction.z)
+        .to_degrees()
+        .rem_euclid(360.0);
+    assert!(
+        (elevation - 63.53).abs() < 0.02 && (azimuth - 199.58).abs() < 0.02,
+        "{elevation} {azimuth}"
+    );
 }

@@ -80,8 +80,8 @@ fn lambertian_card_matches_analytic_sun_value() {
 
 /// (b) Furnace: white surfaces (opaque R = 1, and R + T = 1 cards) in a constant sky of
 /// radiance 1: every pixel converges to 1 (no energy created or lost).
-#[test]
-fn furnace_is_energy_conserving() {
+/// The furnace scene of [`furnace_is_energy_conserving`].
+fn furnace_scene() -> Scene {
     let mut tilted = card(0.6, 0.0, 1);
     for p in &mut tilted.positions {
         *p = Vec3::new(p.x, p.y * 0.6, p.z + p.y * 0.8 + 0.3);
@@ -90,7 +90,7 @@ fn furnace_is_energy_conserving() {
     for p in &mut upright.positions {
         *p = Vec3::new(p.z - 0.2, p.y, p.x);
     }
-    let scene = Scene {
+    Scene {
         camera: camera_at(2.5, 50.0),
         film: film(24, 24, 256),
         integrator: Integrator::Path {
@@ -107,7 +107,12 @@ fn furnace_is_energy_conserving() {
         meshes: vec![card(0.8, -0.3, 0), tilted, upright],
         prototypes: Vec::new(),
         instances: Vec::new(),
-    };
+    }
+}
+
+#[test]
+fn furnace_is_energy_conserving() {
+    let scene = furnace_scene();
     let out = render(&scene, &opts(256, 2)).unwrap();
     let m = out.image.mean();
     assert!(
@@ -117,4 +122,29 @@ fn furnace_is_energy_conserving() {
     for p in &out.image.pixels {
         assert!((*p - Vec3::ONE).abs().max_element() < 0.15, "pixel {p}");
     }
+}
+
+/// The furnace in spectral bands: white stays white in every band (R = 1, R + T = 1 go
+/// through the linear basis unchanged), so every pixel converges to the sky's band value.
+#[test]
+fn furnace_in_bands_is_energy_conserving() {
+    use lamina_leaf::spectrum::bands::{Band, BandBasis};
+    let band = |name: &str, lo: f32, hi: f32| Band {
+        name: name.into(),
+        lo_nm: lo,
+        hi_nm: hi,
+    };
+    let (b, g, nir) = (
+        band("b", 450.0, 520.0),
+        band("g", 540.0, 570.0),
+        band("nir", 780.0, 900.0),
+    );
+    let scene = crate::bands::band_scene(&furnace_scene(), [&b, &g, &nir]).unwrap();
+    let sky = BandBasis::new([&b, &g, &nir]).emission(Vec3::ONE);
+    let out = render(&scene, &opts(256, 2)).unwrap();
+    let m = out.image.mean() / sky;
+    assert!(
+        (m - Vec3::ONE).abs().max_element() < 0.005,
+        "image mean / sky {m} (sky {sky})"
+    );
 }

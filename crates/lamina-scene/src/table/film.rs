@@ -9,6 +9,8 @@
 //! | `filter_sigma` | pixels, (0, 8] | `0.5` | Gaussian standard deviation |
 //! | `exposure` | stops, [-30, 30] | `0` | the PNG shows radiance × 2^exposure |
 //! | `tonemap` | `clamp`, `aces`, `reinhard` | `aces` | tone map of the PNG; the EXR is never tone-mapped |
+//! | `bands` | array of tables, 1-64 | none | render spectral bands instead of RGB: each `{ name, center, width }` or `{ name, min, max }` (nm, inside 360-2500; names unique, letters, digits, `_ - .`); the EXR gets one channel per band (band-mean spectral radiance, W m⁻² sr⁻¹ nm⁻¹), the PNG a false-colour composite |
+//! | `false_color` | three band names | the first three bands | the bands the PNG shows as red, green, blue |
 
 use crate::dict::{Dict, Keys, Kind, S, Table};
 use crate::error::SceneError;
@@ -25,6 +27,17 @@ pub(crate) const KEYS: Keys = Keys::plain(&[
     ("filter_sigma", Kind::Num),
     ("exposure", Kind::Num),
     ("tonemap", Kind::Str),
+    ("bands", Kind::Array),
+    ("false_color", Kind::Array),
+]);
+
+/// The keys of one band.
+const BAND_KEYS: Keys = Keys::plain(&[
+    ("name", Kind::Str),
+    ("center", Kind::Num),
+    ("width", Kind::Num),
+    ("min", Kind::Num),
+    ("max", Kind::Num),
 ]);
 
 /// Checks the keys of `[film]` and their types.
@@ -89,6 +102,121 @@ pub(crate) fn read(ld: &Loader, t: Option<&S<Table>>) -> Result<Film, SceneError
             }
         };
     }
+    read_bands(ld, &d)?;
     d.finish()?;
     Ok(film)
+}
+
+/// Reads `bands` and `false_color` into the loader's spectral output (see
+/// [`crate::SpectralOutput`]).
+fn read_bands(ld: &Loader, d: &Dict) -> Result<(), SceneError> {
+    use lamina_leaf::spectrum::bands::Band;
+    let fc = d.array("false_color")?;
+    let Some(arr) = d.array("bands")? else {
+        if let Some(fc) = fc {
+            return Err(d.err(fc.span(), "false_color", "needs `bands` to choose from"));
+        }
+        return Ok(());
+    };
+    let items = arr.get_ref();
+    if items.is_empty() || items.len() > 64 {
+        return Err(d.err(
+            arr.span(),
+            "bands",
+            format!("{} bands; give 1 to 64", items.len()),
+        ));
+    }
+    let mut bands: Vec<Band> = Vec::new();
+    for (i, item) in items.iter().enumerate() {
+        let at = format!("film.bands[{i}]");
+        let crate::dict::Value::Table(t) = item.get_ref() else {
+            return Err(ld.err(
+                item.span(),
+                at,
+                "each band is a table: { name = \"red\", center = 665, width = 30 } or { name, min, max }",
+            ));
+        };
+        let b = Dict::open(ld, at.clone(), None, item.span(), t, BAND_KEYS)?;
+        let name = b.req_string("name")?;
+        let n = name.get_ref();
+        if n.is_empty()
+            || !n
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
+        {
+            return Err(b.err(
+                name.span(),
+                "name",
+                format!("'{n}': a band name is letters, digits, '_', '-' or '.' (it names an EXR channel)"),
+            ));
+        }
+        if bands.iter().any(|x| x.name == *n) {
+            return Err(b.err(name.span(), "name", format!("'{n}' names two bands")));
+        }
+        let (lo, hi) = match (b.get("center"), b.get("min")) {
+            (Some(_), None) => {
+                let c = b.req_float("center", 360.0, 2500.0, false)?;
+                let w = b.req_float("width", 0.0, 2140.0, true)?;
+                (c - 0.5 * w, c + 0.5 * w)
+            }
+            (None, Some(_)) => (
+                b.req_float("min", 360.0, 2500.0, false)?,
+                b.req_float("max", 360.0, 2500.0, false)?,
+            ),
+            _ => {
+                return Err(b.err(
+                    item.span(),
+                    "center",
+                    "give `center` and `width`, or `min` and `max` (nm)",
+                ));
+            }
+        };
+        if !(lo >= 360.0 && hi <= 2500.0 && hi > lo) {
+            return Err(b.err(
+                item.span(),
+                "width",
+                format!("band '{n}' spans {lo}-{hi} nm: it must lie inside 360-2500 nm and be wider than 0"),
+            ));
+        }
+        bands.push(Band {
+            name: n.to_string(),
+            lo_nm: lo,
+            hi_nm: hi,
+        });
+        b.finish()?;
+    }
+    let last = bands.len() - 1;
+    let mut false_color = [0, 1.min(last), 2.min(last)];
+    if let Some(fc) = fc {
+        let names = fc.get_ref();
+        if names.len() != 3 {
+            return Err(d.err(
+                fc.span(),
+                "false_color",
+                "give three band names (shown as red, green, blue)",
+            ));
+        }
+        for (k, v) in names.iter().enumerate() {
+            let crate::dict::Value::String(s) = v.get_ref() else {
+                return Err(d.err(v.span(), "false_color", "band names are strings"));
+            };
+            false_color[k] = bands.iter().position(|b| b.name == *s).ok_or_else(|| {
+                d.err(
+                    v.span(),
+                    "false_color",
+                    format!(
+                        "no band named '{s}' (the bands: {})",
+                        bands
+                            .iter()
+                            .map(|b| b.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                )
+            })?;
+        }
+    }
+    ld.spectral
+        .replace(Some(crate::SpectralOutput { bands, false_color }));
+    Ok(())
 }

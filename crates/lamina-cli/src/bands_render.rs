@@ -1,0 +1,90 @@
+//! `lamina render` of a scene whose `[film]` asks for spectral `bands`: the bands are rendered
+//! three at a time (`lamina_render::bands::band_scene`, the same seed and samples for every
+//! group), then written as one EXR channel per band and a false-colour PNG.
+
+use crate::render_cmd::{Outputs, RenderFlags, options, render_scene};
+use anyhow::{Context, Result, bail};
+use lamina_render::Image;
+use lamina_scene::{Scene, SpectralOutput};
+
+/// Renders `scene` in the bands of `spectral` and writes `outputs`.
+pub fn render_bands(
+    scene: &Scene,
+    spectral: &SpectralOutput,
+    flags: &RenderFlags,
+    label: &str,
+    outputs: &Outputs,
+) -> Result<()> {
+    let bands = &spectral.bands;
+    let (w, h) = (scene.film.width, scene.film.height);
+    let n = (w * h) as usize;
+    let mut planes: Vec<Vec<f32>> = vec![Vec::new(); bands.len()];
+    let groups: Vec<Vec<usize>> = (0..bands.len())
+        .collect::<Vec<_>>()
+        .chunks(3)
+        .map(|c| c.to_vec())
+        .collect();
+    let t0 = std::time::Instant::now();
+    for (g, idx) in groups.iter().enumerate() {
+        let pick = |k: usize| &bands[idx[k.min(idx.len() - 1)]];
+        let names: Vec<&str> = idx.iter().map(|&i| bands[i].name.as_str()).collect();
+        let banded = lamina_render::bands::band_scene(scene, [pick(0), pick(1), pick(2)])
+            .with_context(|| format!("bands {}", names.join(", ")))?;
+        let group_label = format!("{label} [{}]", names.join(", "));
+        let (opts, bar) = options(flags, &group_label, false)?;
+        let out = render_scene(&banded, &opts, bar, &group_label)?;
+        if lamina_io::interrupt::interrupted() {
+            return Err(crate::interrupted::Interrupted(format!(
+                "stopped in band group {} of {}: nothing written",
+                g + 1,
+                groups.len()
+            ))
+            .into());
+        }
+        for (k, &i) in idx.iter().enumerate() {
+            planes[i] = out.image.pixels.iter().map(|p| p[k]).collect();
+        }
+    }
+    eprintln!(
+        "{label}: {} bands in {} render(s), {:.2} s",
+        bands.len(),
+        groups.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    for out in &outputs.paths {
+        crate::output_file::claim(out, outputs.force, &outputs.inputs)?;
+        let ext = out
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        if ext == "exr" {
+            let channels: Vec<(String, Vec<f32>)> = bands
+                .iter()
+                .zip(&planes)
+                .map(|(b, p)| (b.name.clone(), p.clone()))
+                .collect();
+            lamina_io::image_out::save_named_channels(out, w, h, &channels)
+                .with_context(|| format!("writing '{}'", out.display()))?;
+        } else if ext == "png" {
+            let [r, g, b] = spectral.false_color;
+            let pixels = (0..n)
+                .map(|i| glam::Vec3::new(planes[r][i], planes[g][i], planes[b][i]))
+                .collect();
+            let image = Image {
+                width: w,
+                height: h,
+                pixels,
+            };
+            lamina_render::write_image(out, &image, &scene.film)
+                .with_context(|| format!("writing '{}'", out.display()))?;
+        } else {
+            bail!(
+                "output '{}': use .exr (bands) or .png (false colour)",
+                out.display()
+            );
+        }
+        eprintln!("wrote {}", out.display());
+    }
+    Ok(())
+}

@@ -209,14 +209,20 @@ pub fn cie_xyz_bar(nm: f32) -> Vec3 {
 /// CIE illuminant D65's relative spectral power at `nm` (100 at 560 nm; zero outside
 /// 360-830 nm).
 pub fn d65(nm: f32) -> f32 {
-    let x = nm - tables::CIE_START_NM;
-    let n = tables::CIE_D65.len();
+    lerp_table(&tables::CIE_D65, tables::CIE_START_NM, tables::CIE_STEP_NM, nm)
+}
+
+/// `table` (samples every `step` nm from `start`) at `nm`, linear between samples, zero
+/// outside.
+fn lerp_table(table: &[f32], start: f32, step: f32, nm: f32) -> f32 {
+    let x = (nm - start) / step;
+    let n = table.len();
     if !(0.0..=(n - 1) as f32).contains(&x) {
         return 0.0;
     }
     let i = (x as usize).min(n - 2);
     let f = x - i as f32;
-    tables::CIE_D65[i] + f * (tables::CIE_D65[i + 1] - tables::CIE_D65[i])
+    table[i] + f * (table[i + 1] - table[i])
 }
 
 /// CIE XYZ of a surface of reflectance `r(λ)` under D65, normalised so that `r = 1` gives
@@ -272,14 +278,7 @@ pub fn reflectance_to_linear_rec709(r: impl Fn(f32) -> f32) -> Vec3 {
 pub const REC709_NOMINAL_NM: [f32; 3] = [611.0, 549.0, 464.0];
 
 fn solar(table: &[f32], nm: f32) -> f32 {
-    let x = (nm - tables::SOLAR_START_NM) / tables::SOLAR_STEP_NM;
-    let n = table.len();
-    if !(0.0..=(n - 1) as f32).contains(&x) {
-        return 0.0;
-    }
-    let i = (x as usize).min(n - 2);
-    let f = x - i as f32;
-    table[i] + f * (table[i + 1] - table[i])
+    lerp_table(table, tables::SOLAR_START_NM, tables::SOLAR_STEP_NM, nm)
 }
 
 /// ASTM G173-03 direct normal + circumsolar spectral irradiance at the ground (air mass

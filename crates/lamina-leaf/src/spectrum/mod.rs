@@ -209,7 +209,12 @@ pub fn cie_xyz_bar(nm: f32) -> Vec3 {
 /// CIE illuminant D65's relative spectral power at `nm` (100 at 560 nm; zero outside
 /// 360-830 nm).
 pub fn d65(nm: f32) -> f32 {
-    lerp_table(&tables::CIE_D65, tables::CIE_START_NM, tables::CIE_STEP_NM, nm)
+    lerp_table(
+        &tables::CIE_D65,
+        tables::CIE_START_NM,
+        tables::CIE_STEP_NM,
+        nm,
+    )
 }
 
 /// `table` (samples every `step` nm from `start`) at `nm`, linear between samples, zero

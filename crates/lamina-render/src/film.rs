@@ -76,14 +76,21 @@ impl Accumulator {
     }
 
     /// Adds a tile's sums (row-major within the tile) at `(x0, y0)`.
-    pub fn add_tile(&mut self, x0: u32, y0: u32, w: u32, sums: &[Vec3]) {
+    pub fn add_tile(&mut self, x0: u32, y0: u32, w: u32, sums: &[DVec3]) {
         for (i, s) in sums.iter().enumerate() {
             let (x, y) = (x0 + i as u32 % w, y0 + i as u32 / w);
-            self.sums[(y * self.width + x) as usize] += s.as_dvec3();
+            self.sums[(y * self.width + x) as usize] += *s;
         }
     }
 
-    /// The mean of `spp` samples per pixel (zero when `spp == 0`).
+    /// The per-pixel sums, row-major.
+    pub fn into_sums(self) -> Vec<DVec3> {
+        self.sums
+    }
+
+    /// The mean of `spp` samples per pixel (zero when `spp == 0`): each sum times the f64
+    /// reciprocal of `spp`, rounded to f32. `lamina_farm::part::mean_f32` repeats this
+    /// formula so that merged parts give the same bits.
     pub fn mean(&self, spp: u32) -> Vec<Vec3> {
         let inv = if spp == 0 { 0.0 } else { 1.0 / spp as f64 };
         self.sums.iter().map(|s| (*s * inv).as_vec3()).collect()

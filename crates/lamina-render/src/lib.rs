@@ -45,7 +45,9 @@ mod error;
 pub use accel::{Accel, Hit, Ray};
 pub use error::RenderError;
 pub use output::write_image;
-pub use render::{Image, Progress, RenderOptions, RenderOutput, RenderStats, render};
+pub use render::{
+    Crop, Image, Progress, RenderOptions, RenderOutput, RenderStats, SampleRange, render,
+};
 
 #[cfg(test)]
 mod tests;

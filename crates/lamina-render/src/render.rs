@@ -11,13 +11,25 @@
 //! Sample `i` of pixel `(x, y)` draws all its numbers from a [`PixelSampler`] seeded by the
 //! render seed, the pixel and `i`; per-pixel sums are added in sample order and passes in
 //! pass order, so the image is bit-identical for a seed whatever the thread count.
+//!
+//! **Parts of a render.** [`RenderOptions::samples`] renders only the sample indices
+//! `[start, end)` of the full render's `spp` (the same passes, clipped to the range), and
+//! [`RenderOptions::crop`] only a rectangle of pixels. A pixel's value depends on its own
+//! samples only (the pixel filter is importance-sampled, see [`crate::film`], so no sample
+//! lands in a neighbour), so a crop's pixels are bit-identical to the same pixels of the
+//! whole image, and parts split by samples add up to the whole render: every sample's
+//! radiance (f32) is added into an f64 per-pixel sum, which is exact while a pixel's
+//! samples span less than about 2²⁹ in magnitude, so splitting the sum changes nothing
+//! (and otherwise only the order of f64 additions: at most `spp · 2⁻⁵³` of the sum of the
+//! samples' magnitudes, far below the f32 image's own rounding of `2⁻²⁴`). With
+//! [`RenderOptions::keep_sums`] the output carries those f64 sums for an exact merge.
 
 use crate::accel::{AccelMemory, Ray};
 use crate::error::RenderError;
 use crate::film::Accumulator;
 use crate::integrators::{SceneContext, paper, path};
 use crate::sampler::{PixelSampler, fold_seed};
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use lamina_core::{Integrator, Scene};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -49,6 +61,92 @@ pub struct RenderOptions {
     pub cancel: Option<Arc<AtomicBool>>,
     /// Called after every completed pass.
     pub progress: Option<Arc<dyn Fn(Progress) + Send + Sync>>,
+    /// Render only these sample indices `[start, end)` of the full render's samples per
+    /// pixel (a part of a render split by samples); `None`: all of them. Must be a
+    /// non-empty range with `end <= spp`.
+    pub samples: Option<SampleRange>,
+    /// Render only these pixels (a tile of a render split by regions); `None`: the whole
+    /// film. The returned image is the crop's size.
+    pub crop: Option<Crop>,
+    /// Return the per-pixel f64 sums of the samples ([`RenderOutput::sums`]), for merging
+    /// parts exactly.
+    pub keep_sums: bool,
+}
+
+/// Sample indices `[start, end)` of every pixel (of `0..spp` of the full render).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SampleRange {
+    /// First sample index.
+    pub start: u32,
+    /// One past the last sample index.
+    pub end: u32,
+}
+
+impl SampleRange {
+    /// Samples in the range.
+    pub fn len(&self) -> u32 {
+        self.end.saturating_sub(self.start)
+    }
+
+    /// Whether the range holds no sample.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Part `k` of `n` (0-based) of `spp` samples: `[⌊k·spp/n⌋, ⌊(k+1)·spp/n⌋)`, so the
+    /// parts are disjoint, cover `0..spp` and differ in size by at most one sample.
+    pub fn part(k: u32, n: u32, spp: u32) -> SampleRange {
+        let at = |i: u32| (i as u64 * spp as u64 / n.max(1) as u64) as u32;
+        SampleRange {
+            start: at(k),
+            end: at(k + 1),
+        }
+    }
+}
+
+/// A rectangle of pixels `[x0, x1) x [y0, y1)`, origin at the top-left corner of the image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Crop {
+    /// Left column (inclusive).
+    pub x0: u32,
+    /// Top row (inclusive).
+    pub y0: u32,
+    /// Right column (exclusive).
+    pub x1: u32,
+    /// Bottom row (exclusive).
+    pub y1: u32,
+}
+
+impl Crop {
+    /// The whole `width x height` image.
+    pub fn full(width: u32, height: u32) -> Crop {
+        Crop {
+            x0: 0,
+            y0: 0,
+            x1: width,
+            y1: height,
+        }
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.x1.saturating_sub(self.x0)
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.y1.saturating_sub(self.y0)
+    }
+
+    /// Pixels in the rectangle.
+    pub fn pixels(&self) -> u64 {
+        self.width() as u64 * self.height() as u64
+    }
+
+    /// Whether the two rectangles share a pixel.
+    pub fn overlaps(&self, other: &Crop) -> bool {
+        self.x0 < other.x1 && other.x0 < self.x1 && self.y0 < other.y1 && other.y0 < self.y1
+    }
 }
 
 /// Where a render stands, reported after every pass.
@@ -75,8 +173,14 @@ pub use lamina_image::Image;
 pub struct RenderStats {
     /// Wall-clock time of the whole call, BVH build included.
     pub elapsed: Duration,
-    /// Samples per pixel in the image (completed passes).
+    /// Samples per pixel in the image (completed passes; of a part, the samples of the part
+    /// that were rendered).
     pub spp_done: u32,
+    /// The sample indices in the image: the requested range, or its first `spp_done`
+    /// samples when the render stopped early.
+    pub sample_range: SampleRange,
+    /// The pixels rendered (the whole film unless cropped).
+    pub crop: Crop,
     /// Passes completed (their samples are the image); 0 only if cancelled in the first.
     pub passes_done: u32,
     /// Passes planned for the requested samples per pixel.
@@ -100,10 +204,13 @@ pub struct RenderStats {
 /// The result of [`render`].
 #[derive(Clone, Debug)]
 pub struct RenderOutput {
-    /// The image (mean of the completed samples).
+    /// The image (mean of the completed samples), the size of the crop.
     pub image: Image,
     /// Counters.
     pub stats: RenderStats,
+    /// With [`RenderOptions::keep_sums`]: each pixel's sum of its samples' radiance in f64,
+    /// row-major over the crop (`image` is these divided by `stats.spp_done`).
+    pub sums: Option<Vec<glam::DVec3>>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -159,6 +266,23 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
         .num_threads(threads)
         .build()
         .map_err(|source| RenderError::ThreadPool { threads, source })?;
+    let range = opts.samples.unwrap_or(SampleRange {
+        start: 0,
+        end: spp_total,
+    });
+    if range.is_empty() || range.end > spp_total {
+        return Err(RenderError::InvalidOptions(format!(
+            "sample range {}..{} must be non-empty and within 0..{spp_total}",
+            range.start, range.end
+        )));
+    }
+    let crop = opts.crop.unwrap_or(Crop::full(film.width, film.height));
+    if crop.pixels() == 0 || crop.x1 > film.width || crop.y1 > film.height {
+        return Err(RenderError::InvalidOptions(format!(
+            "crop {},{},{},{} must be a non-empty rectangle inside the {}x{} image",
+            crop.x0, crop.y0, crop.x1, crop.y1, film.width, film.height
+        )));
+    }
     let ctx = SceneContext::new(scene)?;
     let seed = fold_seed(opts.seed);
     let deadline = opts.time_limit.map(|d| start + d);
@@ -169,18 +293,24 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
     };
 
     let mut tiles = Vec::new();
-    for y0 in (0..film.height).step_by(TILE as usize) {
-        for x0 in (0..film.width).step_by(TILE as usize) {
+    for y0 in (crop.y0..crop.y1).step_by(TILE as usize) {
+        for x0 in (crop.x0..crop.x1).step_by(TILE as usize) {
             tiles.push(Tile {
                 x0,
                 y0,
-                w: TILE.min(film.width - x0),
-                h: TILE.min(film.height - y0),
+                w: TILE.min(crop.x1 - x0),
+                h: TILE.min(crop.y1 - y0),
             });
         }
     }
-    let passes = pass_schedule(spp_total);
-    let mut acc = Accumulator::new(film.width, film.height);
+    // The full render's passes, clipped to the range: a part adds its samples in the same
+    // groups as the whole render would.
+    let passes: Vec<(u32, u32)> = pass_schedule(spp_total)
+        .into_iter()
+        .map(|(a, b)| (a.max(range.start), b.min(range.end)))
+        .filter(|(a, b)| a < b)
+        .collect();
+    let mut acc = Accumulator::new(crop.width(), crop.height());
     let (mut spp_done, mut rays, mut stopped_early) = (0u32, 0u64, false);
     let mut passes_done = 0u32;
     for (pi, &(s0, s1)) in passes.iter().enumerate() {
@@ -190,7 +320,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
             stopped_early = true;
             break;
         }
-        let results: Vec<Option<(Vec<Vec3>, u64)>> = pool.install(|| {
+        let results: Vec<Option<(Vec<DVec3>, u64)>> = pool.install(|| {
             tiles
                 .par_iter()
                 .map(|t| {
@@ -209,33 +339,39 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
         }
         for (t, r) in tiles.iter().zip(&results) {
             if let Some((sums, _)) = r {
-                acc.add_tile(t.x0, t.y0, t.w, sums);
+                acc.add_tile(t.x0 - crop.x0, t.y0 - crop.y0, t.w, sums);
             }
         }
-        spp_done = s1;
+        spp_done = s1 - range.start;
         passes_done = pi as u32 + 1;
         if let Some(cb) = &opts.progress {
             cb(Progress {
                 passes_done: pi as u32 + 1,
                 passes_total: passes.len() as u32,
                 spp_done,
-                spp_total,
+                spp_total: range.len(),
                 elapsed: start.elapsed(),
             });
         }
     }
     Ok(RenderOutput {
         image: Image {
-            width: film.width,
-            height: film.height,
+            width: crop.width(),
+            height: crop.height(),
             pixels: acc.mean(spp_done),
         },
+        sums: opts.keep_sums.then(|| acc.into_sums()),
         stats: RenderStats {
             elapsed: start.elapsed(),
             spp_done,
+            sample_range: SampleRange {
+                start: range.start,
+                end: range.start + spp_done,
+            },
+            crop,
             passes_done,
             passes_total: passes.len() as u32,
-            samples: spp_done as u64 * film.width as u64 * film.height as u64,
+            samples: spp_done as u64 * crop.pixels(),
             rays,
             stopped_early,
             accel_build: ctx.accel_build,
@@ -246,8 +382,10 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
     })
 }
 
-/// Samples `[s0, s1)` of every pixel of `tile`: per-pixel sums (row-major) and rays traced.
-fn render_tile(ctx: &SceneContext, tile: &Tile, s0: u32, s1: u32, seed: u32) -> (Vec<Vec3>, u64) {
+/// Samples `[s0, s1)` of every pixel of `tile`: per-pixel sums (row-major, f64 so that
+/// splitting a pixel's samples into parts changes only the order of f64 additions) and
+/// rays traced.
+fn render_tile(ctx: &SceneContext, tile: &Tile, s0: u32, s1: u32, seed: u32) -> (Vec<DVec3>, u64) {
     let mut sums = Vec::with_capacity((tile.w * tile.h) as usize);
     let mut rays = 0u64;
     let integrator = ctx.scene.integrator;
@@ -257,7 +395,7 @@ fn render_tile(ctx: &SceneContext, tile: &Tile, s0: u32, s1: u32, seed: u32) -> 
     };
     for y in tile.y0..tile.y0 + tile.h {
         for x in tile.x0..tile.x0 + tile.w {
-            let mut sum = Vec3::ZERO;
+            let mut sum = DVec3::ZERO;
             for i in s0..s1 {
                 let mut sampler = PixelSampler::new(seed, x, y, i);
                 let film_u = sampler.next_2d();
@@ -280,7 +418,7 @@ fn render_tile(ctx: &SceneContext, tile: &Tile, s0: u32, s1: u32, seed: u32) -> 
                 };
                 // A NaN or infinite sample (a numerical accident) counts as black.
                 if l.is_finite() {
-                    sum += l;
+                    sum += l.as_dvec3();
                 }
             }
             sums.push(sum);

@@ -21,6 +21,7 @@ mod integrators;
 mod lights;
 mod normal_maps;
 mod output;
+mod parts;
 mod render_loop;
 pub(crate) mod scenes;
 mod shading_normals;

@@ -23,6 +23,7 @@ mod material;
 mod mtl;
 pub mod obj;
 mod object;
+pub mod overrides;
 #[cfg(test)]
 mod reference;
 mod table;
@@ -31,4 +32,5 @@ pub use error::SceneError;
 pub use lamina_core::{scene, transform};
 pub use loader::{SpectralOutput, load_scene, load_scene_with_output, parse_scene};
 pub use object::apply_transform;
+pub use overrides::{Override, load_scene_with_overrides};
 pub use scene::*;

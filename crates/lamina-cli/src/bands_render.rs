@@ -4,6 +4,7 @@
 
 use crate::render_cmd::{Outputs, RenderFlags, options, render_scene};
 use anyhow::{Context, Result, bail};
+
 use lamina_render::Image;
 use lamina_scene::{Scene, SpectralOutput};
 
@@ -14,11 +15,19 @@ pub fn render_bands(
     flags: &RenderFlags,
     label: &str,
     outputs: &Outputs,
+    split: Option<&crate::parts_cmd::Split>,
 ) -> Result<()> {
     let bands = &spectral.bands;
-    let (w, h) = (scene.film.width, scene.film.height);
+    let (w, h) = match split {
+        None => (scene.film.width, scene.film.height),
+        Some(s) => (s.crop.width(), s.crop.height()),
+    };
     let n = (w * h) as usize;
     let mut planes: Vec<Vec<f32>> = vec![Vec::new(); bands.len()];
+    // With a split: each band's f64 sums, and the stats of the first group (every group
+    // must hold the same samples).
+    let mut sums: Vec<Vec<f64>> = vec![Vec::new(); bands.len()];
+    let mut first_stats: Option<lamina_render::RenderStats> = None;
     let groups: Vec<Vec<usize>> = (0..bands.len())
         .collect::<Vec<_>>()
         .chunks(3)
@@ -31,7 +40,10 @@ pub fn render_bands(
         let banded = lamina_render::bands::band_scene(scene, [pick(0), pick(1), pick(2)])
             .with_context(|| format!("bands {}", names.join(", ")))?;
         let group_label = format!("{label} [{}]", names.join(", "));
-        let (opts, bar) = options(flags, &group_label, false)?;
+        let (mut opts, bar) = options(flags, &group_label, false)?;
+        if let Some(split) = split {
+            split.apply(&mut opts);
+        }
         let out = render_scene(&banded, &opts, bar, &group_label)?;
         if lamina_io::interrupt::interrupted() {
             return Err(crate::interrupted::Interrupted(format!(
@@ -43,6 +55,21 @@ pub fn render_bands(
         }
         for (k, &i) in idx.iter().enumerate() {
             planes[i] = out.image.pixels.iter().map(|p| p[k]).collect();
+            if let Some(s) = &out.sums {
+                sums[i] = s.iter().map(|s| s[k]).collect();
+            }
+        }
+        match &first_stats {
+            Some(f) if f.sample_range != out.stats.sample_range => bail!(
+                "band groups stopped at different samples ({}..{} and {}..{}): a part must \
+                 hold the same samples in every band; render it without --time-limit",
+                f.sample_range.start,
+                f.sample_range.end,
+                out.stats.sample_range.start,
+                out.stats.sample_range.end
+            ),
+            Some(_) => {}
+            None => first_stats = Some(out.stats),
         }
     }
     eprintln!(
@@ -58,7 +85,14 @@ pub fn render_bands(
             .and_then(|e| e.to_str())
             .unwrap_or("")
             .to_ascii_lowercase();
-        if ext == "exr" {
+        if let (Some(split), "exr") = (split, ext.as_str()) {
+            let stats = first_stats.as_ref().context("no band group rendered")?;
+            let part = lamina_farm::Part {
+                info: split.done(stats),
+                sums: sums.clone(),
+            };
+            lamina_farm::write_part(out, &part)?;
+        } else if ext == "exr" {
             let channels: Vec<(String, Vec<f32>)> = bands
                 .iter()
                 .zip(&planes)

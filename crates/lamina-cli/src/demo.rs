@@ -108,6 +108,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
     let combined = RenderOutput {
         image: side_by_side(&images),
         stats: outs.last().expect("three panels").stats,
+        sums: None,
     };
     write_result(&outputs, &combined, &panels[0].1.film)
 }

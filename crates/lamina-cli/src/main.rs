@@ -14,11 +14,13 @@ use std::process::ExitCode;
 mod bands_render;
 mod chart;
 mod demo;
+mod farm_cmd;
 mod gpu_cmd;
 mod interrupted;
 mod leaf_cmd;
 mod leaf_spectra_cmd;
 mod output_file;
+mod parts_cmd;
 mod plant_cmd;
 mod render_cmd;
 mod sky_cmd;
@@ -36,6 +38,13 @@ struct Cli {
 enum Command {
     /// Render a scene file (TOML) to PNG and/or EXR.
     Render(render_cmd::RenderArgs),
+    /// Merge parts of a render (`lamina render --part K/N`, `--crop`) into the image one
+    /// render would have made: checks that they belong together, names missing parts.
+    Merge(parts_cmd::MergeArgs),
+    /// Renders on a cluster: Slurm job arrays of render parts with a merge job, their
+    /// status, retries and merges.
+    #[command(subcommand)]
+    Farm(farm_cmd::FarmCommand),
     /// Open a window with the real-time (GPU) view of a scene: orbit the camera, move the sun.
     View(view_cmd::ViewArgs),
     /// Render the built-in demo: a leaf lit from the front and from behind, and a bush.
@@ -65,6 +74,8 @@ fn main() -> ExitCode {
     }
     let result = match cli.command {
         Command::Render(args) => render_cmd::run(args),
+        Command::Merge(args) => parts_cmd::run_merge(&args),
+        Command::Farm(cmd) => farm_cmd::run(cmd),
         Command::Demo(args) => demo::run(args),
         Command::View(args) => view_cmd::run(args),
         Command::Leaf(cmd) => leaf_cmd::run(cmd),

@@ -49,8 +49,68 @@ pub struct RenderArgs {
     /// and the render refused; lamina's own earlier outputs are always replaced).
     #[arg(long)]
     pub force: bool,
+    /// Render part K of N (0-based) of the samples: sample indices ⌊K·spp/N⌋ to
+    /// ⌊(K+1)·spp/N⌋ of the full render, written as a part EXR that `lamina merge` adds up
+    /// to exactly the single render of the same seed and spp.
+    #[arg(long, value_name = "K/N", value_parser = parse_part)]
+    pub part: Option<(u32, u32)>,
+    /// Render only the pixels x0 ≤ x < x1, y0 ≤ y < y1 (from the top-left corner), written
+    /// as a part EXR (data window = the crop) that `lamina merge` stitches with no seam.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_crop)]
+    pub crop: Option<lamina_render::Crop>,
+    /// Set a key of the scene file before it is read (repeatable): `film.spp=64`,
+    /// `light[0].irradiance=[3, 3, 3]`, `material[1].species="maple"` (strings in quotes).
+    /// The value goes through the same checks as in the file.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<lamina_scene::Override>,
     #[command(flatten)]
     pub flags: RenderFlags,
+}
+
+/// `--part K/N`: two integers, K below N.
+fn parse_part(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (k, n) = s
+        .split_once('/')
+        .ok_or_else(|| format!("'{s}' is not K/N (e.g. 0/4 for the first of four parts)"))?;
+    let num = |t: &str, what: &str| {
+        t.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("'{s}': {what} '{t}' is not a whole number"))
+    };
+    let (k, n) = (num(k, "K")?, num(n, "N")?);
+    if n == 0 || k >= n {
+        return Err(format!(
+            "'{s}': K must be below N (parts are numbered 0 to N-1)"
+        ));
+    }
+    Ok((k, n))
+}
+
+/// `--crop X0,Y0,X1,Y1`: four integers, a non-empty rectangle (checked against the image
+/// once the scene is loaded).
+fn parse_crop(s: &str) -> std::result::Result<lamina_render::Crop, String> {
+    let v: Vec<&str> = s.split(',').collect();
+    if v.len() != 4 {
+        return Err(format!("'{s}' is not X0,Y0,X1,Y1 (four pixel coordinates)"));
+    }
+    let mut n = [0u32; 4];
+    for (i, t) in v.iter().enumerate() {
+        n[i] = t
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{s}': '{t}' is not a whole number of pixels"))?;
+    }
+    if n[0] >= n[2] || n[1] >= n[3] {
+        return Err(format!(
+            "'{s}': the crop is empty (X0 must be below X1 and Y0 below Y1)"
+        ));
+    }
+    Ok(lamina_render::Crop {
+        x0: n[0],
+        y0: n[1],
+        x1: n[2],
+        y1: n[3],
+    })
 }
 
 /// Checks output paths before any work: known extension, existing directory, and a file
@@ -147,6 +207,7 @@ pub fn options(
         time_limit,
         cancel: Some(interrupt::flag()),
         progress: Some(progress),
+        ..Default::default()
     };
     Ok((opts, bar))
 }
@@ -233,16 +294,40 @@ pub fn write_result(outputs: &Outputs, out: &RenderOutput, film: &Film) -> Resul
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
+    let split = args.part.is_some() || args.crop.is_some();
     let paths = if args.output.is_empty() {
         let stem = args
             .scene
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "render".into());
-        vec![PathBuf::from(format!("{stem}.png"))]
+        let name = match (args.part, args.crop) {
+            (None, None) => format!("{stem}.png"),
+            (part, crop) => {
+                let mut n = stem;
+                if let Some((k, parts)) = part {
+                    n.push_str(&format!("-part-{k}-of-{parts}"));
+                }
+                if let Some(c) = crop {
+                    n.push_str(&format!("-crop-{}-{}-{}-{}", c.x0, c.y0, c.x1, c.y1));
+                }
+                format!("{n}.exr")
+            }
+        };
+        vec![PathBuf::from(name)]
     } else {
         args.output.clone()
     };
+    if split {
+        if args.gpu {
+            bail!("--part and --crop split the offline render; they do not apply to --gpu");
+        }
+        if !paths.iter().any(|p| crate::parts_cmd::is_exr(p)) {
+            bail!(
+                "--part and --crop write a part file: name an .exr output (-o part.exr) for                  `lamina merge`; a .png shows only this part"
+            );
+        }
+    }
     let outputs = Outputs {
         paths,
         force: args.force,
@@ -252,13 +337,21 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if !args.flags.quiet && !std::io::stderr().is_terminal() {
         eprintln!("loading {}", args.scene.display());
     }
-    let (scene, spectral) = lamina_scene::load_scene_with_output(&args.scene)?;
+    let (scene, spectral) = lamina_scene::load_scene_with_overrides(&args.scene, &args.set)?;
     let label = args.scene.display().to_string();
+    let split = crate::parts_cmd::Split::new(&args, &scene, spectral.as_ref())?;
     if let Some(spectral) = &spectral {
         if args.gpu {
             bail!("--gpu renders RGB only: the scene's [film] asks for spectral bands");
         }
-        return crate::bands_render::render_bands(&scene, spectral, &args.flags, &label, &outputs);
+        return crate::bands_render::render_bands(
+            &scene,
+            spectral,
+            &args.flags,
+            &label,
+            &outputs,
+            split.as_ref(),
+        );
     }
     if args.gpu {
         return crate::gpu_cmd::render_gpu(&scene, &label, &outputs);
@@ -269,7 +362,22 @@ pub fn run(args: RenderArgs) -> Result<()> {
             scene.film.width, scene.film.height
         );
     }
-    let (opts, bar) = options(&args.flags, &label, true)?;
+    let (mut opts, bar) = options(&args.flags, &label, true)?;
+    if let Some(split) = &split {
+        split.apply(&mut opts);
+    }
     let out = render_scene(&scene, &opts, bar, &label)?;
-    write_result(&outputs, &out, &scene.film)
+    match &split {
+        None => write_result(&outputs, &out, &scene.film),
+        Some(split) => {
+            let part = split.rgb_part(&out)?;
+            crate::parts_cmd::write_part_result(
+                &outputs,
+                &part,
+                &out.stats,
+                &out.image,
+                &scene.film,
+            )
+        }
+    }
 }

@@ -54,9 +54,14 @@ pub struct SlurmArgs {
     /// Scene files (TOML); every one is rendered (for every point of the grid).
     #[arg(required = true)]
     pub scenes: Vec<PathBuf>,
-    /// Parts per render: each array task renders 1/N of the samples (`--part K/N`).
+    /// Parts of the samples: each array task renders 1/N of the samples (`--part K/N`) of
+    /// its tile.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1001))]
     pub parts: u32,
+    /// Also split each image into COLSxROWS tiles (`--crop` regions), each rendered by its
+    /// own tasks: for frames too large for one node's time, and smaller files per task.
+    #[arg(long, value_name = "COLSxROWS", value_parser = parse_tiles, default_value = "1x1")]
+    pub tiles: [u32; 2],
     /// Samples per pixel (default: each scene's film.spp).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub spp: Option<u32>,
@@ -88,6 +93,20 @@ pub struct SlurmArgs {
     /// Submit the job array and the merge job now (needs `sbatch`).
     #[arg(long)]
     pub submit: bool,
+}
+
+/// `--tiles COLSxROWS`.
+fn parse_tiles(s: &str) -> std::result::Result<[u32; 2], String> {
+    let (c, r) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}' is not COLSxROWS (e.g. 4x2)"))?;
+    let n = |t: &str| match t.trim().parse::<u32>() {
+        Ok(v) if v >= 1 => Ok(v),
+        _ => Err(format!(
+            "'{s}': '{t}' is not a whole number of tiles (at least 1)"
+        )),
+    };
+    Ok([n(c)?, n(r)?])
 }
 
 /// Runs a `lamina farm` command.
@@ -187,10 +206,22 @@ fn run_slurm(args: &SlurmArgs) -> Result<()> {
                     scene.display()
                 );
             }
+            if args.tiles[0] > s.film.width || args.tiles[1] > s.film.height {
+                bail!(
+                    "--tiles {}x{}: more tiles than pixels in the {}x{} image of '{}'",
+                    args.tiles[0],
+                    args.tiles[1],
+                    s.film.width,
+                    s.film.height,
+                    scene.display()
+                );
+            }
             renders.push(RenderSpec {
                 name,
                 scene: abs.clone(),
                 set: point.iter().map(|o| o.to_string()).collect(),
+                width: s.film.width,
+                height: s.film.height,
             });
         }
     }
@@ -198,6 +229,7 @@ fn run_slurm(args: &SlurmArgs) -> Result<()> {
         generator: lamina_io::GENERATOR.into(),
         lamina,
         parts: args.parts,
+        tiles: args.tiles,
         spp: args.spp,
         seed: args.seed,
         threads: args.threads,
@@ -213,9 +245,10 @@ fn run_slurm(args: &SlurmArgs) -> Result<()> {
     };
     slurm::create_farm(&dir, &plan)?;
     eprintln!(
-        "wrote farm {}: {} render(s) x {} parts = {} array tasks, then a merge job",
+        "wrote farm {}: {} render(s) x {} tile(s) x {} parts = {} array tasks, then a merge job",
         dir.display(),
         plan.renders.len(),
+        plan.tile_count(),
         plan.parts,
         plan.tasks()
     );
@@ -263,9 +296,10 @@ fn print_status(dir: &Path, all: bool) -> Result<()> {
     let bad = st.count(|t| matches!(t, TaskState::Bad(_)));
     let missing = st.count(|t| *t == TaskState::Missing);
     println!(
-        "farm {}: {} render(s) x {} parts = {} tasks",
+        "farm {}: {} render(s) x {} tile(s) x {} parts = {} tasks",
         dir.display(),
         plan.renders.len(),
+        plan.tile_count(),
         plan.parts,
         plan.tasks()
     );
@@ -281,7 +315,7 @@ fn print_status(dir: &Path, all: bool) -> Result<()> {
         if *t == TaskState::Done && !all {
             continue;
         }
-        let (r, k) = plan.task(i as u32).expect("task in range");
+        let task = plan.task(i as u32).expect("task in range");
         let what = match t {
             TaskState::Done => "done".to_string(),
             TaskState::Queued(s) => s.clone(),
@@ -289,7 +323,7 @@ fn print_status(dir: &Path, all: bool) -> Result<()> {
             TaskState::Bad(why) => format!("unusable part: {why}"),
             TaskState::Missing => "not done (never submitted, cancelled or lost)".into(),
         };
-        println!("  task {i:>4}  {}  part {k}/{}  {what}", r.name, plan.parts);
+        println!("  task {i:>4}  {}  {what}", plan.describe(&task));
     }
     for (r, m) in plan.renders.iter().zip(&st.merged) {
         println!(
@@ -322,14 +356,17 @@ fn merge(dir: &Path, allow_missing: bool) -> Result<()> {
     for r in &plan.renders {
         let mut parts = Vec::new();
         let mut missing = Vec::new();
-        for k in 0..plan.parts {
-            let p = plan.part_path(dir, r, k);
+        let first =
+            plan.renders.iter().position(|x| x == r).unwrap_or(0) as u32 * plan.tasks_per_render();
+        for i in first..first + plan.tasks_per_render() {
+            let task = plan.task(i).expect("task in range");
+            let p = plan.part_path(dir, &task);
             if p.is_file() {
                 parts.push(p);
             } else {
-                let task =
-                    plan.renders.iter().position(|x| x == r).unwrap_or(0) as u32 * plan.parts + k;
-                missing.push(format!("part {k} (task {task}, logs/render-{task}.log)"));
+                let what = plan.describe(&task);
+                let what = what.strip_prefix(&format!("{} ", r.name)).unwrap_or(&what);
+                missing.push(format!("{what} (task {i}, logs/render-{i}.log)"));
             }
         }
         if !missing.is_empty() && !allow_missing {
@@ -337,7 +374,7 @@ fn merge(dir: &Path, allow_missing: bool) -> Result<()> {
                 "{}: {} of {} parts missing: {}",
                 r.name,
                 missing.len(),
-                plan.parts,
+                plan.tasks_per_render(),
                 missing.join(", ")
             ));
             continue;
@@ -372,13 +409,14 @@ fn merge(dir: &Path, allow_missing: bool) -> Result<()> {
 
 fn task(dir: &Path, index: u32) -> Result<()> {
     let plan = slurm::read_farm(dir)?;
-    let Some((render, k)) = plan.task(index) else {
+    let Some(t) = plan.task(index) else {
         bail!(
             "task {index}: the farm {} has tasks 0 to {}",
             dir.display(),
             plan.tasks().saturating_sub(1)
         );
     };
+    let render = t.render;
     let set = render
         .set
         .iter()
@@ -393,18 +431,18 @@ fn task(dir: &Path, index: u32) -> Result<()> {
             .and_then(|v| v.parse().ok())
     });
     eprintln!(
-        "lamina farm: task {index} = {} part {k}/{} on {} thread(s)",
-        render.name,
-        plan.parts,
+        "lamina farm: task {index} = {} on {} thread(s)",
+        plan.describe(&t),
         threads.map_or("all".to_string(), |t| t.to_string())
     );
+    let [x0, y0, x1, y1] = plan.tile_crop(render, t.tile);
     crate::render_cmd::run(RenderArgs {
         scene: render.scene.clone(),
-        output: vec![plan.part_path(dir, render, k)],
+        output: vec![plan.part_path(dir, &t)],
         gpu: false,
         force: false,
-        part: Some((k, plan.parts)),
-        crop: None,
+        part: Some((t.part, plan.parts)),
+        crop: (plan.tile_count() > 1).then_some(lamina_render::Crop { x0, y0, x1, y1 }),
         set,
         flags: RenderFlags {
             spp: plan.spp,

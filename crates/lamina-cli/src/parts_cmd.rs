@@ -25,6 +25,8 @@ pub struct Split {
     pub crop: Crop,
     /// The description (its sample range is filled in after the render).
     pub info: PartInfo,
+    /// Time spent hashing the scene.
+    pub hash_time: std::time::Duration,
 }
 
 impl Split {
@@ -77,6 +79,9 @@ impl Split {
                 (names, fc)
             }
         };
+        let t = std::time::Instant::now();
+        let scene_hash = lamina_farm::hash::debug_hash(&(scene, spectral));
+        let hash_time = t.elapsed();
         let info = PartInfo {
             generator: lamina_io::GENERATOR.into(),
             scene: args
@@ -84,7 +89,7 @@ impl Split {
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default(),
-            scene_hash: lamina_farm::hash::debug_hash(&(scene, spectral)),
+            scene_hash,
             seed: args.flags.seed,
             spp,
             samples: [range.start, range.end],
@@ -99,7 +104,12 @@ impl Split {
             channels,
             false_color,
         };
-        Ok(Some(Split { range, crop, info }))
+        Ok(Some(Split {
+            range,
+            crop,
+            info,
+            hash_time,
+        }))
     }
 
     /// Restricts `opts` to the part, keeping the f64 sums.
@@ -183,6 +193,32 @@ pub fn write_part_result(
         eprintln!("warning: {why}");
     }
     Ok(())
+}
+
+/// One line with a part's costs: loading (with the scene hash), the BVH build, the
+/// rendering of its samples, writing its files (and their size): the per-part overhead of
+/// a split render is everything but the rendering.
+pub fn print_timing(
+    load: std::time::Duration,
+    hash: std::time::Duration,
+    stats: &RenderStats,
+    write: std::time::Duration,
+    paths: &[PathBuf],
+) {
+    let bytes: u64 = paths
+        .iter()
+        .filter_map(|p| std::fs::metadata(p).ok())
+        .map(|m| m.len())
+        .sum();
+    eprintln!(
+        "part timing: load {:.3} s (scene hash {:.3} s), BVH build {:.3} s, render {:.3} s, write {:.3} s ({:.2} MB written)",
+        load.as_secs_f64(),
+        hash.as_secs_f64(),
+        stats.accel_build.as_secs_f64(),
+        (stats.elapsed - stats.accel_build).as_secs_f64(),
+        write.as_secs_f64(),
+        bytes as f64 / 1e6
+    );
 }
 
 /// `lamina merge PARTS... -o OUT`.

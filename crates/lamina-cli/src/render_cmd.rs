@@ -337,9 +337,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if !args.flags.quiet && !std::io::stderr().is_terminal() {
         eprintln!("loading {}", args.scene.display());
     }
+    let load_start = std::time::Instant::now();
     let (scene, spectral) = lamina_scene::load_scene_with_overrides(&args.scene, &args.set)?;
     let label = args.scene.display().to_string();
     let split = crate::parts_cmd::Split::new(&args, &scene, spectral.as_ref())?;
+    // A part's overheads (what each node of a cluster pays before and after its share of
+    // the samples): loading includes the scene hash.
+    let load_time = load_start.elapsed();
     if let Some(spectral) = &spectral {
         if args.gpu {
             bail!("--gpu renders RGB only: the scene's [film] asks for spectral bands");
@@ -371,13 +375,24 @@ pub fn run(args: RenderArgs) -> Result<()> {
         None => write_result(&outputs, &out, &scene.film),
         Some(split) => {
             let part = split.rgb_part(&out)?;
+            let t = std::time::Instant::now();
             crate::parts_cmd::write_part_result(
                 &outputs,
                 &part,
                 &out.stats,
                 &out.image,
                 &scene.film,
-            )
+            )?;
+            if !args.flags.quiet {
+                crate::parts_cmd::print_timing(
+                    load_time,
+                    split.hash_time,
+                    &out.stats,
+                    t.elapsed(),
+                    &outputs.paths,
+                );
+            }
+            Ok(())
         }
     }
 }

@@ -234,14 +234,14 @@ fn farm_runs_on_a_real_slurm_and_merges_to_the_single_render() {
         s.contains("3 done") && s.contains("1 failed") && s.contains("not queued")
     });
     assert!(
-        s.contains("task    1  s  part 1/4  FAILED (exit 137)"),
+        s.contains("task    1  s part 1/4  FAILED (exit 137)"),
         "{s}"
     );
     assert!(s.contains("lamina farm retry"), "{s}");
     assert!(!farm.join("out/s.exr").exists());
     fails(
         &cluster.lamina(&["farm", "merge", "farm2"], &d),
-        &["s: 1 of 4 parts missing: part 1 (task 1, logs/render-1.log)"],
+        &["s: 1 of 4 parts missing: part 1/4 (task 1, logs/render-1.log)"],
     );
     let e = ok(&cluster.lamina(&["farm", "merge", "farm2", "--allow-missing"], &d));
     assert!(
@@ -348,4 +348,64 @@ fn farm_errors_are_clear() {
         &d,
     ));
     assert_same(&d.join("f/parts/s/part-1-of-2.exr"), &d.join("p1.exr"));
+}
+
+/// A farm's tasks run anywhere (`lamina farm task` is all a node runs): tiles times parts,
+/// run here one by one and merged by `lamina farm merge`, give the single render.
+#[test]
+fn farm_tasks_with_tiles_merge_to_the_single_render() {
+    let d = scratch("slurm", "tiles");
+    std::fs::write(d.join("s.toml"), SCENE).unwrap();
+    ok(&lamina(
+        &["render", "s.toml", "--seed", "4", "-q", "-o", "single.exr"],
+        &d,
+    ));
+    let e = ok(&lamina(
+        &[
+            "farm", "slurm", "s.toml", "--parts", "2", "--tiles", "3x2", "--seed", "4", "--out",
+            "t",
+        ],
+        &d,
+    ));
+    assert!(
+        e.contains("1 render(s) x 6 tile(s) x 2 parts = 12 array tasks"),
+        "{e}"
+    );
+    let script = std::fs::read_to_string(d.join("t/render.sbatch")).unwrap();
+    assert!(script.contains("#SBATCH --array=0-11"), "{script}");
+    for i in 0..11 {
+        ok(&lamina(&["farm", "task", "t", &i.to_string()], &d));
+    }
+    let o = lamina(&["farm", "status", "t"], &d);
+    let s = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        s.contains("tasks: 11 done") && s.contains("task   11  s tile 5 part 1/2"),
+        "{s}"
+    );
+    fails(
+        &lamina(&["farm", "merge", "t"], &d),
+        &["s: 1 of 12 parts missing: tile 5 part 1/2 (task 11"],
+    );
+    ok(&lamina(&["farm", "task", "t", "11"], &d));
+    ok(&lamina(&["farm", "merge", "t"], &d));
+    assert_same(&d.join("t/out/s.exr"), &d.join("single.exr"));
+    assert!(d.join("t/out/s.png").is_file());
+    fails(
+        &lamina(
+            &[
+                "farm", "slurm", "s.toml", "--parts", "2", "--tiles", "41x1", "--out", "u",
+            ],
+            &d,
+        ),
+        &["--tiles 41x1", "40x30"],
+    );
+    fails(
+        &lamina(
+            &[
+                "farm", "slurm", "s.toml", "--parts", "2", "--tiles", "3", "--out", "u",
+            ],
+            &d,
+        ),
+        &["--tiles", "COLSxROWS"],
+    );
 }

@@ -5,10 +5,10 @@
 //!
 //! | path | what |
 //! |---|---|
-//! | `farm.toml` | the [`FarmPlan`]: the lamina binary, the renders (scene + `--set` overrides), parts, spp, seed, retries, `sbatch` arguments |
-//! | `render.sbatch` | the job array: task `i` renders part `i mod N` of render `i div N` (`lamina farm task DIR i`), retried in place up to `retries` times, `--requeue` so that a preempted or failed node's task runs again |
+//! | `farm.toml` | the [`FarmPlan`]: the lamina binary, the renders (scene + `--set` overrides), tiles, parts, spp, seed, retries, `sbatch` arguments |
+//! | `render.sbatch` | the job array: task `i` renders one part of the samples of one tile of one render ([`FarmPlan::task`]; `lamina farm task DIR i`), retried in place up to `retries` times, `--requeue` so that a preempted or failed node's task runs again |
 //! | `merge.sbatch` | the merge job (`lamina farm merge DIR`), submitted with `--dependency=afterok:<array>` and `--kill-on-invalid-dep=yes`: it runs once every task succeeded, and is cancelled (not left pending) when one failed for good |
-//! | `parts/<render>/part-K-of-N.exr` | the part files |
+//! | `parts/<render>/part-K-of-N.exr` | the part files (`tile-T-part-K-of-N.exr` with tiles) |
 //! | `out/<render>.exr`, `.png` | the merged images |
 //! | `logs/` | one log per task (`render-<i>.log`, all attempts) and `merge.log` |
 //! | `status/task-<i>.failed` | the last exit code of a task whose attempts all failed |
@@ -41,6 +41,23 @@ pub struct RenderSpec {
     /// `KEY=VALUE` overrides (`lamina render --set`).
     #[serde(default)]
     pub set: Vec<String>,
+    /// The image's width in pixels (with the overrides), for the tiles' crops.
+    pub width: u32,
+    /// The image's height in pixels.
+    pub height: u32,
+}
+
+/// One array task: part `part` of the samples of tile `tile` of a render.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TaskRef<'a> {
+    /// The render.
+    pub render: &'a RenderSpec,
+    /// Its index in the plan.
+    pub render_index: usize,
+    /// The tile, row-major over the `tiles` grid (0 without tiles).
+    pub tile: u32,
+    /// The part of the samples (`--part part/parts`).
+    pub part: u32,
 }
 
 /// What a farm renders and how; stored as `farm.toml`.
@@ -51,8 +68,11 @@ pub struct FarmPlan {
     pub generator: String,
     /// The lamina binary the nodes run (absolute).
     pub lamina: PathBuf,
-    /// Parts per render (sample ranges `--part K/N`).
+    /// Parts per tile (sample ranges `--part K/N`).
     pub parts: u32,
+    /// Tiles per render, `[columns, rows]` (`--crop` regions; `[1, 1]`: the whole image).
+    #[serde(default = "one_tile")]
+    pub tiles: [u32; 2],
     /// Samples per pixel (`--spp`); `None`: each scene's `film.spp`.
     pub spp: Option<u32>,
     /// The seed of every render.
@@ -68,26 +88,85 @@ pub struct FarmPlan {
     pub renders: Vec<RenderSpec>,
 }
 
+fn one_tile() -> [u32; 2] {
+    [1, 1]
+}
+
 /// Slurm's default `MaxArraySize` is 1001: array indices 0..=1000.
 pub const MAX_ARRAY_TASKS: u32 = 1001;
 
 impl FarmPlan {
-    /// Array tasks: one per part of every render.
+    /// Tiles per render.
+    pub fn tile_count(&self) -> u32 {
+        self.tiles[0] * self.tiles[1]
+    }
+
+    /// Array tasks per render: one per part of every tile.
+    pub fn tasks_per_render(&self) -> u32 {
+        self.tile_count() * self.parts
+    }
+
+    /// Array tasks: one per part of every tile of every render.
     pub fn tasks(&self) -> u32 {
-        self.renders.len() as u32 * self.parts
+        self.renders.len() as u32 * self.tasks_per_render()
     }
 
-    /// The render and part of array task `i`.
-    pub fn task(&self, i: u32) -> Option<(&RenderSpec, u32)> {
-        let r = self.renders.get((i / self.parts.max(1)) as usize)?;
-        Some((r, i % self.parts.max(1)))
+    /// Array task `i`: render `i div (tiles·parts)`, then tile, then part.
+    pub fn task(&self, i: u32) -> Option<TaskRef<'_>> {
+        let per = self.tasks_per_render().max(1);
+        let render_index = (i / per) as usize;
+        let render = self.renders.get(render_index)?;
+        let rem = i % per;
+        Some(TaskRef {
+            render,
+            render_index,
+            tile: rem / self.parts.max(1),
+            part: rem % self.parts.max(1),
+        })
     }
 
-    /// The part file of part `k` of `render`, in farm folder `dir`.
-    pub fn part_path(&self, dir: &Path, render: &RenderSpec, k: u32) -> PathBuf {
-        dir.join("parts")
-            .join(&render.name)
-            .join(format!("part-{k}-of-{}.exr", self.parts))
+    /// The array task index of `task`.
+    pub fn index(&self, task: &TaskRef) -> u32 {
+        task.render_index as u32 * self.tasks_per_render() + task.tile * self.parts + task.part
+    }
+
+    /// The pixels `[x0, y0, x1, y1]` of tile `tile` of `render`: the image cut into
+    /// `columns x rows` rectangles whose edges are at `⌊c·width/columns⌋`.
+    pub fn tile_crop(&self, render: &RenderSpec, tile: u32) -> [u32; 4] {
+        let [cols, rows] = self.tiles;
+        let (cx, cy) = (tile % cols, tile / cols);
+        let at = |i: u32, n: u32, size: u32| (i as u64 * size as u64 / n as u64) as u32;
+        [
+            at(cx, cols, render.width),
+            at(cy, rows, render.height),
+            at(cx + 1, cols, render.width),
+            at(cy + 1, rows, render.height),
+        ]
+    }
+
+    /// The part file of `task`, in farm folder `dir`.
+    pub fn part_path(&self, dir: &Path, task: &TaskRef) -> PathBuf {
+        let name = if self.tile_count() == 1 {
+            format!("part-{}-of-{}.exr", task.part, self.parts)
+        } else {
+            format!(
+                "tile-{}-part-{}-of-{}.exr",
+                task.tile, task.part, self.parts
+            )
+        };
+        dir.join("parts").join(&task.render.name).join(name)
+    }
+
+    /// What `task` is, in words: `render part 1/4` or `render tile 3 part 1/4`.
+    pub fn describe(&self, task: &TaskRef) -> String {
+        if self.tile_count() == 1 {
+            format!("{} part {}/{}", task.render.name, task.part, self.parts)
+        } else {
+            format!(
+                "{} tile {} part {}/{}",
+                task.render.name, task.tile, task.part, self.parts
+            )
+        }
     }
 
     /// The merged outputs of `render`: `out/<name>.exr` and `.png`.
@@ -105,6 +184,17 @@ impl FarmPlan {
         if self.parts == 0 {
             return Err("parts must be at least 1".into());
         }
+        if self.tiles[0] == 0 || self.tiles[1] == 0 {
+            return Err("tiles must be at least 1x1".into());
+        }
+        for r in &self.renders {
+            if self.tiles[0] > r.width || self.tiles[1] > r.height {
+                return Err(format!(
+                    "{}x{} tiles do not fit the {}x{} image of '{}'",
+                    self.tiles[0], self.tiles[1], r.width, r.height, r.name
+                ));
+            }
+        }
         if self.attempts == 0 {
             return Err("attempts must be at least 1".into());
         }
@@ -113,9 +203,11 @@ impl FarmPlan {
         }
         if self.tasks() > MAX_ARRAY_TASKS {
             return Err(format!(
-                "{} renders x {} parts = {} array tasks, more than Slurm's default \
-                 MaxArraySize allows ({MAX_ARRAY_TASKS}); use fewer parts or split the sweep",
+                "{} renders x {} tiles x {} parts = {} array tasks, more than Slurm's default \
+                 MaxArraySize allows ({MAX_ARRAY_TASKS}); use fewer parts or tiles, or split \
+                 the sweep",
                 self.renders.len(),
+                self.tile_count(),
                 self.parts,
                 self.tasks()
             ));
@@ -144,9 +236,10 @@ impl FarmPlan {
         let last = self.tasks().saturating_sub(1);
         format!(
             "#!/bin/bash\n\
-             # Written by {gen} (`lamina farm slurm`): task i renders part i mod {n} of render\n\
-             # i div {n} of {dir_text}/farm.toml; each task tries {a} time(s) in place, and\n\
-             # --requeue lets Slurm run it again after a preemption or a node failure.\n\
+             # Written by {gen} (`lamina farm slurm`): task i renders one of the {n} parts\n\
+             # of the samples of one tile of one render of {dir_text}/farm.toml; each task\n\
+             # tries {a} time(s) in place, and --requeue lets Slurm run it again after a\n\
+             # preemption or a node failure.\n\
              #SBATCH --job-name=lamina-render\n\
              #SBATCH --array=0-{last}\n\
              #SBATCH --requeue\n\
@@ -485,8 +578,8 @@ pub fn status(dir: &Path, plan: &FarmPlan) -> Result<FarmStatus, FarmError> {
     };
     let mut tasks = Vec::new();
     for i in 0..plan.tasks() {
-        let (render, k) = plan.task(i).expect("task in range");
-        let path = plan.part_path(dir, render, k);
+        let task = plan.task(i).expect("task in range");
+        let path = plan.part_path(dir, &task);
         let state = if path.is_file() {
             match crate::read_part(&path) {
                 Ok(p) if p.info.samples == p.info.samples_requested => TaskState::Done,
@@ -557,6 +650,7 @@ mod tests {
             generator: lamina_io::GENERATOR.into(),
             lamina: "/opt/lamina it's/lamina".into(),
             parts: 4,
+            tiles: [1, 1],
             spp: Some(64),
             seed: 1,
             threads: None,
@@ -567,11 +661,15 @@ mod tests {
                     name: "000-leaf".into(),
                     scene: "/data/leaf.toml".into(),
                     set: vec![],
+                    width: 64,
+                    height: 48,
                 },
                 RenderSpec {
                     name: "001-leaf".into(),
                     scene: "/data/leaf.toml".into(),
                     set: vec!["light[0].irradiance=3".into()],
+                    width: 64,
+                    height: 48,
                 },
             ],
         }
@@ -581,15 +679,37 @@ mod tests {
     fn tasks_map_to_renders_and_parts() {
         let p = plan();
         assert_eq!(p.tasks(), 8);
-        assert_eq!(
-            p.task(5).map(|(r, k)| (r.name.as_str(), k)),
-            Some(("001-leaf", 1))
-        );
+        let t = p.task(5).unwrap();
+        assert_eq!((t.render.name.as_str(), t.tile, t.part), ("001-leaf", 0, 1));
+        assert_eq!(p.index(&t), 5);
         assert!(p.task(8).is_none());
         assert_eq!(
-            p.part_path(Path::new("/f"), &p.renders[1], 3),
+            p.part_path(Path::new("/f"), &p.task(7).unwrap()),
             Path::new("/f/parts/001-leaf/part-3-of-4.exr")
         );
+        // 3x2 tiles of 2 parts: task 9 of 24 is render 0, tile 4, part 1.
+        let mut p = plan();
+        p.tiles = [3, 2];
+        p.parts = 2;
+        assert_eq!(p.tasks(), 24);
+        let t = p.task(9).unwrap();
+        assert_eq!((t.render_index, t.tile, t.part), (0, 4, 1));
+        assert_eq!(p.index(&t), 9);
+        assert_eq!(p.tile_crop(t.render, 4), [21, 24, 42, 48]);
+        assert_eq!(
+            p.part_path(Path::new("/f"), &t),
+            Path::new("/f/parts/000-leaf/tile-4-part-1-of-2.exr")
+        );
+        // The tiles cover the image exactly.
+        let area: u32 = (0..6)
+            .map(|i| {
+                let [x0, y0, x1, y1] = p.tile_crop(&p.renders[0], i);
+                (x1 - x0) * (y1 - y0)
+            })
+            .sum();
+        assert_eq!(area, 64 * 48);
+        p.tiles = [65, 1];
+        assert!(p.validate().unwrap_err().contains("do not fit"));
         assert_eq!(array_spec(&[0, 1, 2, 5, 7, 8]), "0-2,5,7-8");
         assert_eq!(array_spec(&[3]), "3");
     }

@@ -249,11 +249,7 @@ pub fn run_merge(args: &MergeArgs) -> Result<()> {
     };
     outputs.check()?;
     let t0 = std::time::Instant::now();
-    let mut parts = Vec::with_capacity(args.parts.len());
-    for p in &args.parts {
-        parts.push((p.clone(), lamina_farm::read_part(p)?));
-    }
-    let merged = lamina_farm::merge(&parts, args.allow_missing)?;
+    let merged = lamina_farm::merge_files(&args.parts, args.allow_missing)?;
     let s = &merged.summary;
     if !s.complete {
         eprintln!(

@@ -66,6 +66,7 @@ fn parts_and_crops_merge_to_the_single_render_bit_for_bit() {
     // A crop's own pixels (the part file's data window) equal the whole image's.
     let part = channels(&d.join("t17_11_0.exr"));
     assert_eq!(part["R"].len(), 23 * 19);
+    std::fs::remove_dir_all(&d).unwrap();
 }
 
 #[test]
@@ -104,6 +105,7 @@ fn spectral_band_parts_merge_to_the_band_render() {
     );
     assert_same(&d.join("m.exr"), &d.join("whole.exr"));
     assert!(d.join("m.png").is_file());
+    std::fs::remove_dir_all(&d).unwrap();
 }
 
 #[test]
@@ -241,4 +243,5 @@ fn bad_parts_and_flags_are_clear_errors_and_write_nothing() {
     let meta = exr::meta::MetaData::read_from_file(d.join("half.exr"), false).unwrap();
     let text = format!("{:?}", meta.headers[0].own_attributes.other);
     assert!(text.contains(r#""complete":false"#), "{text}");
+    std::fs::remove_dir_all(&d).unwrap();
 }

@@ -284,54 +284,33 @@ fn farm_errors_are_clear() {
         ),
         &["holds a farm already"],
     );
-    fails(
-        &lamina(
-            &["farm", "slurm", "s.toml", "--parts", "20", "--out", "g"],
-            &d,
+    // Bad farms fail before anything is written: (arguments after `farm slurm`, words).
+    let bad: [(&[&str], &[&str]); 4] = [
+        (
+            &["s.toml", "--parts", "20"],
+            &["--parts 20", "12 samples per pixel"],
         ),
-        &["--parts 20", "12 samples per pixel"],
-    );
-    fails(
-        &lamina(
-            &["farm", "slurm", "nope.toml", "--parts", "2", "--out", "g"],
-            &d,
-        ),
-        &["nope.toml"],
-    );
-    fails(
-        &lamina(
+        (&["nope.toml", "--parts", "2"], &["nope.toml"]),
+        (
             &[
-                "farm",
-                "slurm",
                 "s.toml",
                 "--parts",
                 "2",
-                "--out",
-                "g",
                 "--grid",
                 "light[3].irradiance=1|2",
             ],
-            &d,
+            &["light[3].irradiance", "1 [[light]] table(s)"],
         ),
-        &["light[3].irradiance", "1 [[light]] table(s)"],
-    );
-    fails(
-        &lamina(
-            &[
-                "farm",
-                "slurm",
-                "s.toml",
-                "--parts",
-                "2",
-                "--out",
-                "g",
-                "--grid",
-                "film.spp=4|x",
-            ],
-            &d,
+        (
+            &["s.toml", "--parts", "2", "--grid", "film.spp=4|x"],
+            &["--grid", "not a TOML value"],
         ),
-        &["--grid", "not a TOML value"],
-    );
+    ];
+    for (args, words) in bad {
+        let mut a = vec!["farm", "slurm", "--out", "g"];
+        a.extend_from_slice(args);
+        fails(&lamina(&a, &d), words);
+    }
     assert!(!d.join("g").exists());
     fails(
         &lamina(&["farm", "status", "nowhere"], &d),
@@ -348,6 +327,7 @@ fn farm_errors_are_clear() {
         &d,
     ));
     assert_same(&d.join("f/parts/s/part-1-of-2.exr"), &d.join("p1.exr"));
+    std::fs::remove_dir_all(&d).unwrap();
 }
 
 /// A farm's tasks run anywhere (`lamina farm task` is all a node runs): tiles times parts,
@@ -408,4 +388,5 @@ fn farm_tasks_with_tiles_merge_to_the_single_render() {
         ),
         &["--tiles", "COLSxROWS"],
     );
+    std::fs::remove_dir_all(&d).unwrap();
 }

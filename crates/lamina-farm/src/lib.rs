@@ -18,5 +18,5 @@ pub mod part;
 pub mod slurm;
 
 pub use error::FarmError;
-pub use merge::{MergeSummary, Merged, merge};
-pub use part::{Part, PartInfo, read_part, write_part};
+pub use merge::{MergeSummary, Merged, merge, merge_files};
+pub use part::{Part, PartInfo, read_part, read_part_info, write_part};

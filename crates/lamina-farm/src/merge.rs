@@ -68,35 +68,37 @@ pub struct MergeSummary {
 /// The attribute of a merged EXR that holds its [`MergeSummary`].
 pub const MERGED_ATTRIBUTE: &str = "lamina.merged";
 
-/// Merges `parts` (each with the file it came from, for messages). Errors: no parts,
-/// parts that differ in what they must share, overlapping parts, and missing parts unless
-/// `allow_missing`.
-pub fn merge(parts: &[(PathBuf, Part)], allow_missing: bool) -> Result<Merged, FarmError> {
-    let Some((first_path, first)) = parts.first() else {
+/// What the parts' descriptions say together, checked: the shared settings, each pixel's
+/// sample count, and the summary. Made from headers alone, before any pixel is read.
+#[derive(Clone, Debug)]
+pub struct MergePlan {
+    info: PartInfo,
+    counts: Vec<u32>,
+    summary: MergeSummary,
+}
+
+/// Checks that the parts described by `infos` (each with its file, for messages) belong
+/// together, do not overlap and, unless `allow_missing`, hold the whole render. Errors:
+/// no parts, a setting that differs (named, with both files), an overlap, missing parts
+/// (named).
+pub fn plan_merge(
+    infos: &[(PathBuf, PartInfo)],
+    allow_missing: bool,
+) -> Result<MergePlan, FarmError> {
+    let Some((first_path, reference)) = infos.first() else {
         return Err(FarmError::Mismatch("no parts to merge".into()));
     };
-    let reference = &first.info;
-    for (path, part) in &parts[1..] {
-        check_same(first_path, reference, path, &part.info)?;
+    for (path, info) in &infos[1..] {
+        check_same(first_path, reference, path, info)?;
     }
-    check_overlaps(parts)?;
-
-    let (w, h) = (reference.width as usize, reference.height as usize);
-    let mut counts = vec![0u32; w * h];
-    let mut sums = vec![vec![0f64; w * h]; reference.channels.len()];
-    for (_, part) in parts {
-        let i = &part.info;
-        let n = i.sample_count();
+    check_overlaps(infos)?;
+    let w = reference.width as usize;
+    let mut counts = vec![0u32; w * reference.height as usize];
+    for (_, i) in infos {
         let [x0, y0, x1, _] = i.crop;
         let cw = (x1 - x0) as usize;
-        for (c, part_sums) in part.sums.iter().enumerate() {
-            for (j, s) in part_sums.iter().enumerate() {
-                let at = (y0 as usize + j / cw) * w + x0 as usize + j % cw;
-                sums[c][at] += s;
-            }
-        }
         for j in 0..cw * i.crop_size().1 as usize {
-            counts[(y0 as usize + j / cw) * w + x0 as usize + j % cw] += n;
+            counts[(y0 as usize + j / cw) * w + x0 as usize + j % cw] += i.sample_count();
         }
     }
     let spp_min = counts.iter().copied().min().unwrap_or(0);
@@ -105,7 +107,7 @@ pub fn merge(parts: &[(PathBuf, Part)], allow_missing: bool) -> Result<Merged, F
     let missing = if complete {
         String::new()
     } else {
-        describe_missing(parts, reference, &counts)
+        describe_missing(infos, reference, &counts)
     };
     if !complete && !allow_missing {
         return Err(FarmError::Missing(format!(
@@ -114,30 +116,96 @@ pub fn merge(parts: &[(PathBuf, Part)], allow_missing: bool) -> Result<Merged, F
             reference.spp
         )));
     }
-    let channels = sums
-        .iter()
-        .map(|s| {
-            s.iter()
-                .zip(&counts)
-                .map(|(&s, &n)| crate::part::mean_f32(s, n))
-                .collect()
-        })
-        .collect();
-    Ok(Merged {
+    Ok(MergePlan {
         info: reference.clone(),
-        channels,
+        counts,
         summary: MergeSummary {
             generator: lamina_io::GENERATOR.into(),
             scene_hash: reference.scene_hash.clone(),
             seed: reference.seed,
             spp: reference.spp,
-            parts: parts.len(),
+            parts: infos.len(),
             spp_min,
             spp_max,
             complete,
             missing,
         },
     })
+}
+
+impl MergePlan {
+    /// Adds the parts one at a time (`part_at(k)` gives the k-th part of the plan, or
+    /// `None` to skip it after recording why) into the f64 sums and turns them into the
+    /// image; only one part is held at a time.
+    fn run(self, mut part_at: impl FnMut(usize) -> Option<Part>) -> Merged {
+        let w = self.info.width as usize;
+        let mut sums = vec![vec![0f64; self.counts.len()]; self.info.channels.len()];
+        for k in 0..self.summary.parts {
+            let Some(part) = part_at(k) else { continue };
+            let [x0, y0, x1, _] = part.info.crop;
+            let cw = (x1 - x0) as usize;
+            for (c, part_sums) in part.sums.iter().enumerate() {
+                for (j, s) in part_sums.iter().enumerate() {
+                    sums[c][(y0 as usize + j / cw) * w + x0 as usize + j % cw] += s;
+                }
+            }
+        }
+        let channels = sums
+            .iter()
+            .map(|s| {
+                s.iter()
+                    .zip(&self.counts)
+                    .map(|(&s, &n)| crate::part::mean_f32(s, n))
+                    .collect()
+            })
+            .collect();
+        Merged {
+            info: self.info,
+            channels,
+            summary: self.summary,
+        }
+    }
+}
+
+/// Merges parts held in memory (each with the file it came from, for messages); see
+/// [`plan_merge`] for the checks.
+pub fn merge(parts: &[(PathBuf, Part)], allow_missing: bool) -> Result<Merged, FarmError> {
+    let infos: Vec<(PathBuf, PartInfo)> = parts
+        .iter()
+        .map(|(p, part)| (p.clone(), part.info.clone()))
+        .collect();
+    let plan = plan_merge(&infos, allow_missing)?;
+    Ok(plan.run(|k| Some(parts[k].1.clone())))
+}
+
+/// Merges part files: checks every file's header first ([`plan_merge`]), then reads and
+/// adds them one at a time, so memory holds the f64 sums of one image and one part, however
+/// many parts there are. A file that changed between the two reads is an error.
+pub fn merge_files(paths: &[PathBuf], allow_missing: bool) -> Result<Merged, FarmError> {
+    let infos = paths
+        .iter()
+        .map(|p| Ok((p.clone(), crate::part::read_part_info(p)?)))
+        .collect::<Result<Vec<_>, FarmError>>()?;
+    let plan = plan_merge(&infos, allow_missing)?;
+    let mut error = None;
+    let merged = plan.run(|k| match crate::part::read_part(&paths[k]) {
+        Ok(part) if part.info == infos[k].1 => Some(part),
+        Ok(_) => {
+            error.get_or_insert(FarmError::BadPart {
+                path: paths[k].clone(),
+                why: "it changed while the merge read it".into(),
+            });
+            None
+        }
+        Err(e) => {
+            error.get_or_insert(e);
+            None
+        }
+    });
+    match error {
+        Some(e) => Err(e),
+        None => Ok(merged),
+    }
 }
 
 /// The settings a part must share with the first one, each compared with its name.
@@ -202,10 +270,9 @@ fn check_same(
 }
 
 /// No two parts may hold the same sample of the same pixel.
-fn check_overlaps(parts: &[(PathBuf, Part)]) -> Result<(), FarmError> {
+fn check_overlaps(parts: &[(PathBuf, PartInfo)]) -> Result<(), FarmError> {
     for (i, (pa, a)) in parts.iter().enumerate() {
         for (pb, b) in &parts[i + 1..] {
-            let (a, b) = (&a.info, &b.info);
             let crops = a.crop[0] < b.crop[2]
                 && b.crop[0] < a.crop[2]
                 && a.crop[1] < b.crop[3]
@@ -237,16 +304,16 @@ fn check_overlaps(parts: &[(PathBuf, Part)]) -> Result<(), FarmError> {
 
 /// Says what is missing: per crop of the parts, the sample ranges no part holds (and the
 /// `--part k/n` that would hold them), parts stopped early, and pixels no part covers.
-fn describe_missing(parts: &[(PathBuf, Part)], reference: &PartInfo, counts: &[u32]) -> String {
-    let mut crops: Vec<[u32; 4]> = parts.iter().map(|(_, p)| p.info.crop).collect();
+fn describe_missing(parts: &[(PathBuf, PartInfo)], reference: &PartInfo, counts: &[u32]) -> String {
+    let mut crops: Vec<[u32; 4]> = parts.iter().map(|(_, p)| p.crop).collect();
     crops.sort_unstable();
     crops.dedup();
     let mut out = Vec::new();
     for crop in &crops {
         let mut held: Vec<(u32, u32, &PartInfo, &PathBuf)> = parts
             .iter()
-            .filter(|(_, p)| p.info.crop == *crop)
-            .map(|(f, p)| (p.info.samples[0], p.info.samples[1], &p.info, f))
+            .filter(|(_, p)| p.crop == *crop)
+            .map(|(f, p)| (p.samples[0], p.samples[1], p, f))
             .collect();
         held.sort_by_key(|h| h.0);
         let mut gaps = Vec::new();

@@ -215,6 +215,94 @@ pub fn write_part(path: &Path, part: &Part) -> Result<(), FarmError> {
     })
 }
 
+/// The header of a part file as the reader sees it: the `lamina.part` text, and the data
+/// window (size, position) and display window size.
+struct Header {
+    json: Option<String>,
+    size: (usize, usize),
+    position: (i32, i32),
+    display: (usize, usize),
+}
+
+/// Checks a part file's header: a `lamina.part` description that is consistent and names
+/// the file's own data and display windows.
+fn check_header(path: &Path, h: Header) -> Result<PartInfo, FarmError> {
+    let bad = |why: String| FarmError::BadPart {
+        path: path.to_owned(),
+        why,
+    };
+    let Some(json) = h.json else {
+        return Err(bad(format!(
+            "an EXR without a `{PART_ATTRIBUTE}` header: not a part written by `lamina \
+             render --part` or `--crop`"
+        )));
+    };
+    let info: PartInfo =
+        serde_json::from_str(&json).map_err(|e| bad(format!("its `{PART_ATTRIBUTE}`: {e}")))?;
+    info.validate().map_err(bad)?;
+    let (w, h_) = info.crop_size();
+    if h.size != (w as usize, h_ as usize)
+        || h.position != (info.crop[0] as i32, info.crop[1] as i32)
+    {
+        return Err(bad(format!(
+            "its pixels ({}x{} at {},{}) are not the crop its header names ({w}x{h_} at {},{})",
+            h.size.0, h.size.1, h.position.0, h.position.1, info.crop[0], info.crop[1]
+        )));
+    }
+    if h.display != (info.width as usize, info.height as usize) {
+        return Err(bad(format!(
+            "its display window {}x{} is not the image size {}x{} its header names",
+            h.display.0, h.display.1, info.width, info.height
+        )));
+    }
+    Ok(info)
+}
+
+/// An exr error as ours, naming the file.
+fn exr_error(path: &Path, e: exr::error::Error) -> FarmError {
+    match e {
+        exr::error::Error::Io(source) => FarmError::Read {
+            path: path.to_owned(),
+            source,
+        },
+        other => FarmError::BadPart {
+            path: path.to_owned(),
+            why: format!("not a readable OpenEXR file ({other})"),
+        },
+    }
+}
+
+/// Reads only a part file's header: its [`PartInfo`], checked as [`read_part`] checks it,
+/// without decoding pixels (a merge checks every part this way before it reads any).
+pub fn read_part_info(path: &Path) -> Result<PartInfo, FarmError> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| exr_error(path, e))?;
+    let Some(header) = meta.headers.first() else {
+        return Err(FarmError::BadPart {
+            path: path.to_owned(),
+            why: "an EXR without layers".into(),
+        });
+    };
+    let key = Text::from(PART_ATTRIBUTE);
+    let json = match header.own_attributes.other.get(&key) {
+        Some(AttributeValue::Text(t)) => Some(t.to_string()),
+        _ => match header.shared_attributes.other.get(&key) {
+            Some(AttributeValue::Text(t)) => Some(t.to_string()),
+            _ => None,
+        },
+    };
+    let pos = header.own_attributes.layer_position;
+    let display = header.shared_attributes.display_window.size;
+    check_header(
+        path,
+        Header {
+            json,
+            size: (header.layer_size.0, header.layer_size.1),
+            position: (pos.0, pos.1),
+            display: (display.0, display.1),
+        },
+    )
+}
+
 /// Reads a part file: its info (checked for consistency) and its channels, checked against
 /// the info (names, crop size and position, display window). Any other EXR, a truncated or
 /// corrupt file, is an error naming the file.
@@ -230,52 +318,31 @@ pub fn read_part(path: &Path) -> Result<Part, FarmError> {
         .first_valid_layer()
         .all_attributes()
         .from_file(path)
-        .map_err(|e| match e {
-            exr::error::Error::Io(source) => FarmError::Read {
-                path: path.to_owned(),
-                source,
-            },
-            other => bad(format!("not a readable OpenEXR file ({other})")),
-        })?;
+        .map_err(|e| exr_error(path, e))?;
     // A single-layer file's header is one list; the reader puts unknown attributes with
     // the layer.
     let key = Text::from(PART_ATTRIBUTE);
     let found =
         (image.attributes.other.get(&key)).or_else(|| image.layer_data.attributes.other.get(&key));
-    let json = match found {
-        Some(AttributeValue::Text(t)) => t.to_string(),
-        _ => {
-            return Err(bad(format!(
-                "an EXR without a `{PART_ATTRIBUTE}` header: not a part written by `lamina \
-                 render --part` or `--crop`"
-            )));
-        }
-    };
-    let info: PartInfo =
-        serde_json::from_str(&json).map_err(|e| bad(format!("its `{PART_ATTRIBUTE}`: {e}")))?;
-    info.validate().map_err(bad)?;
     let layer = &image.layer_data;
-    let (w, h) = info.crop_size();
-    if layer.size != Vec2(w as usize, h as usize)
-        || layer.attributes.layer_position != Vec2(info.crop[0] as i32, info.crop[1] as i32)
-    {
-        return Err(bad(format!(
-            "its pixels ({}x{} at {},{}) are not the crop its header names ({w}x{h} at {},{})",
-            layer.size.0,
-            layer.size.1,
-            layer.attributes.layer_position.0,
-            layer.attributes.layer_position.1,
-            info.crop[0],
-            info.crop[1]
-        )));
-    }
-    let display = image.attributes.display_window;
-    if display.size != Vec2(info.width as usize, info.height as usize) {
-        return Err(bad(format!(
-            "its display window {}x{} is not the image size {}x{} its header names",
-            display.size.0, display.size.1, info.width, info.height
-        )));
-    }
+    let info = check_header(
+        path,
+        Header {
+            json: match found {
+                Some(AttributeValue::Text(t)) => Some(t.to_string()),
+                _ => None,
+            },
+            size: (layer.size.0, layer.size.1),
+            position: (
+                layer.attributes.layer_position.0,
+                layer.attributes.layer_position.1,
+            ),
+            display: (
+                image.attributes.display_window.size.0,
+                image.attributes.display_window.size.1,
+            ),
+        },
+    )?;
     let find = |name: &str| -> Result<Vec<f32>, FarmError> {
         let ch = layer
             .channel_data
@@ -358,6 +425,7 @@ pub(crate) mod tests {
         write_part(&path, &part).unwrap();
         let back = read_part(&path).unwrap();
         assert_eq!(back.info, info);
+        assert_eq!(read_part_info(&path).unwrap(), info);
         assert_eq!(back.sums, sums);
         // Not a part: a plain EXR, a text file, a truncated part.
         std::fs::write(dir.join("t.exr"), b"hello").unwrap();
@@ -367,9 +435,15 @@ pub(crate) mod tests {
         std::fs::write(dir.join("cut.exr"), &bytes[..bytes.len() / 2]).unwrap();
         let e = read_part(&dir.join("cut.exr")).unwrap_err().to_string();
         assert!(e.contains("cut.exr"), "{e}");
+        let e = read_part_info(&dir.join("t.exr")).unwrap_err().to_string();
+        assert!(e.contains("t.exr") && e.contains("OpenEXR"), "{e}");
         exr::prelude::write_rgb_file(dir.join("plain.exr"), 2, 2, |_, _| (0.5f32, 0.5f32, 0.5f32))
             .unwrap();
         let e = read_part(&dir.join("plain.exr")).unwrap_err().to_string();
+        assert!(e.contains("lamina.part"), "{e}");
+        let e = read_part_info(&dir.join("plain.exr"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("lamina.part"), "{e}");
         let e = read_part(&dir.join("none.exr")).unwrap_err().to_string();
         assert!(e.contains("none.exr"), "{e}");

@@ -49,7 +49,11 @@ def main():
     ap.add_argument("--scene", default=str(common.REPO_DIR / "examples" / "forest.toml"))
     ap.add_argument("--spp", type=int, default=32)
     ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--parts", default="1,2,4")
+    ap.add_argument("--parts", default="1,2,4", help="sample splits to time (--part K/N)")
+    ap.add_argument("--tiles", default="2x2", help="tile splits to time, one part each (--crop); '' for none")
+    ap.add_argument("--balance", default="", help="tile grids whose load balance to measure, e.g. 4x4,10x10: "
+                    "every tile rendered at --balance-spp, then the slowest tile's render time over the mean")
+    ap.add_argument("--balance-spp", type=int, default=8)
     ap.add_argument("--out", default=str(common.REPO_DIR / "out" / "farm_scaling"))
     a = ap.parse_args()
     lamina = common.lamina_binary(a.lamina, build=not a.no_build)
@@ -64,19 +68,31 @@ def main():
     t_single, _ = run(base + ["-q", "-o", str(single), "--force"])
     print(f"single render (one process, whole image, all samples): {t_single:.2f} s wall")
 
+    width, height = film_size(lamina, a.scene, out)
+    configs = [(f"{n} parts", [["--part", f"{k}/{n}"] for k in range(n)]) for n in map(int, a.parts.split(","))]
+    for t in filter(None, a.tiles.split(",")):
+        cols, rows_ = map(int, t.lower().split("x"))
+        crops = []
+        for cy in range(rows_):
+            for cx in range(cols):
+                x0, x1 = cx * width // cols, (cx + 1) * width // cols
+                y0, y1 = cy * height // rows_, (cy + 1) * height // rows_
+                crops.append(["--crop", f"{x0},{y0},{x1},{y1}"])
+        configs.append((f"{t} tiles", crops))
     rows = []
-    for n in [int(x) for x in a.parts.split(",")]:
+    for label, splits in configs:
+        n = len(splits)
         walls, timings, files = [], [], []
-        for k in range(n):
-            f = out / f"n{n}-part{k}.exr"
-            wall, err = run(base + ["--part", f"{k}/{n}", "-o", str(f), "--force"])
+        for k, extra in enumerate(splits):
+            f = out / f"{label.replace(' ', '-')}-{k}.exr"
+            wall, err = run(base + extra + ["-o", str(f), "--force"])
             m = TIMING.search(err)
             if not m:
                 sys.exit(f"no timing line in:\n{err}")
             walls.append(wall)
             timings.append([float(x) for x in m.groups()])
             files.append(f)
-        merged = out / f"n{n}-merged.exr"
+        merged = out / f"{label.replace(' ', '-')}-merged.exr"
         t_merge, merr = run([str(lamina), "merge", *map(str, files), "-o", str(merged), "--force"])
         if "complete" not in merr:
             sys.exit(f"merge incomplete:\n{merr}")
@@ -92,7 +108,7 @@ def main():
         mb = sum(t[5] for t in timings) / n
         overhead = sum(w - r for w, r in zip(walls, render)) / n
         rows.append([
-            n,
+            label,
             f"{sum(walls):.2f}",
             f"{max(walls):.2f}",
             f"{sum(render):.2f}",
@@ -105,12 +121,40 @@ def main():
             "yes" if same else "NO",
         ])
     print(fmt_table(rows, [
-        "parts", "sum of part walls s", "longest part s", "sum of renders s",
+        "split", "sum of part walls s", "longest part s", "sum of renders s",
         "overhead per part s", "load (hash) s", "BVH s", "write s", "part MB", "merge s",
         "merged = single",
     ]))
     print("overhead per part = part process wall time - its render time "
           "(process start, scene load and hash, BVH build, EXR encode and write)")
+    brows = []
+    for t in filter(None, a.balance.split(",")):
+        cols, rows_ = map(int, t.lower().split("x"))
+        times = []
+        for cy in range(rows_):
+            for cx in range(cols):
+                x0, x1 = cx * width // cols, (cx + 1) * width // cols
+                y0, y1 = cy * height // rows_, (cy + 1) * height // rows_
+                f = out / "balance.exr"
+                _, err = run([str(lamina), "render", a.scene, "--spp", str(a.balance_spp), "--threads",
+                              str(a.threads), "--seed", "1", "--crop", f"{x0},{y0},{x1},{y1}",
+                              "-o", str(f), "--force"])
+                times.append(float(TIMING.search(err).group(4)))
+        mean = sum(times) / len(times)
+        brows.append([t, len(times), f"{mean:.3f}", f"{min(times):.3f}", f"{max(times):.3f}",
+                      f"{max(times) / mean:.2f}"])
+    if brows:
+        print(f"tile load balance ({a.balance_spp} spp per tile):")
+        print(fmt_table(brows, ["tiles", "n", "mean render s", "fastest s", "slowest s", "slowest / mean"]))
+
+
+def film_size(lamina, scene, out):
+    """The scene's image size, from a 1-sample render's summary line."""
+    _, err = run([str(lamina), "render", scene, "--spp", "1", "-q", "-o", str(out / "size.exr"), "--force"])
+    m = re.search(r"(\d+)x(\d+), 1 spp", err)
+    if not m:
+        sys.exit(f"cannot tell the image size of {scene}:\n{err}")
+    return int(m.group(1)), int(m.group(2))
 
 
 def pixel_payload(path):

@@ -71,14 +71,7 @@ def main():
     width, height = film_size(lamina, a.scene, out)
     configs = [(f"{n} parts", [["--part", f"{k}/{n}"] for k in range(n)]) for n in map(int, a.parts.split(","))]
     for t in filter(None, a.tiles.split(",")):
-        cols, rows_ = map(int, t.lower().split("x"))
-        crops = []
-        for cy in range(rows_):
-            for cx in range(cols):
-                x0, x1 = cx * width // cols, (cx + 1) * width // cols
-                y0, y1 = cy * height // rows_, (cy + 1) * height // rows_
-                crops.append(["--crop", f"{x0},{y0},{x1},{y1}"])
-        configs.append((f"{t} tiles", crops))
+        configs.append((f"{t} tiles", [["--crop", c] for c in tile_crops(t, width, height)]))
     rows = []
     for label, splits in configs:
         n = len(splits)
@@ -129,23 +122,29 @@ def main():
           "(process start, scene load and hash, BVH build, EXR encode and write)")
     brows = []
     for t in filter(None, a.balance.split(",")):
-        cols, rows_ = map(int, t.lower().split("x"))
         times = []
-        for cy in range(rows_):
-            for cx in range(cols):
-                x0, x1 = cx * width // cols, (cx + 1) * width // cols
-                y0, y1 = cy * height // rows_, (cy + 1) * height // rows_
-                f = out / "balance.exr"
-                _, err = run([str(lamina), "render", a.scene, "--spp", str(a.balance_spp), "--threads",
-                              str(a.threads), "--seed", "1", "--crop", f"{x0},{y0},{x1},{y1}",
-                              "-o", str(f), "--force"])
-                times.append(float(TIMING.search(err).group(4)))
+        for crop in tile_crops(t, width, height):
+            f = out / "balance.exr"
+            _, err = run([str(lamina), "render", a.scene, "--spp", str(a.balance_spp), "--threads",
+                          str(a.threads), "--seed", "1", "--crop", crop, "-o", str(f), "--force"])
+            times.append(float(TIMING.search(err).group(4)))
         mean = sum(times) / len(times)
         brows.append([t, len(times), f"{mean:.3f}", f"{min(times):.3f}", f"{max(times):.3f}",
                       f"{max(times) / mean:.2f}"])
     if brows:
         print(f"tile load balance ({a.balance_spp} spp per tile):")
         print(fmt_table(brows, ["tiles", "n", "mean render s", "fastest s", "slowest s", "slowest / mean"]))
+
+
+def tile_crops(grid, width, height):
+    """`--crop` values of a COLSxROWS grid, row-major, edges at floor(c * width / cols) as
+    `lamina farm --tiles` cuts them."""
+    cols, rows = map(int, grid.lower().split("x"))
+    return [
+        f"{cx * width // cols},{cy * height // rows},{(cx + 1) * width // cols},{(cy + 1) * height // rows}"
+        for cy in range(rows)
+        for cx in range(cols)
+    ]
 
 
 def film_size(lamina, scene, out):

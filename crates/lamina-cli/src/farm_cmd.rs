@@ -353,11 +353,10 @@ fn print_status(dir: &Path, all: bool) -> Result<()> {
 fn merge(dir: &Path, allow_missing: bool) -> Result<()> {
     let plan = slurm::read_farm(dir)?;
     let mut failures = Vec::new();
-    for r in &plan.renders {
+    for (ri, r) in plan.renders.iter().enumerate() {
         let mut parts = Vec::new();
         let mut missing = Vec::new();
-        let first =
-            plan.renders.iter().position(|x| x == r).unwrap_or(0) as u32 * plan.tasks_per_render();
+        let first = ri as u32 * plan.tasks_per_render();
         for i in first..first + plan.tasks_per_render() {
             let task = plan.task(i).expect("task in range");
             let p = plan.part_path(dir, &task);

@@ -169,8 +169,9 @@ fn farm_runs_on_a_real_slurm_and_merges_to_the_single_render() {
     // 1. Four parts and a merge job; part 2 is killed once mid-render and retried in place.
     let farm = d.join("farm");
     let t = Instant::now();
-    let o = cluster.lamina(
-        &[
+    // A 4-part farm of the scene with `retries`, submitted.
+    let submit = |out: &str, retries: &str| {
+        let args = [
             "farm",
             "slurm",
             "s.toml",
@@ -180,13 +181,15 @@ fn farm_runs_on_a_real_slurm_and_merges_to_the_single_render() {
             "5",
             "--threads",
             "1",
+            "--retries",
+            retries,
             "--out",
-            "farm",
+            out,
             "--submit",
-        ],
-        &d,
-    );
-    ok(&o);
+        ];
+        ok(&cluster.lamina(&args, &d));
+    };
+    submit("farm", "2");
     kill_task(&farm, 2, limit);
     let s = cluster.wait(&farm, limit, |s| s.contains("every render merged"));
     eprintln!(
@@ -210,25 +213,7 @@ fn farm_runs_on_a_real_slurm_and_merges_to_the_single_render() {
     //    so; the parts present merge with --allow-missing; `farm retry` resubmits part 1
     //    and a new merge, and the image is whole again.
     let farm = d.join("farm2");
-    ok(&cluster.lamina(
-        &[
-            "farm",
-            "slurm",
-            "s.toml",
-            "--parts",
-            "4",
-            "--seed",
-            "5",
-            "--threads",
-            "1",
-            "--retries",
-            "0",
-            "--out",
-            "farm2",
-            "--submit",
-        ],
-        &d,
-    ));
+    submit("farm2", "0");
     kill_task(&farm, 1, limit);
     let s = cluster.wait(&farm, limit, |s| {
         s.contains("3 done") && s.contains("1 failed") && s.contains("not queued")

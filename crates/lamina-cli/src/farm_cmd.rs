@@ -16,7 +16,7 @@ pub enum FarmCommand {
     Slurm(SlurmArgs),
     /// Submit the farm's tasks that are neither done nor queued (all of them the first time,
     /// the failed or lost ones later), with a new merge job that waits for them.
-    #[command(alias = "retry")]
+    #[command(visible_alias = "retry")]
     Submit {
         /// The farm folder.
         dir: PathBuf,

@@ -539,25 +539,35 @@ impl FarmStatus {
 }
 
 /// Asks `squeue` for the states of the jobs `ids` (array tasks expanded): `id_task` or
-/// `id` → state. `None` when squeue cannot be run.
+/// `id` → state. One call per job, so that a purged id (finished jobs are forgotten after
+/// `MinJobAge`) can never hide the others: Slurm 22.05 answers a list that mixes them but
+/// fails with "Invalid job id" on a purged one alone, and a refused list would make a
+/// retry's queued tasks look lost. `None` when squeue cannot be run or cannot reach the
+/// controller.
 fn squeue(ids: &[&str]) -> Option<Vec<(String, String)>> {
-    if ids.is_empty() {
-        return Some(Vec::new());
+    let mut states = Vec::new();
+    for id in ids {
+        let out = Command::new("squeue")
+            .args(["-h", "-r", "-o", "%i %T", "-j", id])
+            .output()
+            .ok()?;
+        if !out.status.success() {
+            // A purged job: nothing of it is queued. Anything else: the queue is unknown.
+            if String::from_utf8_lossy(&out.stderr).contains("Invalid job id") {
+                continue;
+            }
+            return None;
+        }
+        states.extend(
+            String::from_utf8_lossy(&out.stdout)
+                .lines()
+                .filter_map(|l| {
+                    let (a, b) = l.trim().split_once(' ')?;
+                    Some((a.to_string(), b.trim().to_string()))
+                }),
+        );
     }
-    let out = Command::new("squeue")
-        .args(["-h", "-r", "-o", "%i %T", "-j", &ids.join(",")])
-        .output()
-        .ok()?;
-    // squeue fails for ids it has forgotten; then nothing of them is queued.
-    let text = String::from_utf8_lossy(&out.stdout);
-    Some(
-        text.lines()
-            .filter_map(|l| {
-                let (a, b) = l.trim().split_once(' ')?;
-                Some((a.to_string(), b.trim().to_string()))
-            })
-            .collect(),
-    )
+    Some(states)
 }
 
 /// The state of the farm in `dir`: part files on disk, failure records, and Slurm's queue.

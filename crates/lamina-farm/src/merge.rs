@@ -553,6 +553,45 @@ mod tests {
         assert!(e.contains("stopped early at sample 8"), "{e}");
     }
 
+    /// The bound where f64 sums are not exact: samples spanning 2⁴⁰ in magnitude, summed
+    /// whole (as the renderer does) or as parts carried through the part file's hi/lo
+    /// channels, give f32 means within one unit in the last place.
+    #[test]
+    fn inexact_sums_stay_within_one_ulp() {
+        let mut worst = 0;
+        for seed in 0..200u32 {
+            let samples: Vec<f32> = (0..64u32)
+                .map(|i| {
+                    let h = (i.wrapping_mul(2_654_435_761) ^ seed.wrapping_mul(40_503)) % 1000;
+                    if h < 20 {
+                        1.0e9 + h as f32 * 7.0
+                    } else {
+                        1.0e-3 * (1.0 + h as f32 / 997.0)
+                    }
+                })
+                .collect();
+            let whole: f64 = samples.iter().map(|&x| x as f64).sum();
+            let single = crate::part::mean_f32(whole, 64);
+            for n in [2usize, 3, 7] {
+                let mut merged = 0f64;
+                for k in 0..n {
+                    let part = &samples[k * 64 / n..(k + 1) * 64 / n];
+                    let sum: f64 = part.iter().map(|&x| x as f64).sum();
+                    let count = part.len() as u32;
+                    // What the part file carries and the merge reads back.
+                    let hi = crate::part::mean_f32(sum, count);
+                    let lo = (sum - count as f64 * hi as f64) as f32;
+                    merged += count as f64 * hi as f64 + lo as f64;
+                }
+                let m = crate::part::mean_f32(merged, 64);
+                let ulps = (m.to_bits() as i64 - single.to_bits() as i64).unsigned_abs();
+                assert!(ulps <= 1, "seed {seed}, {n} parts: {m} vs {single}");
+                worst = worst.max(ulps);
+            }
+        }
+        assert!(worst <= 1);
+    }
+
     #[test]
     fn mismatched_and_overlapping_parts_are_refused() {
         let mut other = part([0, 0, 6, 4], [5, 10], Some(1), 1.0);

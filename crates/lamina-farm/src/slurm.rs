@@ -293,6 +293,14 @@ pub fn quote(s: &str) -> String {
 pub fn create_farm(dir: &Path, plan: &FarmPlan) -> Result<(), FarmError> {
     plan.validate().map_err(FarmError::Farm)?;
     let farm = |m: String| FarmError::Farm(m);
+    // `#SBATCH --output=DIR/...` lines end at white space, and Slurm expands `%` in them.
+    let text = dir.to_string_lossy();
+    if dir.to_str().is_none() || text.contains(|c: char| c.is_whitespace() || c == '%') {
+        return Err(farm(format!(
+            "--out '{text}': a farm folder's path must have no spaces, '%' or non-UTF-8 \
+             characters (Slurm reads it from #SBATCH lines); choose another folder"
+        )));
+    }
     if dir.exists() {
         if !dir.is_dir() {
             return Err(farm(format!(
@@ -758,6 +766,11 @@ mod tests {
         assert_eq!(read_farm(&dir).unwrap(), plan());
         let e = create_farm(&dir, &plan()).unwrap_err().to_string();
         assert!(e.contains("holds a farm already"), "{e}");
+        let e = create_farm(&dir.join("a b"), &plan())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("no spaces"), "{e}");
+        assert!(!dir.join("a b").exists());
         let other = dir.join("parts").join("000-leaf");
         std::fs::write(other.join("notes.txt"), "mine").unwrap();
         let e = create_farm(&other, &plan()).unwrap_err().to_string();

@@ -1,4 +1,7 @@
 //! The errors of part files, merges and farms; each names the file, flag or part.
+//!
+//! Each message is whole: a cause is written into it and not also exposed as the error's
+//! `source()`, so a chain printed with `{:#}` says it once.
 
 use std::path::PathBuf;
 
@@ -6,13 +9,12 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum FarmError {
     /// A part file could not be read.
-    #[error("cannot read part '{path}': {source}")]
+    #[error("cannot read part '{path}': {cause}")]
     Read {
         /// The file.
         path: PathBuf,
         /// The I/O error.
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// A file is not a valid part (not an EXR, no or bad `lamina.part` header, channels
     /// that do not match it).
@@ -32,13 +34,12 @@ pub enum FarmError {
         why: String,
     },
     /// An output could not be written (the old file, if any, is untouched).
-    #[error("cannot write '{path}': {source}")]
+    #[error("{cause}")]
     Write {
         /// The file.
         path: PathBuf,
-        /// The write error.
-        #[source]
-        source: lamina_io::WriteError,
+        /// The write error (it names the file and the step that failed).
+        cause: lamina_io::WriteError,
     },
     /// Parts that do not belong together, or overlap.
     #[error("{0}")]

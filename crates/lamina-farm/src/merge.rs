@@ -448,7 +448,7 @@ pub fn write_merged(path: &std::path::Path, merged: &Merged) -> Result<(), FarmE
                 .map_err(|e| encode(e.to_string()))?;
             lamina_io::write_bytes(path, &bytes.into_inner()).map_err(|e| FarmError::Write {
                 path: path.to_owned(),
-                source: e,
+                cause: e,
             })
         }
         "png" => {

@@ -211,7 +211,7 @@ pub fn write_part(path: &Path, part: &Part) -> Result<(), FarmError> {
     })?;
     lamina_io::write_bytes(path, &bytes).map_err(|e| FarmError::Write {
         path: path.to_owned(),
-        source: e,
+        cause: e,
     })
 }
 
@@ -261,9 +261,9 @@ fn check_header(path: &Path, h: Header) -> Result<PartInfo, FarmError> {
 /// An exr error as ours, naming the file.
 fn exr_error(path: &Path, e: exr::error::Error) -> FarmError {
     match e {
-        exr::error::Error::Io(source) => FarmError::Read {
+        exr::error::Error::Io(cause) => FarmError::Read {
             path: path.to_owned(),
-            source,
+            cause,
         },
         other => FarmError::BadPart {
             path: path.to_owned(),

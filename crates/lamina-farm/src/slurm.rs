@@ -346,7 +346,7 @@ fn write_text(path: &Path, text: &str, exec: bool) -> Result<(), FarmError> {
     lamina_io::write_file(path, |w| w.write_all(text.as_bytes())).map_err(|e| {
         FarmError::Write {
             path: path.to_owned(),
-            source: e,
+            cause: e,
         }
     })?;
     #[cfg(unix)]

@@ -27,6 +27,7 @@
 use crate::error::FarmError;
 use crate::part::{Part, PartInfo};
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::fmt::Write;
 use std::path::PathBuf;
 
@@ -134,14 +135,16 @@ pub fn plan_merge(
 }
 
 impl MergePlan {
-    /// Adds the parts one at a time (`part_at(k)` gives the k-th part of the plan, or
-    /// `None` to skip it after recording why) into the f64 sums and turns them into the
-    /// image; only one part is held at a time.
-    fn run(self, mut part_at: impl FnMut(usize) -> Option<Part>) -> Merged {
+    /// Adds the parts one at a time (`part_at(k)` gives the k-th part of the plan) into the
+    /// f64 sums and turns them into the image; only one part is held at a time.
+    fn run<'a>(
+        self,
+        mut part_at: impl FnMut(usize) -> Result<Cow<'a, Part>, FarmError>,
+    ) -> Result<Merged, FarmError> {
         let w = self.info.width as usize;
         let mut sums = vec![vec![0f64; self.counts.len()]; self.info.channels.len()];
         for k in 0..self.summary.parts {
-            let Some(part) = part_at(k) else { continue };
+            let part = part_at(k)?;
             let [x0, y0, x1, _] = part.info.crop;
             let cw = (x1 - x0) as usize;
             for (c, part_sums) in part.sums.iter().enumerate() {
@@ -159,11 +162,11 @@ impl MergePlan {
                     .collect()
             })
             .collect();
-        Merged {
+        Ok(Merged {
             info: self.info,
             channels,
             summary: self.summary,
-        }
+        })
     }
 }
 
@@ -175,7 +178,7 @@ pub fn merge(parts: &[(PathBuf, Part)], allow_missing: bool) -> Result<Merged, F
         .map(|(p, part)| (p.clone(), part.info.clone()))
         .collect();
     let plan = plan_merge(&infos, allow_missing)?;
-    Ok(plan.run(|k| Some(parts[k].1.clone())))
+    plan.run(|k| Ok(Cow::Borrowed(&parts[k].1)))
 }
 
 /// Merges part files: checks every file's header first ([`plan_merge`]), then reads and
@@ -187,25 +190,16 @@ pub fn merge_files(paths: &[PathBuf], allow_missing: bool) -> Result<Merged, Far
         .map(|p| Ok((p.clone(), crate::part::read_part_info(p)?)))
         .collect::<Result<Vec<_>, FarmError>>()?;
     let plan = plan_merge(&infos, allow_missing)?;
-    let mut error = None;
-    let merged = plan.run(|k| match crate::part::read_part(&paths[k]) {
-        Ok(part) if part.info == infos[k].1 => Some(part),
-        Ok(_) => {
-            error.get_or_insert(FarmError::BadPart {
+    plan.run(|k| {
+        let part = crate::part::read_part(&paths[k])?;
+        if part.info != infos[k].1 {
+            return Err(FarmError::BadPart {
                 path: paths[k].clone(),
                 why: "it changed while the merge read it".into(),
             });
-            None
         }
-        Err(e) => {
-            error.get_or_insert(e);
-            None
-        }
-    });
-    match error {
-        Some(e) => Err(e),
-        None => Ok(merged),
-    }
+        Ok(Cow::Owned(part))
+    })
 }
 
 /// The settings a part must share with the first one, each compared with its name.
@@ -395,15 +389,26 @@ fn describe_missing(parts: &[(PathBuf, PartInfo)], reference: &PartInfo, counts:
     out.join("; ")
 }
 
+/// The [`MergeSummary`] in a merged EXR's header; `None` for a file that is not a merged
+/// image lamina wrote (or cannot be read).
+pub fn read_merge_summary(path: &std::path::Path) -> Option<MergeSummary> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).ok()?;
+    let key = exr::prelude::Text::from(MERGED_ATTRIBUTE);
+    meta.headers
+        .iter()
+        .find_map(|h| match h.own_attributes.other.get(&key) {
+            Some(exr::prelude::AttributeValue::Text(t)) => {
+                serde_json::from_str(&t.to_string()).ok()
+            }
+            _ => None,
+        })
+}
+
 /// Writes the merged image to `path`, by extension: `.exr` (every channel, linear float,
 /// with the [`MergeSummary`] in the `lamina.merged` header) or `.png` (the three PNG
 /// channels under the film's exposure and tone map, as `lamina render` writes it).
 /// Atomic, with lamina's mark.
 pub fn write_merged(path: &std::path::Path, merged: &Merged) -> Result<(), FarmError> {
-    use exr::prelude::{
-        AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, Layer,
-        LayerAttributes, LineOrder, Text, WritableImage,
-    };
     let info = &merged.info;
     let ext = path
         .extension()
@@ -416,37 +421,25 @@ pub fn write_merged(path: &std::path::Path, merged: &Merged) -> Result<(), FarmE
     };
     match ext.as_str() {
         "exr" => {
-            let list: Vec<AnyChannel<FlatSamples>> = info
+            let json = serde_json::to_string(&merged.summary).map_err(|e| encode(e.to_string()))?;
+            let channels: Vec<(String, Vec<f32>)> = info
                 .channels
                 .iter()
-                .zip(&merged.channels)
-                .map(|(n, v)| AnyChannel::new(n.as_str(), FlatSamples::F32(v.clone())))
+                .cloned()
+                .zip(merged.channels.iter().cloned())
                 .collect();
-            let mut attributes = LayerAttributes {
-                software_name: Some(lamina_io::GENERATOR.into()),
-                ..LayerAttributes::default()
+            let layout = lamina_io::image_out::ExrLayout {
+                attributes: vec![(MERGED_ATTRIBUTE.into(), json)],
+                ..Default::default()
             };
-            let json = serde_json::to_string(&merged.summary).map_err(|e| encode(e.to_string()))?;
-            let text = Text::new_or_none(json.as_str())
-                .ok_or_else(|| encode("its summary has characters EXR cannot hold".into()))?;
-            attributes
-                .other
-                .insert(Text::from(MERGED_ATTRIBUTE), AttributeValue::Text(text));
-            let layer = Layer::new(
-                (info.width as usize, info.height as usize),
-                attributes,
-                Encoding {
-                    line_order: LineOrder::Increasing,
-                    ..Encoding::FAST_LOSSLESS
-                },
-                AnyChannels::sort(list.into()),
-            );
-            let mut bytes = std::io::Cursor::new(Vec::new());
-            Image::from_layer(layer)
-                .write()
-                .to_buffered(&mut bytes)
-                .map_err(|e| encode(e.to_string()))?;
-            lamina_io::write_bytes(path, &bytes.into_inner()).map_err(|e| FarmError::Write {
+            let bytes = lamina_io::image_out::encode_named_channels(
+                info.width,
+                info.height,
+                &channels,
+                &layout,
+            )
+            .map_err(encode)?;
+            lamina_io::write_bytes(path, &bytes).map_err(|e| FarmError::Write {
                 path: path.to_owned(),
                 cause: e,
             })

@@ -14,13 +14,8 @@
 //! lamina version.
 
 use crate::error::FarmError;
-use exr::prelude::{
-    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, IntegerBounds, Layer,
-    LayerAttributes, LineOrder, ReadChannels, ReadLayers, Text, Vec2, WritableImage, read,
-};
+use exr::prelude::{AttributeValue, FlatSamples, ReadChannels, ReadLayers, Text, read};
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
-use std::io::Cursor;
 use std::path::Path;
 
 /// The name of the header attribute that holds a part's [`PartInfo`].
@@ -150,10 +145,8 @@ pub fn encode_part(part: &Part) -> Result<Vec<u8>, String> {
         ));
     }
     let json = serde_json::to_string(info).map_err(|e| e.to_string())?;
-    let text = Text::new_or_none(json.as_str())
-        .ok_or("the part's description has characters an EXR header cannot hold")?;
-    let mut list = Vec::new();
     let count = info.sample_count();
+    let mut channels = Vec::with_capacity(2 * info.channels.len());
     for (name, sums) in info.channels.iter().zip(&part.sums) {
         let hi: Vec<f32> = sums.iter().map(|&s| mean_f32(s, count)).collect();
         let lo: Vec<f32> = sums
@@ -167,40 +160,15 @@ pub fn encode_part(part: &Part) -> Result<Vec<u8>, String> {
                 }
             })
             .collect();
-        let name_text =
-            Text::new_or_none(name.as_str()).ok_or_else(|| format!("channel name '{name}'"))?;
-        let lo_text = Text::new_or_none(format!("{LO_LAYER}.{name}").as_str())
-            .ok_or_else(|| format!("channel name '{name}'"))?;
-        list.push(AnyChannel::new(name_text, FlatSamples::F32(hi)));
-        list.push(AnyChannel::new(lo_text, FlatSamples::F32(lo)));
+        channels.push((name.clone(), hi));
+        channels.push((format!("{LO_LAYER}.{name}"), lo));
     }
-    let encoding = Encoding {
-        line_order: LineOrder::Increasing,
-        ..Encoding::FAST_LOSSLESS
+    let layout = lamina_io::image_out::ExrLayout {
+        position: (info.crop[0] as i32, info.crop[1] as i32),
+        display: Some((info.width, info.height)),
+        attributes: vec![(PART_ATTRIBUTE.into(), json)],
     };
-    let mut layer_attributes = LayerAttributes {
-        software_name: Some(lamina_io::GENERATOR.into()),
-        ..LayerAttributes::default()
-    };
-    layer_attributes.layer_position = Vec2(info.crop[0] as i32, info.crop[1] as i32);
-    let layer = Layer::new(
-        (w as usize, h as usize),
-        layer_attributes,
-        encoding,
-        AnyChannels::sort(list.into()),
-    );
-    let mut image = Image::from_layer(layer);
-    image.attributes.display_window =
-        IntegerBounds::new(Vec2(0, 0), Vec2(info.width as usize, info.height as usize));
-    let mut other = HashMap::new();
-    other.insert(Text::from(PART_ATTRIBUTE), AttributeValue::Text(text));
-    image.attributes.other = other;
-    let mut bytes = Cursor::new(Vec::new());
-    image
-        .write()
-        .to_buffered(&mut bytes)
-        .map_err(|e| e.to_string())?;
-    Ok(bytes.into_inner())
+    lamina_io::image_out::encode_named_channels(w, h, &channels, &layout)
 }
 
 /// Writes `part` to `path` atomically (a temporary file, then a rename).

@@ -636,7 +636,7 @@ pub fn status(dir: &Path, plan: &FarmPlan) -> Result<FarmStatus, FarmError> {
         .iter()
         .map(|r| {
             let [exr, _] = plan.outputs(dir, r);
-            merged_complete(&exr)
+            crate::merge::read_merge_summary(&exr).is_some_and(|m| m.complete)
         })
         .collect();
     let merge_job = jobs.submission.last().and_then(|s| queued(&s.merge));
@@ -645,18 +645,6 @@ pub fn status(dir: &Path, plan: &FarmPlan) -> Result<FarmStatus, FarmError> {
         merged,
         merge_job,
         squeue: queue.is_some(),
-    })
-}
-
-/// Whether `exr` is a merged image that holds every sample.
-fn merged_complete(exr: &Path) -> bool {
-    let Ok(meta) = exr::meta::MetaData::read_from_file(exr, false) else {
-        return false;
-    };
-    let key = exr::prelude::Text::from(crate::merge::MERGED_ATTRIBUTE);
-    meta.headers.iter().any(|h| {
-        matches!(h.own_attributes.other.get(&key),
-            Some(exr::prelude::AttributeValue::Text(t)) if t.to_string().contains("\"complete\":true"))
     })
 }
 

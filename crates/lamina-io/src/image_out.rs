@@ -157,55 +157,99 @@ fn encode_exr(
     Ok(bytes.into_inner())
 }
 
-/// Saves float channels with names (e.g. spectral bands) as one OpenEXR image: channel `k`
-/// is `channels[k].1`, `width * height` samples, rows top first. Lossless, deterministic
-/// bytes, lamina's mark in `software`, written atomically.
-pub fn save_named_channels(
-    path: &Path,
+/// Where a named-channel EXR's pixels sit and what its header carries besides lamina's mark
+/// (the default: the whole image at the origin, no other attribute).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ExrLayout {
+    /// The data window's top-left corner in the display window (a crop's position).
+    pub position: (i32, i32),
+    /// The display window's size (the whole image a crop belongs to); `None`: the data
+    /// window's size.
+    pub display: Option<(u32, u32)>,
+    /// Text attributes of the header, `(name, value)`; values are Latin-1 text.
+    pub attributes: Vec<(String, String)>,
+}
+
+/// OpenEXR bytes of float channels with names (spectral bands, render parts): channel `k` is
+/// `channels[k].1`, `width * height` samples, rows top first, placed and annotated by
+/// `layout`. Lossless, deterministic bytes, lamina's mark in `software`. Errors: a channel
+/// or attribute name or value an EXR header cannot hold, or the encoder's error.
+pub fn encode_named_channels(
     width: u32,
     height: u32,
     channels: &[(String, Vec<f32>)],
-) -> Result<(), ImageOutError> {
+    layout: &ExrLayout,
+) -> Result<Vec<u8>, String> {
     use exr::prelude::{
-        AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, LineOrder,
-        WritableImage,
-    };
-    let encode_error = |e: exr::error::Error| ImageOutError::Encode {
-        path: path.to_owned(),
-        source: image::ImageError::Encoding(image::error::EncodingError::new(
-            ImageFormat::OpenExr.into(),
-            e,
-        )),
+        AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, IntegerBounds,
+        Layer, LayerAttributes, LineOrder, Text, Vec2, WritableImage,
     };
     let n = width as usize * height as usize;
-    assert!(
-        !channels.is_empty() && channels.iter().all(|c| c.1.len() == n),
-        "every channel has width * height samples"
-    );
-    let list: Vec<AnyChannel<FlatSamples>> = channels
+    if channels.is_empty() || channels.iter().any(|c| c.1.len() != n) {
+        return Err(format!(
+            "every channel must have {width} x {height} samples, and there must be one"
+        ));
+    }
+    let text = |s: &str| {
+        Text::new_or_none(s)
+            .ok_or_else(|| format!("'{s}' has characters an EXR header cannot hold"))
+    };
+    let list = channels
         .iter()
-        .map(|(name, v)| AnyChannel::new(name.as_str(), FlatSamples::F32(v.clone())))
-        .collect();
+        .map(|(name, v)| Ok(AnyChannel::new(text(name)?, FlatSamples::F32(v.clone()))))
+        .collect::<Result<Vec<AnyChannel<FlatSamples>>, String>>()?;
     let encoding = Encoding {
         line_order: LineOrder::Increasing,
         ..Encoding::FAST_LOSSLESS
     };
-    let attributes = LayerAttributes {
+    let mut attributes = LayerAttributes {
         software_name: Some(crate::owned::GENERATOR.into()),
         ..LayerAttributes::default()
     };
+    attributes.layer_position = Vec2(layout.position.0, layout.position.1);
+    for (name, value) in &layout.attributes {
+        attributes
+            .other
+            .insert(text(name)?, AttributeValue::Text(text(value)?));
+    }
     let layer = Layer::new(
         (width as usize, height as usize),
         attributes,
         encoding,
         AnyChannels::sort(list.into()),
     );
+    let mut image = Image::from_layer(layer);
+    if let Some((w, h)) = layout.display {
+        image.attributes.display_window =
+            IntegerBounds::new(Vec2(0, 0), Vec2(w as usize, h as usize));
+    }
     let mut bytes = Cursor::new(Vec::new());
-    Image::from_layer(layer)
+    image
         .write()
         .to_buffered(&mut bytes)
-        .map_err(encode_error)?;
-    Ok(write_bytes(path, &bytes.into_inner())?)
+        .map_err(|e| e.to_string())?;
+    Ok(bytes.into_inner())
+}
+
+/// Saves float channels with names (e.g. spectral bands) as one OpenEXR image
+/// ([`encode_named_channels`] with the default layout), written atomically.
+pub fn save_named_channels(
+    path: &Path,
+    width: u32,
+    height: u32,
+    channels: &[(String, Vec<f32>)],
+) -> Result<(), ImageOutError> {
+    let bytes =
+        encode_named_channels(width, height, channels, &ExrLayout::default()).map_err(|why| {
+            ImageOutError::Encode {
+                path: path.to_owned(),
+                source: image::ImageError::Encoding(image::error::EncodingError::new(
+                    ImageFormat::OpenExr.into(),
+                    why,
+                )),
+            }
+        })?;
+    Ok(write_bytes(path, &bytes)?)
 }
 
 /// Saves raw pixels to `path` (type from the extension), atomically, with lamina's mark;

@@ -20,7 +20,7 @@ pub fn render_bands(
     let bands = &spectral.bands;
     let (w, h) = match split {
         None => (scene.film.width, scene.film.height),
-        Some(s) => (s.crop.width(), s.crop.height()),
+        Some(s) => (s.crop().width(), s.crop().height()),
     };
     let n = (w * h) as usize;
     let mut planes: Vec<Vec<f32>> = vec![Vec::new(); bands.len()];

@@ -353,6 +353,7 @@ fn print_status(dir: &Path, all: bool) -> Result<()> {
 fn merge(dir: &Path, allow_missing: bool) -> Result<()> {
     let plan = slurm::read_farm(dir)?;
     let mut failures = Vec::new();
+    let mut any_missing = false;
     for (ri, r) in plan.renders.iter().enumerate() {
         let mut parts = Vec::new();
         let mut missing = Vec::new();
@@ -369,6 +370,7 @@ fn merge(dir: &Path, allow_missing: bool) -> Result<()> {
             }
         }
         if !missing.is_empty() && !allow_missing {
+            any_missing = true;
             failures.push(format!(
                 "{}: {} of {} parts missing: {}",
                 r.name,
@@ -379,6 +381,7 @@ fn merge(dir: &Path, allow_missing: bool) -> Result<()> {
             continue;
         }
         if parts.is_empty() {
+            any_missing = true;
             failures.push(format!("{}: no part rendered", r.name));
             continue;
         }
@@ -394,13 +397,20 @@ fn merge(dir: &Path, allow_missing: bool) -> Result<()> {
         }
     }
     if !failures.is_empty() {
+        let hint = if any_missing {
+            format!(
+                "\n(`lamina farm retry {}` resubmits missing parts; --allow-missing merges the \
+                 parts present)",
+                dir.display()
+            )
+        } else {
+            String::new()
+        };
         bail!(
-            "{} of {} render(s) not merged:\n  {}\n(`lamina farm retry {}` resubmits missing \
-             parts; --allow-missing merges the parts present)",
+            "{} of {} render(s) not merged:\n  {}{hint}",
             failures.len(),
             plan.renders.len(),
             failures.join("\n  "),
-            dir.display()
         );
     }
     Ok(())

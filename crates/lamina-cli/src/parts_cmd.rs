@@ -9,21 +9,16 @@ use lamina_render::{Crop, Image, RenderOptions, RenderOutput, RenderStats, Sampl
 use lamina_scene::{Film, Scene, SpectralOutput};
 use std::path::{Path, PathBuf};
 
-/// Whether `path` names an EXR file.
+/// Whether `path` names an EXR file (by the extension, as every image writer decides).
 pub fn is_exr(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+    lamina_io::image_out::format_for(path).ok() == Some(image::ImageFormat::OpenExr)
 }
 
-/// What part of the render to make, and the description its file will carry.
+/// What part of the render to make: the description its file will carry (the samples and
+/// pixels asked for; the samples done are filled in after the render).
 #[derive(Clone, Debug)]
 pub struct Split {
-    /// The samples asked for.
-    pub range: SampleRange,
-    /// The pixels asked for.
-    pub crop: Crop,
-    /// The description (its sample range is filled in after the render).
+    /// The description.
     pub info: PartInfo,
     /// Time spent hashing the scene.
     pub hash_time: std::time::Duration,
@@ -104,18 +99,25 @@ impl Split {
             channels,
             false_color,
         };
-        Ok(Some(Split {
-            range,
-            crop,
-            info,
-            hash_time,
-        }))
+        Ok(Some(Split { info, hash_time }))
+    }
+
+    /// The samples asked for.
+    pub fn range(&self) -> SampleRange {
+        let [start, end] = self.info.samples_requested;
+        SampleRange { start, end }
+    }
+
+    /// The pixels asked for.
+    pub fn crop(&self) -> Crop {
+        let [x0, y0, x1, y1] = self.info.crop;
+        Crop { x0, y0, x1, y1 }
     }
 
     /// Restricts `opts` to the part, keeping the f64 sums.
     pub fn apply(&self, opts: &mut RenderOptions) {
-        opts.samples = Some(self.range);
-        opts.crop = Some(self.crop);
+        opts.samples = Some(self.range());
+        opts.crop = Some(self.crop());
         opts.keep_sums = true;
     }
 
@@ -148,15 +150,12 @@ pub fn write_part_result(
     preview: &Image,
     film: &Film,
 ) -> Result<()> {
+    // The first pass always completes unless Ctrl-C cancelled it.
     let interrupted = interrupt::interrupted();
     if stats.passes_done == 0 {
-        if interrupted {
-            return Err(crate::interrupted::Interrupted(
-                "no pass completed, nothing written".into(),
-            )
-            .into());
-        }
-        bail!("no pass completed, nothing written");
+        return Err(
+            crate::interrupted::Interrupted("no pass completed, nothing written".into()).into(),
+        );
     }
     for out in &outputs.paths {
         crate::output_file::claim(out, outputs.force, &outputs.inputs)?;

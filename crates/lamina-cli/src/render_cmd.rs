@@ -294,7 +294,7 @@ pub fn write_result(outputs: &Outputs, out: &RenderOutput, film: &Film) -> Resul
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
-    let split = args.part.is_some() || args.crop.is_some();
+    let splitting = args.part.is_some() || args.crop.is_some();
     let paths = if args.output.is_empty() {
         let stem = args
             .scene
@@ -318,13 +318,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
     } else {
         args.output.clone()
     };
-    if split {
+    if splitting {
         if args.gpu {
             bail!("--part and --crop split the offline render; they do not apply to --gpu");
         }
         if !paths.iter().any(|p| crate::parts_cmd::is_exr(p)) {
             bail!(
-                "--part and --crop write a part file: name an .exr output (-o part.exr) for                  `lamina merge`; a .png shows only this part"
+                "--part and --crop write a part file: name an .exr output (-o part.exr) for \
+                 `lamina merge`; a .png shows only this part"
             );
         }
     }

@@ -30,7 +30,10 @@ mod table;
 
 pub use error::SceneError;
 pub use lamina_core::{scene, transform};
-pub use loader::{SpectralOutput, load_scene, load_scene_with_output, parse_scene};
+pub use loader::{
+    SpectralOutput, load_scene, load_scene_with_output, parse_scene, parse_scene_with_output,
+    reload_settings,
+};
 pub use object::apply_transform;
 pub use overrides::{Override, load_scene_with_overrides};
 pub use scene::*;

@@ -47,6 +47,117 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
     guarded(path, || parse_with(text, path, Budgets::default()))
 }
 
+/// [`parse_scene`], and the film's spectral output (`[film] bands`), if it asks for one.
+pub fn parse_scene_with_output(
+    text: &str,
+    path: &Path,
+) -> Result<(Scene, Option<SpectralOutput>), SceneError> {
+    guarded(path, || parse_with_output(text, path, Budgets::default()))
+}
+
+/// Re-reads the settings of an edited scene text into `scene`, which was loaded from the
+/// text `old` of the same file `path`: the camera, film, integrator, sky and lights, and each
+/// `[[material]]` table whose content changed. The geometry (`[[object]]` tables, and the
+/// meshes, prototypes and instances built from them) is kept as it is, so an edit of the
+/// view, the light or a material costs only what it changes (the Python package's scene
+/// edits). The new text goes through the same checks and readers as a file load; on error
+/// `scene` and `spectral` are left as they were.
+///
+/// Refused, naming the key: a change to an `[[object]]` table (reload the scene instead),
+/// a different number of `[[material]]` tables, or a renamed material (objects were bound
+/// to materials by name when the geometry was built).
+pub fn reload_settings(
+    scene: &mut Scene,
+    spectral: &mut Option<SpectralOutput>,
+    old: &str,
+    new: &str,
+    path: &Path,
+) -> Result<(), SceneError> {
+    guarded(path, || {
+        let ld = Loader {
+            file: path.to_owned(),
+            lines: LineIndex::new(new),
+            base: path.parent().map(Path::to_owned).unwrap_or_default(),
+            budgets: Budgets::default(),
+            instances: Cell::new(0),
+            leaves: Cell::new(0),
+            leaf_texels: Cell::new(0),
+            spectral: std::cell::RefCell::new(None),
+        };
+        let doc: SceneFile = toml::from_str(new).map_err(|e| toml_error(path, new, &e))?;
+        let plain = |text: &str| -> Result<toml::Table, SceneError> {
+            toml::from_str(text).map_err(|e| toml_error(path, text, &e))
+        };
+        let (was, now) = (plain(old)?, plain(new)?);
+        let whole = |key: &str, msg: String| SceneError::new(path, None, key, msg);
+        if was.get("object") != now.get("object") {
+            return Err(whole(
+                "object",
+                "the [[object]] tables changed: they hold the geometry, which an edit keeps; \
+                 load the scene again to change them"
+                    .into(),
+            ));
+        }
+        let tables = |t: &toml::Table| match t.get("material") {
+            Some(toml::Value::Array(a)) => a.clone(),
+            _ => Vec::new(),
+        };
+        let (mats_was, mats_now) = (tables(&was), tables(&now));
+        if mats_was.len() != mats_now.len() {
+            return Err(whole(
+                "material",
+                format!(
+                    "the scene had {} [[material]] tables and now has {}: materials can be \
+                     edited, not added or removed, without loading the scene again",
+                    mats_was.len(),
+                    mats_now.len()
+                ),
+            ));
+        }
+        ld.check_types(&doc)?;
+        let camera = crate::table::camera::read(&ld, &doc.camera)?;
+        let film = crate::table::film::read(&ld, doc.film.as_ref())?;
+        let integrator = crate::table::integrator::read(&ld, doc.integrator.as_ref())?;
+        let sky = doc
+            .sky
+            .as_ref()
+            .map(|s| crate::table::sky::read(&ld, s))
+            .transpose()?;
+        let lights = doc
+            .light
+            .iter()
+            .enumerate()
+            .map(|(i, l)| crate::light::read(&ld, i, l))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut changed = Vec::new();
+        for (i, m) in doc.material.iter().enumerate() {
+            if mats_was[i] == mats_now[i] {
+                continue;
+            }
+            let name = crate::material::name(&ld, i, m)?;
+            if scene.materials.get(i).map(|m| m.name()) != Some(*name.get_ref()) {
+                return Err(ld.err(
+                    name.span(),
+                    format!("material[{i}].name"),
+                    "a material cannot be renamed: objects were bound to it by name when the \
+                     scene was loaded",
+                ));
+            }
+            changed.push((i, crate::material::read(&ld, i, m)?));
+        }
+        scene.camera = camera;
+        scene.film = film;
+        scene.integrator = integrator;
+        scene.sky = sky;
+        scene.lights = lights;
+        for (i, m) in changed {
+            scene.materials[i] = m;
+        }
+        *spectral = ld.spectral.into_inner();
+        Ok(())
+    })
+}
+
 /// The tables of a scene file, each kept whole (keys and values spanned) for its reader.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -453,3 +453,65 @@ fn film_bands_parse_and_bad_bands_name_the_key() {
         }
     }
 }
+
+/// An edited scene re-reads its settings and changed materials, keeps its geometry, and
+/// refuses edits of the geometry, renames and bad values without changing the scene.
+#[test]
+fn reload_settings_rereads_what_changed_and_keeps_the_geometry() {
+    use crate::overrides::{Override, apply_overrides};
+    let path = Path::new("/nonexistent/edit.toml");
+    let old = format!(
+        "{SCENE}[film]\nwidth = 8\nheight = 6\n\n[[light]]\ntype = \"sun\"\ndirection = [0, 0, 1]\nirradiance = [1, 1, 1]\n\n\
+         [[material]]\nname = \"a\"\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n\n\
+         [[material]]\nname = \"b\"\ntype = \"diffuse\"\n\n\
+         [[object]]\ntype = \"quad\"\nmaterial = \"b\"\ncorner = [-1, -1, 0]\nedge_u = [2, 0, 0]\nedge_v = [0, 2, 0]\n"
+    );
+    let (mut scene, mut spectral) = crate::parse_scene_with_output(&old, path).unwrap();
+    let set = |text: &str, kv: &[&str]| {
+        let o: Vec<Override> = kv.iter().map(|s| s.parse().unwrap()).collect();
+        apply_overrides(text, path, &o).unwrap()
+    };
+    let new = set(
+        &old,
+        &[
+            "camera.fov=20",
+            "film.width=16",
+            "light[0].direction=[0, 1, 1]",
+            "material[1].reflectance=[0.1, 0.2, 0.3]",
+        ],
+    );
+    let meshes = format!("{:?}", scene.meshes);
+    crate::reload_settings(&mut scene, &mut spectral, &old, &new, path).unwrap();
+    assert_eq!(scene.camera.fov_deg, 20.0);
+    assert_eq!(scene.film.width, 16);
+    let crate::Light::Sun { direction, .. } = &scene.lights[0] else {
+        panic!("a sun")
+    };
+    assert!((direction.y - direction.z).abs() < 1e-6 && direction.y > 0.7);
+    let crate::Material::Diffuse { reflectance, .. } = &scene.materials[1] else {
+        panic!("diffuse")
+    };
+    assert_eq!(
+        reflectance.at(glam::Vec2::ZERO),
+        glam::Vec3::new(0.1, 0.2, 0.3)
+    );
+    assert_eq!(format!("{:?}", scene.meshes), meshes);
+
+    // Refused, and the scene unchanged.
+    let before = format!("{scene:?}");
+    for (kv, words) in [
+        ("object[0].material=\"a\"", "[[object]] tables changed"),
+        ("material[0].name=\"c\"", "cannot be renamed"),
+        ("film.width=0", "film.width"),
+        (
+            "material[0].reflectance=[2, 0, 0]",
+            "material[0].reflectance",
+        ),
+    ] {
+        let e = crate::reload_settings(&mut scene, &mut spectral, &new, &set(&new, &[kv]), path)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(words), "{kv}: {e}");
+        assert_eq!(format!("{scene:?}"), before, "{kv}");
+    }
+}

@@ -62,44 +62,20 @@ impl PigmentArgs {
     /// The pigments the flags describe, checked against their published ranges; errors name
     /// the flag.
     pub fn pigments(&self) -> anyhow::Result<Pigments> {
-        let d = Pigments::default();
-        let mut p = Pigments {
-            n: self.n.unwrap_or(d.n),
-            cab: self.cab.unwrap_or(d.cab),
-            car: self.car.unwrap_or(d.car),
-            anth: self.anth.unwrap_or(d.anth),
-            cbrown: self.cbrown.unwrap_or(d.cbrown),
-            cw: self.cw.unwrap_or(d.cw),
-            cm: self.cm.unwrap_or(d.cm),
-            prot: 0.0,
-            cbc: 0.0,
-            alpha: self.alpha.unwrap_or(d.alpha),
+        let inputs = lamina_leaf::PigmentInputs {
+            model: self.model,
+            n: self.n,
+            cab: self.cab,
+            car: self.car,
+            anth: self.anth,
+            cbrown: self.cbrown,
+            cw: self.cw,
+            cm: self.cm,
+            prot: self.prot,
+            cbc: self.cbc,
+            alpha: self.alpha,
         };
-        match self.model {
-            ProspectModel::D => {
-                for (flag, v) in [("--prot", self.prot), ("--cbc", self.cbc)] {
-                    if v.is_some() {
-                        bail!("{flag} is a PROSPECT-PRO input: add --model pro (and drop --cm)");
-                    }
-                }
-            }
-            ProspectModel::Pro => {
-                if self.cm.is_some() {
-                    bail!(
-                        "--cm is PROSPECT-D's dry matter; PROSPECT-PRO splits it into --prot and \
-                         --cbc (cm = prot + cbc)"
-                    );
-                }
-                p.cm = 0.0;
-                p.prot = self.prot.unwrap_or(0.0012);
-                p.cbc = self.cbc.unwrap_or(0.0078);
-                if p.prot == 0.0 && p.cbc == 0.0 {
-                    bail!("--model pro needs --prot or --cbc above 0 (they are its dry matter)");
-                }
-            }
-        }
-        p.validate("--")?;
-        Ok(p)
+        Ok(inputs.resolve("--", "--model pro")?)
     }
 }
 

@@ -65,5 +65,5 @@ pub use material::LeafMaterial;
 pub use params::{LayerParams, LeafMode, LeafParams};
 pub use pbr::PbrBsdf;
 pub use pigment_leaf::PigmentLeaf;
-pub use prospect::{LeafSpectrum, Pigments, ProspectModel, prospect};
+pub use prospect::{LeafSpectrum, PigmentInputs, Pigments, ProspectModel, prospect};
 pub use texture::{Encoding, Texture, TextureError, Wrap};

@@ -57,6 +57,101 @@ impl std::fmt::Display for ProspectModel {
     }
 }
 
+/// PROSPECT's inputs as a user gives them (a command's flags, a Python call's keywords):
+/// each optional, the model named. [`PigmentInputs::resolve`] fills in the rest and checks.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PigmentInputs {
+    /// Which model the user asked for.
+    pub model: ProspectModel,
+    /// [`Pigments::n`].
+    pub n: Option<f64>,
+    /// [`Pigments::cab`], µg/cm².
+    pub cab: Option<f64>,
+    /// [`Pigments::car`], µg/cm².
+    pub car: Option<f64>,
+    /// [`Pigments::anth`], µg/cm².
+    pub anth: Option<f64>,
+    /// [`Pigments::cbrown`], arbitrary units.
+    pub cbrown: Option<f64>,
+    /// [`Pigments::cw`], cm.
+    pub cw: Option<f64>,
+    /// [`Pigments::cm`], g/cm² (PROSPECT-D only).
+    pub cm: Option<f64>,
+    /// [`Pigments::prot`], g/cm² (PROSPECT-PRO only; default 0.0012).
+    pub prot: Option<f64>,
+    /// [`Pigments::cbc`], g/cm² (PROSPECT-PRO only; default 0.0078).
+    pub cbc: Option<f64>,
+    /// [`Pigments::alpha`], degrees.
+    pub alpha: Option<f64>,
+}
+
+impl PigmentInputs {
+    /// The pigments: missing inputs take [`Pigments::default`]'s values (PROSPECT-PRO's
+    /// `prot` 0.0012 and `cbc` 0.0078 g/cm², with `cm` 0), checked against their published
+    /// ranges. Refused: PRO's inputs with model D, `cm` with PRO, PRO with no dry matter.
+    /// `prefix` goes before input names in errors (`"--"` for flags, `""` for keywords) and
+    /// `pro_hint` says how to ask for PROSPECT-PRO (`"--model pro"`, `"model='pro'"`).
+    pub fn resolve(&self, prefix: &str, pro_hint: &str) -> Result<Pigments, LeafError> {
+        let d = Pigments::default();
+        let refuse = |name: &str, v: f64, why: String| LeafError::InvalidPigment {
+            field: format!("{prefix}{name}"),
+            value: format!("{v}"),
+            allowed: why,
+        };
+        let mut p = Pigments {
+            n: self.n.unwrap_or(d.n),
+            cab: self.cab.unwrap_or(d.cab),
+            car: self.car.unwrap_or(d.car),
+            anth: self.anth.unwrap_or(d.anth),
+            cbrown: self.cbrown.unwrap_or(d.cbrown),
+            cw: self.cw.unwrap_or(d.cw),
+            cm: self.cm.unwrap_or(d.cm),
+            prot: 0.0,
+            cbc: 0.0,
+            alpha: self.alpha.unwrap_or(d.alpha),
+        };
+        match self.model {
+            ProspectModel::D => {
+                for (name, v) in [("prot", self.prot), ("cbc", self.cbc)] {
+                    if let Some(v) = v {
+                        return Err(refuse(
+                            name,
+                            v,
+                            format!(
+                                "a PROSPECT-PRO input: ask for {pro_hint} (and drop {prefix}cm)"
+                            ),
+                        ));
+                    }
+                }
+            }
+            ProspectModel::Pro => {
+                if let Some(cm) = self.cm {
+                    return Err(refuse(
+                        "cm",
+                        cm,
+                        format!(
+                            "PROSPECT-D's dry matter; PROSPECT-PRO splits it into {prefix}prot \
+                             and {prefix}cbc (cm = prot + cbc)"
+                        ),
+                    ));
+                }
+                p.cm = 0.0;
+                p.prot = self.prot.unwrap_or(0.0012);
+                p.cbc = self.cbc.unwrap_or(0.0078);
+                if p.prot == 0.0 && p.cbc == 0.0 {
+                    return Err(refuse(
+                        "prot",
+                        0.0,
+                        format!("PROSPECT-PRO needs {prefix}prot or {prefix}cbc above 0 (they are its dry matter)"),
+                    ));
+                }
+            }
+        }
+        p.validate(prefix)?;
+        Ok(p)
+    }
+}
+
 /// A leaf's structure and biochemistry, the inputs of PROSPECT. Contents are per unit of
 /// (one-sided) leaf area. The model is implied: `prot` or `cbc` non-zero makes it
 /// PROSPECT-PRO, which then needs `cm = 0` (see [`Pigments::validate`]).

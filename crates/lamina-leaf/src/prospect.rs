@@ -142,7 +142,9 @@ impl PigmentInputs {
                     return Err(refuse(
                         "prot",
                         0.0,
-                        format!("PROSPECT-PRO needs {prefix}prot or {prefix}cbc above 0 (they are its dry matter)"),
+                        format!(
+                            "PROSPECT-PRO needs {prefix}prot or {prefix}cbc above 0 (they are its dry matter)"
+                        ),
                     ));
                 }
             }

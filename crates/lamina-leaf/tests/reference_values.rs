@@ -66,7 +66,8 @@ fn table() -> String {
 
 #[test]
 fn bsdf_reference_values_are_pinned() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bsdf_reference.csv");
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bsdf_reference.csv");
     let now = table();
     if std::env::var_os("LAMINA_BLESS").is_some() {
         std::fs::write(&path, &now).unwrap();

@@ -9,7 +9,9 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 /// str keys, and NumPy arrays and scalars (through their `tolist()`).
 pub fn to_toml(obj: &Bound<'_, PyAny>, key: &str) -> Result<toml::Value, String> {
     if obj.is_instance_of::<PyBool>() {
-        return Ok(toml::Value::Boolean(obj.extract::<bool>().map_err(|e| e.to_string())?));
+        return Ok(toml::Value::Boolean(
+            obj.extract::<bool>().map_err(|e| e.to_string())?,
+        ));
     }
     if obj.is_instance_of::<PyInt>() {
         return obj
@@ -18,10 +20,14 @@ pub fn to_toml(obj: &Bound<'_, PyAny>, key: &str) -> Result<toml::Value, String>
             .map_err(|_| format!("{key}: the integer {obj} is too large"));
     }
     if obj.is_instance_of::<PyFloat>() {
-        return Ok(toml::Value::Float(obj.extract::<f64>().map_err(|e| e.to_string())?));
+        return Ok(toml::Value::Float(
+            obj.extract::<f64>().map_err(|e| e.to_string())?,
+        ));
     }
     if obj.is_instance_of::<PyString>() {
-        return Ok(toml::Value::String(obj.extract::<String>().map_err(|e| e.to_string())?));
+        return Ok(toml::Value::String(
+            obj.extract::<String>().map_err(|e| e.to_string())?,
+        ));
     }
     if let Ok(d) = obj.cast::<PyDict>() {
         let mut t = toml::Table::new();

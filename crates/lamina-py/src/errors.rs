@@ -106,7 +106,10 @@ pub fn render_error(message: impl std::fmt::Display) -> PyErr {
 /// Runs `f`, turning a panic inside lamina into `make(message)` instead of PyO3's
 /// `PanicException` (a panic is a lamina bug, but the user's interpreter lives on either
 /// way; this names it).
-pub fn guarded<T>(make: fn(String) -> PyErr, f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
+pub fn guarded<T>(
+    make: impl FnOnce(String) -> PyErr,
+    f: impl FnOnce() -> PyResult<T>,
+) -> PyResult<T> {
     lamina_leaf::guard::catch_panic(f).unwrap_or_else(|message| {
         Err(make(format!(
             "lamina failed instead of returning an error (a bug in lamina or a library it \

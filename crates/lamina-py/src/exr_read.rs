@@ -42,7 +42,7 @@ pub fn read_exr<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAn
         .other
         .iter()
         .chain(layer.attributes.other.iter())
-        .find(|(k, _)| k.to_string() == "lamina.channels")
+        .find(|(k, _)| *k == "lamina.channels")
         .and_then(|(_, v)| match v {
             AttributeValue::Text(t) => Some(t.to_string()),
             _ => None,
@@ -69,4 +69,71 @@ pub fn read_exr<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAn
     Ok((PyArray3::from_owned_array(py, a), names)
         .into_pyobject(py)?
         .into_any())
+}
+
+/// Writes an `(H, W, 3)` RGB radiance array (a `render` result) as `.exr` (linear float)
+/// or `.png` (8-bit sRGB after the scene film's exposure and tone map, or `exposure` in
+/// stops and `tonemap` = `"aces"`, `"reinhard"` or `"clamp"` when no scene is given), as
+/// `lamina render` writes it: atomically, marked as lamina's. A file lamina did not write
+/// is kept and an error raised unless `force=True`.
+#[pyfunction]
+#[pyo3(signature = (path, image, scene=None, *, exposure=0.0, tonemap="aces", force=false))]
+pub fn write_image(
+    py: Python<'_>,
+    path: PathBuf,
+    image: numpy::PyArrayLike3<'_, f32, numpy::AllowTypeChange>,
+    scene: Option<PyRef<'_, crate::scene::Scene>>,
+    exposure: f32,
+    tonemap: &str,
+    force: bool,
+) -> PyResult<()> {
+    use pyo3::exceptions::PyValueError;
+    let shape = image.as_array().shape().to_vec();
+    if shape.len() != 3 || shape[2] != 3 || shape[0] == 0 || shape[1] == 0 {
+        return Err(PyValueError::new_err(format!(
+            "image must have shape (H, W, 3) (linear RGB), got {shape:?}"
+        )));
+    }
+    let view = image.as_array();
+    let pixels: Vec<glam::Vec3> = view
+        .outer_iter()
+        .flat_map(|row| {
+            row.outer_iter()
+                .map(|p| glam::Vec3::new(p[0], p[1], p[2]))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let img = lamina_image::Image {
+        width: shape[1] as u32,
+        height: shape[0] as u32,
+        pixels,
+    };
+    let mut film = match &scene {
+        Some(s) => s.scene.film,
+        None => {
+            let mut f = lamina_scene::Film::new(img.width, img.height, 1);
+            f.exposure = exposure;
+            f.tonemap = match tonemap {
+                "aces" => lamina_scene::ToneMap::Aces,
+                "reinhard" => lamina_scene::ToneMap::Reinhard,
+                "clamp" => lamina_scene::ToneMap::Clamp,
+                other => {
+                    return Err(PyValueError::new_err(format!(
+                        "tonemap '{other}': use aces, reinhard or clamp"
+                    )));
+                }
+            };
+            f
+        }
+    };
+    (film.width, film.height) = (img.width, img.height);
+    let replace = if force {
+        lamina_io::Replace::Force
+    } else {
+        lamina_io::Replace::IfOurs
+    };
+    py.detach(|| {
+        lamina_io::check_file(&path, replace, &[]).map_err(|e| render_error(e.to_string()))?;
+        lamina_image::write_image(&path, &img, &film).map_err(|e| render_error(e.to_string()))
+    })
 }

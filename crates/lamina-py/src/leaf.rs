@@ -133,23 +133,25 @@ impl Leaf {
         let m = &self.material;
         let mut out = vec![T::default(); n];
         py.detach(|| {
-            out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, chunk)| {
-                let base = c * CHUNK;
-                let mut cur: Option<(Vec2, lamina_leaf::LeafBsdf)> = None;
-                for (k, o) in chunk.iter_mut().enumerate() {
-                    let i = base + k;
-                    let t = at(uv, i);
-                    let b = match cur {
-                        Some((u, b)) if u == t => b,
-                        _ => {
-                            let b = m.bsdf(t);
-                            cur = Some((t, b));
-                            b
-                        }
-                    };
-                    *o = f(&b, i);
-                }
-            })
+            out.par_chunks_mut(CHUNK)
+                .enumerate()
+                .for_each(|(c, chunk)| {
+                    let base = c * CHUNK;
+                    let mut cur: Option<(Vec2, lamina_leaf::LeafBsdf)> = None;
+                    for (k, o) in chunk.iter_mut().enumerate() {
+                        let i = base + k;
+                        let t = at(uv, i);
+                        let b = match cur {
+                            Some((u, b)) if u == t => b,
+                            _ => {
+                                let b = m.bsdf(t);
+                                cur = Some((t, b));
+                                b
+                            }
+                        };
+                        *o = f(&b, i);
+                    }
+                })
         });
         out
     }
@@ -186,17 +188,18 @@ impl Leaf {
     #[staticmethod]
     #[pyo3(signature = (name, seed=1, resolution=256))]
     fn species(py: Python<'_>, name: &str, seed: u64, resolution: u32) -> PyResult<Leaf> {
-        let s: lamina_leafmaps::Species = name.parse().map_err(
-            |e: lamina_leafmaps::UnknownSpecies| leaf_error(e),
-        )?;
+        let s: lamina_leafmaps::Species = name
+            .parse()
+            .map_err(|e: lamina_leafmaps::UnknownSpecies| leaf_error(e))?;
         if !(16..=4096).contains(&resolution) {
             return Err(leaf_error(format!(
                 "resolution {resolution}: must be 16 to 4096 pixels"
             )));
         }
         py.detach(|| {
-            guarded(|m| leaf_error(m), || {
-                let g = lamina_leafmaps::generate(&lamina_leafmaps::LeafSpec::new(s, seed, resolution));
+            guarded(leaf_error, || {
+                let g =
+                    lamina_leafmaps::generate(&lamina_leafmaps::LeafSpec::new(s, seed, resolution));
                 let m = LeafMaterial::new(g.maps, g.params).map_err(leaf_error)?;
                 Ok(Leaf::new(m, format!("species '{name}'")))
             })
@@ -225,7 +228,11 @@ impl Leaf {
     /// `alpha`). `Leaf.from_dict({})` is the default leaf; unknown keys are errors.
     #[staticmethod]
     #[pyo3(signature = (d, base_dir=None))]
-    fn from_dict(py: Python<'_>, d: &Bound<'_, PyAny>, base_dir: Option<PathBuf>) -> PyResult<Leaf> {
+    fn from_dict(
+        py: Python<'_>,
+        d: &Bound<'_, PyAny>,
+        base_dir: Option<PathBuf>,
+    ) -> PyResult<Leaf> {
         let mut table = crate::convert::dict_to_table(d, "a leaf").map_err(leaf_error)?;
         for key in ["maps", "params"] {
             table
@@ -257,7 +264,11 @@ impl Leaf {
         let (wo_r, wi_r) = (rows("wo", &wo, 3)?, rows("wi", &wi, 3)?);
         let uv_r = uv_rows(&uv)?;
         let n = broadcast(&[("wo", &wo_r), ("wi", &wi_r), ("uv", &uv_r)])?;
-        let (wo, wi, uv) = (directions("wo", &wo_r)?, directions("wi", &wi_r)?, uvs(&uv_r)?);
+        let (wo, wi, uv) = (
+            directions("wo", &wo_r)?,
+            directions("wi", &wi_r)?,
+            uvs(&uv_r)?,
+        );
         let out = self.per_row(py, n, &uv, |b, i| b.eval(at(&wo, i), at(&wi, i)));
         vec3_array(py, &out, wo_r.single && wi_r.single && uv_r.single)
     }
@@ -275,7 +286,11 @@ impl Leaf {
         let (wo_r, wi_r) = (rows("wo", &wo, 3)?, rows("wi", &wi, 3)?);
         let uv_r = uv_rows(&uv)?;
         let n = broadcast(&[("wo", &wo_r), ("wi", &wi_r), ("uv", &uv_r)])?;
-        let (wo, wi, uv) = (directions("wo", &wo_r)?, directions("wi", &wi_r)?, uvs(&uv_r)?);
+        let (wo, wi, uv) = (
+            directions("wo", &wo_r)?,
+            directions("wi", &wi_r)?,
+            uvs(&uv_r)?,
+        );
         let out = self.per_row(py, n, &uv, |b, i| b.pdf(at(&wo, i), at(&wi, i)) as f64);
         scalar_array(py, out, wo_r.single && wi_r.single && uv_r.single)
     }
@@ -301,7 +316,8 @@ impl Leaf {
             .map(|i| {
                 let v = &u_r.values[3 * i..3 * i + 3];
                 if v.iter().all(|x| (0.0..1.0).contains(x)) {
-                    Ok(Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32).min(Vec3::splat(1.0 - f32::EPSILON / 2.0)))
+                    Ok(Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32)
+                        .min(Vec3::splat(1.0 - f32::EPSILON / 2.0)))
                 } else {
                     Err(PyValueError::new_err(format!(
                         "u[{i}] = [{}, {}, {}]: uniform numbers must be in [0, 1)",
@@ -400,10 +416,7 @@ impl Leaf {
                 parts.into_iter().flatten().unzip()
             }
         };
-        Ok((
-            PyArray1::from_vec(py, r),
-            PyArray1::from_vec(py, t),
-        )
+        Ok((PyArray1::from_vec(py, r), PyArray1::from_vec(py, t))
             .into_pyobject(py)?
             .into_any())
     }

@@ -2,17 +2,17 @@
 //! scenes loaded from files or built from dicts through the same loader as the CLI
 //! ([`scene`]), renders returned as NumPy arrays with the GIL released, progress reported
 //! and Ctrl-C honoured ([`render`]), leaf optics vectorised over NumPy arrays ([`leaf`]),
-//! PROSPECT and its inversion ([`spectra`]), and EXR files read back ([`exr_read`]).
+//! PROSPECT and its inversion ([`spectra`]), and images written and read back
+//! ([`exr_read`]).
 //!
 //! Errors are Python exceptions, never a crash of the interpreter: [`errors`] maps every
 //! lamina error to `lamina.SceneError`, `lamina.LeafError` (both `ValueError`s) or
 //! `lamina.RenderError` (a `RuntimeError`), and a panic inside lamina is caught and raised
 //! as one of them (PyO3 turns any panic that escapes into `PanicException`).
 
-// PyO3's macros expand to `unsafe` blocks of their own; this crate writes none (the
-// workspace rule: `unsafe` only in lamina-accel). `deny` rather than `forbid` so that the
-// macros' own `#[allow(unsafe_code)]` holds.
-#![deny(unsafe_code)]
+// The workspace rule: `unsafe` only in lamina-accel. PyO3's and rust-numpy's FFI lives in
+// those crates; their macros' expansions here pass `forbid`.
+#![forbid(unsafe_code)]
 
 mod convert;
 mod errors;
@@ -40,5 +40,6 @@ fn _lamina(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(spectra::prospect, m)?)?;
     m.add_function(wrap_pyfunction!(spectra::fit_leaf, m)?)?;
     m.add_function(wrap_pyfunction!(exr_read::read_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(exr_read::write_image, m)?)?;
     Ok(())
 }

@@ -10,8 +10,8 @@
 use crate::errors::{guarded, render_error};
 use crate::scene::Scene;
 use lamina_render::{Progress, RenderOptions, RenderOutput, RenderStats};
-use numpy::ndarray::Array3;
 use numpy::PyArray3;
+use numpy::ndarray::Array3;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -75,7 +75,10 @@ fn stats_dict<'py>(py: Python<'py>, all: &[RenderStats]) -> PyResult<Bound<'py, 
     let first = all[0];
     let secs: f64 = all.iter().map(|s| s.elapsed.as_secs_f64()).sum();
     d.set_item("elapsed", secs)?;
-    d.set_item("accel_build", all.iter().map(|s| s.accel_build.as_secs_f64()).sum::<f64>())?;
+    d.set_item(
+        "accel_build",
+        all.iter().map(|s| s.accel_build.as_secs_f64()).sum::<f64>(),
+    )?;
     d.set_item("spp", all.iter().map(|s| s.spp_done).min().unwrap_or(0))?;
     d.set_item("samples", all.iter().map(|s| s.samples).sum::<u64>())?;
     d.set_item("rays", all.iter().map(|s| s.rays).sum::<u64>())?;
@@ -196,11 +199,11 @@ fn run_render(
                         return Err("the render thread ended without a result".into());
                     }
                 }
-                if pending.is_none() {
-                    if let Err(e) = Python::attach(|py| py.check_signals()) {
-                        cancel.store(true, Ordering::Relaxed);
-                        pending = Some(e);
-                    }
+                if pending.is_none()
+                    && let Err(e) = Python::attach(|py| py.check_signals())
+                {
+                    cancel.store(true, Ordering::Relaxed);
+                    pending = Some(e);
                 }
             }
         });
@@ -306,15 +309,14 @@ pub fn render_gpu<'py>(
     }
     let s = scene.scene.clone();
     drop(scene);
-    let (image, warns) = py
-        .detach(|| {
-            guarded(|m| render_error(m), || {
-                let ctx = lamina_gpu::GpuContext::headless(&lamina_gpu::ContextOptions::default())
-                    .map_err(|e| render_error(format!("no GPU adapter: {e}")))?;
-                lamina_gpu::render_scene(&ctx, &s, lamina_gpu::RenderSettings::default())
-                    .map_err(render_error)
-            })
-        })?;
+    let (image, warns) = py.detach(|| {
+        guarded(render_error, || {
+            let ctx = lamina_gpu::GpuContext::headless(&lamina_gpu::ContextOptions::default())
+                .map_err(|e| render_error(format!("no GPU adapter: {e}")))?;
+            lamina_gpu::render_scene(&ctx, &s, lamina_gpu::RenderSettings::default())
+                .map_err(render_error)
+        })
+    })?;
     let img = to_array(py, Rendered::rgb(&image, Vec::new()))?.into_any();
     if warnings {
         Ok((img, warns).into_pyobject(py)?.into_any())

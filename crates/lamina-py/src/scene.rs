@@ -70,7 +70,7 @@ impl Scene {
         let new = apply_overrides(&self.text, &self.path, &overrides).map_err(|e| self.err(&e))?;
         let mut scene = (*self.scene).clone();
         let mut spectral = self.spectral.clone();
-        guarded(|m| crate::errors::render_error(m), || {
+        guarded(crate::errors::render_error, || {
             lamina_scene::reload_settings(&mut scene, &mut spectral, &self.text, &new, &self.path)
                 .map_err(|e| self.err(&e))
         })?;
@@ -148,7 +148,12 @@ impl Scene {
         }
         let fail = |m: String| {
             scene_error(
-                &lamina_scene::SceneError::new(path, None, "", format!("cannot read scene file: {m}")),
+                &lamina_scene::SceneError::new(
+                    path,
+                    None,
+                    "",
+                    format!("cannot read scene file: {m}"),
+                ),
                 None,
             )
         };
@@ -234,7 +239,7 @@ impl Scene {
         })?;
         let text = toml::to_string(&table)
             .map_err(|e| scene_key_error(None, "", &format!("cannot be written as TOML: {e}")))?;
-        guarded(|m| crate::errors::render_error(m), || {
+        guarded(crate::errors::render_error, || {
             Self::parse(text, path, true)
         })
     }
@@ -245,7 +250,9 @@ impl Scene {
     #[pyo3(signature = (path, overrides=None))]
     fn load(path: PathBuf, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Scene> {
         let edits = pairs("", overrides)?;
-        guarded(|m| crate::errors::render_error(m), || Self::load_file(&path, &edits))
+        guarded(crate::errors::render_error, || {
+            Self::load_file(&path, &edits)
+        })
     }
 
     /// The TOML text the scene was read from, with the edits made since (a dict scene's
@@ -467,11 +474,7 @@ impl Scene {
     /// Sets keys of the `[[material]]` table named `material` (`reflectance`, `roughness`,
     /// `species`, `pigments`, ...), checked as in a file; only that material is rebuilt.
     #[pyo3(signature = (material, /, **kwargs))]
-    fn set_material(
-        &mut self,
-        material: &str,
-        kwargs: Option<&Bound<'_, PyDict>>,
-    ) -> PyResult<()> {
+    fn set_material(&mut self, material: &str, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<()> {
         let i = self.material_table(material)?;
         let e = pairs(&format!("material[{i}]."), kwargs)?;
         self.edit(&e)
@@ -543,5 +546,7 @@ impl Scene {
 #[pyo3(signature = (path, overrides=None))]
 pub fn load_scene(path: PathBuf, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Scene> {
     let edits = pairs("", overrides)?;
-    guarded(|m| crate::errors::render_error(m), || Scene::load_file(&path, &edits))
+    guarded(crate::errors::render_error, || {
+        Scene::load_file(&path, &edits)
+    })
 }

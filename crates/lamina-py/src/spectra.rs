@@ -116,7 +116,10 @@ pub fn fit_leaf<'py>(
     let nm = wavelengths.as_array().to_vec();
     let rv = r.as_array().to_vec();
     let tv = t.as_ref().map(|t| t.as_array().to_vec());
-    for (name, len) in [("r", r.len()), ("t", t.as_ref().map_or(nm.len(), |t| t.len()))] {
+    for (name, len) in [
+        ("r", r.len()),
+        ("t", t.as_ref().map_or(nm.len(), |t| t.len())),
+    ] {
         if len != nm.len() {
             return Err(leaf_error(format!(
                 "{name} has {len} values and wavelengths {}: they must have the same length",

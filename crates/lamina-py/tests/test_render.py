@@ -181,3 +181,30 @@ def test_read_exr_errors(tmp_path):
     (tmp_path / "bad.exr").write_bytes(b"not an exr")
     with pytest.raises(lamina.RenderError, match="cannot read"):
         lamina.read_exr(tmp_path / "bad.exr")
+
+
+def test_write_image_matches_the_cli_and_keeps_foreign_files(cli, scene_file, tmp_path):
+    s = lamina.load_scene(scene_file, overrides={"film.width": 64, "film.height": 48})
+    f = tmp_path / "small.toml"
+    f.write_text(s.to_toml().replace('"cards.csv"', f'"{tmp_path / "cards.csv"}"'))
+    cli("render", f, "--spp", 2, "-q", "-o", tmp_path / "cli.png")
+    img = lamina.render(s, spp=2)
+    lamina.write_image(tmp_path / "py.png", img, s)
+    assert (tmp_path / "py.png").read_bytes() == (tmp_path / "cli.png").read_bytes()
+    lamina.write_image(tmp_path / "py.exr", img)
+    back, _ = lamina.read_exr(tmp_path / "py.exr")
+    assert np.array_equal(back, img)
+    # Rewriting lamina's own file is fine; a user's file is kept unless force=True.
+    lamina.write_image(tmp_path / "py.png", img, s)
+    user = tmp_path / "mine.png"
+    user.write_bytes(b"my own picture")
+    with pytest.raises(lamina.RenderError, match="mine.png"):
+        lamina.write_image(user, img, s)
+    assert user.read_bytes() == b"my own picture"
+    with pytest.raises(ValueError, match=r"\(H, W, 3\)"):
+        lamina.write_image(tmp_path / "x.png", img[..., :2])
+    with pytest.raises(ValueError, match="tonemap"):
+        lamina.write_image(tmp_path / "x.png", img, tonemap="fancy")
+    with pytest.raises(lamina.RenderError):
+        lamina.write_image(tmp_path / "x.jpg2", img)
+    assert not (tmp_path / "x.png").exists()

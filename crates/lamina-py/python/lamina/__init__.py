@@ -27,6 +27,7 @@ from ._lamina import (  # noqa: F401  (re-exported)
     prospect,
     read_exr,
     render_gpu,
+    write_image,
 )
 from ._lamina import render as _render
 
@@ -43,6 +44,7 @@ __all__ = [
     "read_exr",
     "render",
     "render_gpu",
+    "write_image",
 ]
 
 

@@ -14,12 +14,14 @@ use crate::errors::{guarded, leaf_error};
 use glam::{Vec2, Vec3};
 use lamina_leaf::albedo::{AlbedoOptions, Side, directional_albedo};
 use lamina_leaf::{Bsdf, LeafDescription, LeafMaterial};
-use numpy::ndarray::{Array1, Array2};
-use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLikeDyn, PyUntypedArrayMethods};
+use numpy::{
+    AllowTypeChange, PyArray1, PyArray2, PyArrayLikeDyn, PyArrayMethods, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use rayon::prelude::*;
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -37,16 +39,20 @@ pub struct Leaf {
 }
 
 /// `n x width` rows of an array-like: shape `(width,)` is one row (`single`), `(n, width)`
-/// is `n` rows. Errors name the argument and the shape.
-struct Rows {
-    values: Vec<f64>,
+/// is `n` rows; borrowed from NumPy's buffer when it is contiguous. Errors name the
+/// argument and the shape.
+struct Rows<'a> {
+    values: Cow<'a, [f64]>,
     n: usize,
     single: bool,
 }
 
-fn rows(name: &str, a: &PyArrayLikeDyn<'_, f64, AllowTypeChange>, width: usize) -> PyResult<Rows> {
+fn rows<'a>(
+    name: &str,
+    a: &'a PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    width: usize,
+) -> PyResult<Rows<'a>> {
     let shape = a.shape().to_vec();
-    let view = a.as_array();
     let (n, single) = match shape.as_slice() {
         [w] if *w == width => (1, true),
         [n, w] if *w == width => (*n, false),
@@ -56,11 +62,11 @@ fn rows(name: &str, a: &PyArrayLikeDyn<'_, f64, AllowTypeChange>, width: usize) 
             )));
         }
     };
-    Ok(Rows {
-        values: view.iter().copied().collect(),
-        n,
-        single,
-    })
+    let values = match a.as_slice() {
+        Ok(s) => Cow::Borrowed(s),
+        Err(_) => Cow::Owned(a.as_array().iter().copied().collect()),
+    };
+    Ok(Rows { values, n, single })
 }
 
 /// The common row count of `all` (each 1 or N), or an error naming the mismatch.
@@ -77,41 +83,82 @@ fn broadcast(all: &[(&str, &Rows)]) -> PyResult<usize> {
     Ok(n)
 }
 
-/// Row `i` of a 3-wide input as a unit vector; errors name the row.
+/// Rows of `width` values converted in parallel by `f`, which returns `None` for a value
+/// that is not allowed: then the error `bad(first bad row index, its values)`.
+fn convert<T: Send>(
+    r: &Rows,
+    width: usize,
+    f: impl Fn(&[f64]) -> Option<T> + Sync,
+    bad: impl FnOnce(usize, &[f64]) -> PyErr,
+) -> PyResult<Vec<T>> {
+    let chunks = || r.values.par_chunks(width).with_min_len(4096);
+    if let Some(i) = chunks().position_first(|v| f(v).is_none()) {
+        return Err(bad(i, &r.values[width * i..width * i + width]));
+    }
+    Ok(chunks().map(|v| f(v).expect("checked above")).collect())
+}
+
+/// A 3-wide input's rows as unit vectors; errors name the row.
 fn directions(name: &str, r: &Rows) -> PyResult<Vec<Vec3>> {
-    (0..r.n)
-        .map(|i| {
-            let v = &r.values[3 * i..3 * i + 3];
+    convert(
+        r,
+        3,
+        |v| {
             let d = glam::DVec3::new(v[0], v[1], v[2]);
             let len = d.length();
             if !(len.is_finite() && len > 0.0) {
-                return Err(PyValueError::new_err(format!(
-                    "{name}[{i}] = [{}, {}, {}] is not a direction (zero, NaN or infinite)",
-                    v[0], v[1], v[2]
-                )));
-            }
-            // Unit vectors (to f32 precision) are kept bit for bit, as the renderer has them.
-            if (len - 1.0).abs() < 1e-6 {
-                Ok(d.as_vec3())
+                None
+            } else if (len - 1.0).abs() < 1e-6 {
+                // Unit vectors (to f32 precision) are kept bit for bit, as the renderer
+                // has them.
+                Some(d.as_vec3())
             } else {
-                Ok((d / len).as_vec3())
+                Some((d / len).as_vec3())
             }
-        })
-        .collect()
+        },
+        |i, v| {
+            PyValueError::new_err(format!(
+                "{name}[{i}] = [{}, {}, {}] is not a direction (zero, NaN or infinite)",
+                v[0], v[1], v[2]
+            ))
+        },
+    )
 }
 
 fn uvs(r: &Rows) -> PyResult<Vec<Vec2>> {
-    (0..r.n)
-        .map(|i| {
-            let (u, v) = (r.values[2 * i], r.values[2 * i + 1]);
-            if !(u.is_finite() && v.is_finite()) {
-                return Err(PyValueError::new_err(format!(
-                    "uv[{i}] = [{u}, {v}] is not finite"
-                )));
-            }
-            Ok(Vec2::new(u as f32, v as f32))
+    convert(
+        r,
+        2,
+        |v| (v[0].is_finite() && v[1].is_finite()).then(|| Vec2::new(v[0] as f32, v[1] as f32)),
+        |i, v| PyValueError::new_err(format!("uv[{i}] = [{}, {}] is not finite", v[0], v[1])),
+    )
+}
+
+/// The `(wo, wi, uv)` inputs of `eval` and `pdf`, checked and broadcast.
+struct Pairs {
+    n: usize,
+    wo: Vec<Vec3>,
+    wi: Vec<Vec3>,
+    uv: Vec<Vec2>,
+    /// Every input was one row: return one value, not an array of one.
+    single: bool,
+}
+
+impl Pairs {
+    fn new(
+        wo: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+        wi: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+        uv: &Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
+    ) -> PyResult<Pairs> {
+        let (wo_r, wi_r, uv_r) = (rows("wo", wo, 3)?, rows("wi", wi, 3)?, uv_rows(uv)?);
+        Ok(Pairs {
+            n: broadcast(&[("wo", &wo_r), ("wi", &wi_r), ("uv", &uv_r)])?,
+            wo: directions("wo", &wo_r)?,
+            wi: directions("wi", &wi_r)?,
+            uv: uvs(&uv_r)?,
+            single: wo_r.single && wi_r.single && uv_r.single,
         })
-        .collect()
+    }
 }
 
 /// Element `i` of a broadcast input (`v` has 1 or N elements).
@@ -121,24 +168,25 @@ fn at<T: Copy>(v: &[T], i: usize) -> T {
 }
 
 impl Leaf {
-    /// Runs `f(bsdf, i)` for every row in parallel chunks (the GIL released), building the
-    /// texel's BSDF once per run of equal `uv`s.
-    fn per_row<T: Send + Copy + Default>(
+    /// Runs `f(bsdf, i, out_row)` for every row `i` in parallel chunks (the GIL
+    /// released), `out` holding `width` values per row; the texel's BSDF is built once per
+    /// run of equal `uv`s.
+    fn for_rows<T: Send>(
         &self,
         py: Python<'_>,
-        n: usize,
+        out: &mut [T],
+        width: usize,
         uv: &[Vec2],
-        f: impl Fn(&lamina_leaf::LeafBsdf, usize) -> T + Sync + Send,
-    ) -> Vec<T> {
+        f: impl Fn(&lamina_leaf::LeafBsdf, usize, &mut [T]) + Sync + Send,
+    ) {
         let m = &self.material;
-        let mut out = vec![T::default(); n];
         py.detach(|| {
-            out.par_chunks_mut(CHUNK)
+            out.par_chunks_mut(CHUNK * width)
                 .enumerate()
                 .for_each(|(c, chunk)| {
                     let base = c * CHUNK;
                     let mut cur: Option<(Vec2, lamina_leaf::LeafBsdf)> = None;
-                    for (k, o) in chunk.iter_mut().enumerate() {
+                    for (k, o) in chunk.chunks_mut(width).enumerate() {
                         let i = base + k;
                         let t = at(uv, i);
                         let b = match cur {
@@ -149,11 +197,41 @@ impl Leaf {
                                 b
                             }
                         };
-                        *o = f(&b, i);
+                        f(&b, i, o);
                     }
                 })
-        });
-        out
+        })
+    }
+
+    /// `(n, width)` float64 values from `f`, written straight into a NumPy array (or a
+    /// `(width,)` array, or a float for `width == 1`, when `single`).
+    fn rows_array<'py>(
+        &self,
+        py: Python<'py>,
+        n: usize,
+        width: usize,
+        single: bool,
+        uv: &[Vec2],
+        f: impl Fn(&lamina_leaf::LeafBsdf, usize, &mut [f64]) + Sync + Send,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let arr = PyArray2::<f64>::zeros(py, [n, width], false);
+        {
+            let mut rw = arr.readwrite();
+            let out = rw
+                .as_slice_mut()
+                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            self.for_rows(py, out, width, uv, f);
+        }
+        Ok(match (single, width) {
+            (true, 1) => arr
+                .get_owned([0, 0])
+                .unwrap_or(0.0)
+                .into_pyobject(py)?
+                .into_any(),
+            (true, _) => arr.reshape([width])?.into_any(),
+            (false, 1) => arr.reshape([n])?.into_any(),
+            (false, _) => arr.into_any(),
+        })
     }
 
     fn new(material: LeafMaterial, what: String) -> Leaf {
@@ -162,23 +240,6 @@ impl Leaf {
             what,
         }
     }
-}
-
-fn vec3_array<'py>(py: Python<'py>, v: &[Vec3], single: bool) -> PyResult<Bound<'py, PyAny>> {
-    let flat: Vec<f64> = v.iter().flat_map(|x| x.to_array().map(f64::from)).collect();
-    if single {
-        return Ok(PyArray1::from_vec(py, flat).into_any());
-    }
-    let a = Array2::from_shape_vec((v.len(), 3), flat)
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    Ok(PyArray2::from_owned_array(py, a).into_any())
-}
-
-fn scalar_array<'py>(py: Python<'py>, v: Vec<f64>, single: bool) -> PyResult<Bound<'py, PyAny>> {
-    if single {
-        return Ok(v[0].into_pyobject(py)?.into_any());
-    }
-    Ok(PyArray1::from_owned_array(py, Array1::from_vec(v)).into_any())
 }
 
 #[pymethods]
@@ -261,16 +322,11 @@ impl Leaf {
         wi: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         uv: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (wo_r, wi_r) = (rows("wo", &wo, 3)?, rows("wi", &wi, 3)?);
-        let uv_r = uv_rows(&uv)?;
-        let n = broadcast(&[("wo", &wo_r), ("wi", &wi_r), ("uv", &uv_r)])?;
-        let (wo, wi, uv) = (
-            directions("wo", &wo_r)?,
-            directions("wi", &wi_r)?,
-            uvs(&uv_r)?,
-        );
-        let out = self.per_row(py, n, &uv, |b, i| b.eval(at(&wo, i), at(&wi, i)));
-        vec3_array(py, &out, wo_r.single && wi_r.single && uv_r.single)
+        let p = Pairs::new(&wo, &wi, &uv)?;
+        self.rows_array(py, p.n, 3, p.single, &p.uv, |b, i, o| {
+            let f = b.eval(at(&p.wo, i), at(&p.wi, i));
+            o.copy_from_slice(&f.to_array().map(f64::from));
+        })
     }
 
     /// The density (per unit solid angle) with which `sample` returns `wi` for `wo`.
@@ -283,16 +339,10 @@ impl Leaf {
         wi: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         uv: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (wo_r, wi_r) = (rows("wo", &wo, 3)?, rows("wi", &wi, 3)?);
-        let uv_r = uv_rows(&uv)?;
-        let n = broadcast(&[("wo", &wo_r), ("wi", &wi_r), ("uv", &uv_r)])?;
-        let (wo, wi, uv) = (
-            directions("wo", &wo_r)?,
-            directions("wi", &wi_r)?,
-            uvs(&uv_r)?,
-        );
-        let out = self.per_row(py, n, &uv, |b, i| b.pdf(at(&wo, i), at(&wi, i)) as f64);
-        scalar_array(py, out, wo_r.single && wi_r.single && uv_r.single)
+        let p = Pairs::new(&wo, &wi, &uv)?;
+        self.rows_array(py, p.n, 1, p.single, &p.uv, |b, i, o| {
+            o[0] = b.pdf(at(&p.wo, i), at(&p.wi, i)) as f64;
+        })
     }
 
     /// Draws `wi` for `wo` as the renderer does, from `u`: uniform numbers in [0, 1),
@@ -312,33 +362,45 @@ impl Leaf {
         let n = broadcast(&[("wo", &wo_r), ("u", &u_r), ("uv", &uv_r)])?;
         let wo = directions("wo", &wo_r)?;
         let uv = uvs(&uv_r)?;
-        let us: Vec<Vec3> = (0..u_r.n)
-            .map(|i| {
-                let v = &u_r.values[3 * i..3 * i + 3];
-                if v.iter().all(|x| (0.0..1.0).contains(x)) {
-                    Ok(Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32)
-                        .min(Vec3::splat(1.0 - f32::EPSILON / 2.0)))
-                } else {
-                    Err(PyValueError::new_err(format!(
-                        "u[{i}] = [{}, {}, {}]: uniform numbers must be in [0, 1)",
-                        v[0], v[1], v[2]
-                    )))
-                }
-            })
-            .collect::<PyResult<_>>()?;
-        let out = self.per_row(py, n, &uv, |b, i| {
-            b.sample(at(&wo, i), at(&us, i))
-                .map_or((Vec3::ZERO, Vec3::ZERO, 0.0f32), |s| (s.wi, s.f, s.pdf))
-        });
+        let us = convert(
+            &u_r,
+            3,
+            |v| {
+                v.iter().all(|x| (0.0..1.0).contains(x)).then(|| {
+                    Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32)
+                        .min(Vec3::splat(1.0 - f32::EPSILON / 2.0))
+                })
+            },
+            |i, v| {
+                PyValueError::new_err(format!(
+                    "u[{i}] = [{}, {}, {}]: uniform numbers must be in [0, 1)",
+                    v[0], v[1], v[2]
+                ))
+            },
+        )?;
         let single = wo_r.single && u_r.single && uv_r.single;
-        let wi: Vec<Vec3> = out.iter().map(|o| o.0).collect();
-        let f: Vec<Vec3> = out.iter().map(|o| o.1).collect();
-        let pdf: Vec<f64> = out.iter().map(|o| o.2 as f64).collect();
-        Ok((
-            vec3_array(py, &wi, single)?,
-            vec3_array(py, &f, single)?,
-            scalar_array(py, pdf, single)?,
-        )
+        // Per row: wi (3), f (3), pdf; split into three arrays below.
+        let all = self.rows_array(py, n, 7, false, &uv, |b, i, o| {
+            let (wi, f, pdf) = b
+                .sample(at(&wo, i), at(&us, i))
+                .map_or((Vec3::ZERO, Vec3::ZERO, 0.0f32), |s| (s.wi, s.f, s.pdf));
+            o[..3].copy_from_slice(&wi.to_array().map(f64::from));
+            o[3..6].copy_from_slice(&f.to_array().map(f64::from));
+            o[6] = pdf as f64;
+        })?;
+        let np = py.import("numpy")?;
+        let part = |a: usize, b: usize| -> PyResult<Bound<'py, PyAny>> {
+            let slice = pyo3::types::PySlice::new(py, a as isize, b as isize, 1);
+            let cols = all.get_item((pyo3::types::PySlice::full(py), slice))?;
+            let cols = np.call_method1("ascontiguousarray", (cols,))?;
+            Ok(match (single, b - a) {
+                (true, 1) => cols.get_item((0, 0))?.call_method0("item")?,
+                (true, _) => cols.get_item(0)?,
+                (false, 1) => cols.call_method1("reshape", (n,))?,
+                (false, _) => cols,
+            })
+        };
+        Ok((part(0, 3)?, part(3, 6)?, part(6, 7)?)
             .into_pyobject(py)?
             .into_any())
     }
@@ -452,11 +514,11 @@ impl Leaf {
 }
 
 /// `uv` rows, the leaf's centre when not given.
-fn uv_rows(uv: &Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>) -> PyResult<Rows> {
+fn uv_rows<'a>(uv: &'a Option<PyArrayLikeDyn<'_, f64, AllowTypeChange>>) -> PyResult<Rows<'a>> {
     match uv {
         Some(a) => rows("uv", a, 2),
         None => Ok(Rows {
-            values: vec![0.5, 0.5],
+            values: Cow::Borrowed(&[0.5, 0.5]),
             n: 1,
             single: true,
         }),

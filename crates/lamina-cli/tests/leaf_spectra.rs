@@ -393,3 +393,68 @@ fn a_scene_renders_in_bands_to_a_named_channel_exr_and_a_false_colour_png() {
     );
     assert!(!d.join("g.png").exists());
 }
+
+/// Mean of channel `name` of an EXR file.
+fn channel_mean(path: &std::path::Path, name: &str) -> f64 {
+    let img = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
+    let ch = img.layer_data[0]
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.name.to_string() == name)
+        .unwrap();
+    let n = ch.sample_data.len();
+    (0..n)
+        .map(|i| ch.sample_data.value_by_flat_index(i).to_f32() as f64)
+        .sum::<f64>()
+        / n as f64
+}
+
+#[test]
+fn a_band_given_by_a_response_file_renders_like_the_same_flat_band() {
+    let d = scratch("spectra", "response");
+    let scene = |nir: &str| {
+        format!(
+            "[camera]\nposition = [0, 0, 1]\nlook_at = [0, 0, 0]\n\
+             [film]\nwidth = 16\nheight = 12\nspp = 8\n\
+             bands = [{{ name = \"red\", center = 665, width = 30 }}, {nir}]\n\
+             [sky]\ntype = \"constant\"\nradiance = 0.5\n\
+             [[light]]\ntype = \"sun\"\ndirection = [0, 0, 1]\nirradiance = 2\n\
+             [[material]]\nname = \"l\"\ntype = \"leaf\"\npigments = {{ cab = 40 }}\n\
+             [[object]]\ntype = \"quad\"\nmaterial = \"l\"\ncorner = [-2, -2, 0]\nedge_u = [4, 0, 0]\nedge_v = [0, 4, 0]\n"
+        )
+    };
+    // A box from 792 to 892 nm as a response file, and the same band by its edges.
+    std::fs::write(
+        d.join("nir.csv"),
+        "wavelength_nm,response\n791.99,0\n792,1\n892,1\n892.01,0\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("file.toml"),
+        scene("{ name = \"nir\", response = \"nir.csv\" }"),
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("flat.toml"),
+        scene("{ name = \"nir\", min = 792, max = 892 }"),
+    )
+    .unwrap();
+    ok(&lamina(&["render", "file.toml", "-o", "file.exr"], &d));
+    ok(&lamina(&["render", "flat.toml", "-o", "flat.exr"], &d));
+    let (a, b) = (
+        channel_mean(&d.join("file.exr"), "nir"),
+        channel_mean(&d.join("flat.exr"), "nir"),
+    );
+    assert!(
+        a > 0.0 && ((a - b) / b).abs() < 0.005,
+        "response {a}, flat {b}"
+    );
+    // A broken response file names itself, its line and the key; nothing is written.
+    std::fs::write(d.join("nir.csv"), "wavelength_nm,response\n800,1\n790,1\n").unwrap();
+    fails(
+        &lamina(&["render", "file.toml", "-o", "bad.exr"], &d),
+        &["nir.csv:3", "film.bands[1].response", "increase"],
+    );
+    assert!(!d.join("bad.exr").exists());
+}

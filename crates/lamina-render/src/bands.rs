@@ -137,11 +137,7 @@ mod tests {
     use lamina_leaf::{LeafMaps, LeafParams, Pigments};
 
     fn band(name: &str, lo: f32, hi: f32) -> Band {
-        Band {
-            name: name.into(),
-            lo_nm: lo,
-            hi_nm: hi,
-        }
+        Band::flat(name, lo, hi)
     }
 
     #[test]

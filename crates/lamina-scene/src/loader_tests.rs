@@ -454,6 +454,61 @@ fn film_bands_parse_and_bad_bands_name_the_key() {
     }
 }
 
+/// A band given by a response file: read relative to the scene, weighted, its errors
+/// naming the file, the line and the key.
+#[test]
+fn film_bands_from_response_files() {
+    let dir = scratch("response");
+    let path = dir.join("scene.toml");
+    std::fs::write(
+        dir.join("b8.csv"),
+        "# a made-up NIR response\nwavelength_nm,response\n770,0\n790,0.5\n830,1\n870,0.5\n890,0\n",
+    )
+    .unwrap();
+    let film = |bands: &str| format!("{SCENE}[film]\nbands = [{bands}]\n");
+    let (_, out) = crate::loader::parse_with_output(
+        &film("{ name = \"B8\", response = \"b8.csv\" }, { name = \"red\", min = 650, max = 680 }"),
+        &path,
+        Budgets::default(),
+    )
+    .unwrap();
+    let b8 = &out.unwrap().bands[0];
+    assert_eq!((b8.lo_nm, b8.hi_nm), (770.0, 890.0));
+    assert!((b8.center() - 830.0).abs() < 0.5, "{}", b8.center());
+    assert_eq!(b8.weight(810.0), 0.75);
+    std::fs::write(dir.join("bad.csv"), "nm r\n700 1\n690 1\n").unwrap();
+    for (bands, words) in [
+        (
+            "{ name = \"x\", response = \"bad.csv\" }",
+            &[
+                "bad.csv:3",
+                "film.bands[0].response",
+                "band 'x'",
+                "increase",
+            ][..],
+        ),
+        (
+            "{ name = \"x\", response = \"missing.csv\" }",
+            &["missing.csv", "film.bands[0].response", "cannot read"][..],
+        ),
+        (
+            "{ name = \"x\", response = \"b8.csv\", center = 800 }",
+            &["film.bands[0].center", "drop `center`"][..],
+        ),
+        (
+            "{ name = \"x\", response = 3 }",
+            &["film.bands[0].response"][..],
+        ),
+    ] {
+        let e = crate::loader::parse_scene(&film(bands), &path)
+            .unwrap_err()
+            .to_string();
+        for w in words {
+            assert!(e.contains(w), "expected '{w}' in: {e}");
+        }
+    }
+}
+
 /// An edited scene re-reads its settings and changed materials, keeps its geometry, and
 /// refuses edits of the geometry, renames and bad values without changing the scene.
 #[test]

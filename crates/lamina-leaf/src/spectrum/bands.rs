@@ -16,28 +16,236 @@
 //!   1 has `∫ E(λ) ȳ(λ) dλ = 1`: the convention of lamina's RGB radiance (`Y = ∫ L ȳ dλ`).
 //!   A band's value is then the band-mean spectral radiance in W m⁻² sr⁻¹ nm⁻¹.
 //!
-//! Band values are means over the band, integrated at 1 nm.
+//! Band values are means over the band, integrated at 1 nm: plain means over `[lo, hi]` for
+//! a band given by its edges, and means weighted by the relative spectral response for a
+//! band given by a response curve ([`Response`], e.g. a satellite band's published SRF):
+//! `v_b = ∫ v(λ) R(λ) dλ / ∫ R(λ) dλ`, the band-effective value.
 
 use super::upsample::RgbSpectrum;
 use super::{LAMBDA_MAX_NM, LAMBDA_MIN_NM, cie_xyz_bar, solar_global};
 use glam::Vec3;
 use std::sync::OnceLock;
 
-/// A named wavelength band `[lo_nm, hi_nm]`.
+/// A named wavelength band `[lo_nm, hi_nm]`, flat or weighted by a response curve.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Band {
     /// Its name: the EXR channel name.
     pub name: String,
-    /// Shortest wavelength, nm.
+    /// Shortest wavelength, nm (for a response curve: where it starts being non-zero).
     pub lo_nm: f32,
     /// Longest wavelength, nm (`> lo_nm`).
     pub hi_nm: f32,
+    /// The relative spectral response, `None` for a flat band (every wavelength in
+    /// `[lo_nm, hi_nm]` weighs the same).
+    pub response: Option<Response>,
 }
 
 impl Band {
-    /// The band's centre, nm.
+    /// A flat band over `[lo_nm, hi_nm]`.
+    pub fn flat(name: impl Into<String>, lo_nm: f32, hi_nm: f32) -> Band {
+        Band {
+            name: name.into(),
+            lo_nm,
+            hi_nm,
+            response: None,
+        }
+    }
+
+    /// A band weighted by `response`, spanning where it is non-zero.
+    pub fn with_response(name: impl Into<String>, response: Response) -> Band {
+        let (lo_nm, hi_nm) = response.support();
+        Band {
+            name: name.into(),
+            lo_nm,
+            hi_nm,
+            response: Some(response),
+        }
+    }
+
+    /// The weight of wavelength `nm` in the band: 1 inside a flat band, the response
+    /// otherwise.
+    pub fn weight(&self, nm: f32) -> f32 {
+        match &self.response {
+            None => 1.0,
+            Some(r) => r.at(nm),
+        }
+    }
+
+    /// The band's centre, nm: the middle of a flat band, the response-weighted mean
+    /// wavelength (centroid) of a response curve. Pigment leaves are evaluated here.
     pub fn center(&self) -> f32 {
-        0.5 * (self.lo_nm + self.hi_nm)
+        match &self.response {
+            None => 0.5 * (self.lo_nm + self.hi_nm),
+            Some(r) => r.centroid,
+        }
+    }
+}
+
+/// A relative spectral response curve: samples `(nm, weight)`, linear between them and
+/// zero outside, scaled so that its peak is 1.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Response {
+    nm: Vec<f32>,
+    weight: Vec<f32>,
+    centroid: f32,
+}
+
+/// Why a response curve was refused: the 1-based line of its file (0 for the file as a
+/// whole) and what was wrong.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResponseError {
+    /// 1-based line, or 0 when the whole file is at fault.
+    pub line: usize,
+    /// What was wrong, in words.
+    pub message: String,
+}
+
+impl Response {
+    /// A curve from samples; `lines[i]` is the file line of sample `i` (for errors).
+    /// Checked: at least 2 samples, wavelengths finite, strictly increasing and inside
+    /// 360-2500 nm, weights finite and `>= 0`, some weight above 0.
+    pub fn new(samples: &[(f32, f32)], lines: &[usize]) -> Result<Response, ResponseError> {
+        let line = |i: usize| lines.get(i).copied().unwrap_or(0);
+        let err = |line: usize, message: String| ResponseError { line, message };
+        if samples.len() < 2 {
+            return Err(err(
+                0,
+                format!(
+                    "{} sample(s): a response curve needs at least 2 (wavelength_nm, response)",
+                    samples.len()
+                ),
+            ));
+        }
+        if samples.iter().all(|s| s.0 < 10.0) {
+            return Err(err(
+                0,
+                "every wavelength is below 10: these look like micrometres; give nm".into(),
+            ));
+        }
+        for (i, &(nm, w)) in samples.iter().enumerate() {
+            if !(nm.is_finite() && (LAMBDA_MIN_NM..=LAMBDA_MAX_NM).contains(&nm)) {
+                return Err(err(
+                    line(i),
+                    format!("wavelength {nm} nm is outside 360-2500 nm"),
+                ));
+            }
+            if i > 0 && nm <= samples[i - 1].0 {
+                return Err(err(
+                    line(i),
+                    format!(
+                        "wavelength {nm} nm does not follow {} nm: wavelengths must increase",
+                        samples[i - 1].0
+                    ),
+                ));
+            }
+            if !(w.is_finite() && w >= 0.0) {
+                return Err(err(
+                    line(i),
+                    format!("response {w} at {nm} nm: must be a finite number >= 0"),
+                ));
+            }
+        }
+        let peak = samples.iter().map(|s| s.1).fold(0.0f32, f32::max);
+        if !(peak > 0.0) {
+            return Err(err(0, "the response is 0 everywhere".into()));
+        }
+        let mut r = Response {
+            nm: samples.iter().map(|s| s.0).collect(),
+            weight: samples.iter().map(|s| s.1 / peak).collect(),
+            centroid: 0.0,
+        };
+        let (lo, hi) = r.support();
+        let (mut sw, mut swl) = (0.0f64, 0.0f64);
+        for k in 0..(hi - lo).ceil().max(1.0) as usize {
+            let nm = lo + k as f32 + 0.5;
+            let w = r.at(nm) as f64;
+            sw += w;
+            swl += w * nm as f64;
+        }
+        r.centroid = if sw > 0.0 {
+            (swl / sw) as f32
+        } else {
+            0.5 * (lo + hi)
+        };
+        Ok(r)
+    }
+
+    /// Parses a response file: two columns, wavelength (nm) and response, separated by
+    /// commas, semicolons or white space; `#` comments and blank lines skipped; one header
+    /// line allowed before the first sample.
+    pub fn parse(text: &str) -> Result<Response, ResponseError> {
+        let mut samples = Vec::new();
+        let mut lines = Vec::new();
+        for (k, raw) in text.lines().enumerate() {
+            let line = k + 1;
+            let s = raw.trim().trim_start_matches('\u{feff}');
+            if s.is_empty() || s.starts_with('#') {
+                continue;
+            }
+            let fields: Vec<&str> = s
+                .split(|c: char| c == ',' || c == ';' || c.is_whitespace())
+                .filter(|f| !f.is_empty())
+                .collect();
+            let nums: Vec<Option<f32>> = fields.iter().map(|f| f.parse::<f32>().ok()).collect();
+            if samples.is_empty() && lines.is_empty() && nums.iter().any(Option::is_none) {
+                lines.push(0); // the header
+                continue;
+            }
+            if fields.len() != 2 {
+                return Err(ResponseError {
+                    line,
+                    message: format!(
+                        "{} column(s); expected 2: wavelength_nm, response",
+                        fields.len()
+                    ),
+                });
+            }
+            match (nums[0], nums[1]) {
+                (Some(nm), Some(w)) => {
+                    samples.push((nm, w));
+                    lines.push(line);
+                }
+                _ => {
+                    return Err(ResponseError {
+                        line,
+                        message: format!("'{s}' is not two numbers"),
+                    });
+                }
+            }
+        }
+        if lines.first() == Some(&0) {
+            lines.remove(0);
+        }
+        Response::new(&samples, &lines)
+    }
+
+    /// The response at `nm` (peak 1, zero outside the samples).
+    pub fn at(&self, nm: f32) -> f32 {
+        let i = self.nm.partition_point(|&x| x <= nm);
+        if i == 0 || i == self.nm.len() && nm > self.nm[i - 1] {
+            return 0.0;
+        }
+        if i == self.nm.len() {
+            return self.weight[i - 1];
+        }
+        let (x0, x1) = (self.nm[i - 1], self.nm[i]);
+        let t = (nm - x0) / (x1 - x0);
+        self.weight[i - 1] + t * (self.weight[i] - self.weight[i - 1])
+    }
+
+    /// `(first, last)` wavelength where the response is not zero, nm.
+    pub fn support(&self) -> (f32, f32) {
+        let first = self.weight.iter().position(|&w| w > 0.0).unwrap_or(0);
+        let last = self.weight.iter().rposition(|&w| w > 0.0).unwrap_or(0);
+        (
+            self.nm[first.saturating_sub(1)],
+            self.nm[(last + 1).min(self.nm.len() - 1)],
+        )
+    }
+
+    /// The response-weighted mean wavelength, nm.
+    pub fn centroid(&self) -> f32 {
+        self.centroid
     }
 }
 
@@ -69,14 +277,18 @@ fn band_means(b: &Band) -> (Vec3, Vec3) {
     let hi = b.hi_nm.min(LAMBDA_MAX_NM).max(lo + 1e-3);
     let n = ((hi - lo).ceil() as usize).max(1);
     let step = (hi - lo) / n as f32;
-    let (mut r, mut e) = (Vec3::ZERO, Vec3::ZERO);
+    let (mut r, mut e, mut sw) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
     for k in 0..n {
         let nm = lo + (k as f32 + 0.5) * step;
-        let bs = basis(nm);
+        let w = b.weight(nm);
+        let bs = basis(nm) * w;
         r += bs;
         e += bs * solar_global(nm);
+        sw += w;
     }
-    (r / n as f32, e / (n as f32 * emission_norm()))
+    // (A flat band's weights are 1, so `sw` is `n` exactly: the plain mean.)
+    let sw = sw.max(f32::MIN_POSITIVE);
+    (r / sw, e / (sw * emission_norm()))
 }
 
 /// How RGB values become the values of three bands (one per channel of a band render).
@@ -125,10 +337,45 @@ mod tests {
     use super::*;
 
     fn band(lo: f32, hi: f32) -> Band {
-        Band {
-            name: format!("{lo}-{hi}"),
-            lo_nm: lo,
-            hi_nm: hi,
+        Band::flat(format!("{lo}-{hi}"), lo, hi)
+    }
+
+    #[test]
+    fn a_box_response_equals_the_flat_band_and_a_skewed_one_moves_the_centre() {
+        let flat = band(600.0, 700.0);
+        let boxed = Band::with_response(
+            "box",
+            Response::parse("nm,r\n599.999,0\n600,1\n700,1\n700.001,0\n").unwrap(),
+        );
+        assert!((boxed.center() - 650.0).abs() < 0.01, "{}", boxed.center());
+        let a = BandBasis::new([&flat, &flat, &flat]);
+        let b = BandBasis::new([&boxed, &boxed, &boxed]);
+        let c = Vec3::new(0.8, 0.3, 0.1);
+        assert!((a.reflectance(c) - b.reflectance(c)).abs().max_element() < 2e-3);
+        // A ramp toward the red weighs the red end more.
+        let ramp = Band::with_response("ramp", Response::parse("600 0.1\n700 1\n").unwrap());
+        assert!(ramp.center() > 660.0, "{}", ramp.center());
+        let red = BandBasis::new([&ramp, &ramp, &ramp]).reflectance(Vec3::X).x;
+        assert!(red > a.reflectance(Vec3::X).x, "{red}");
+    }
+
+    #[test]
+    fn bad_response_files_name_the_line() {
+        let cases = [
+            ("500 1\n490 1\n", 2, "increase"),
+            ("500 1\n510 -1\n", 2, ">= 0"),
+            ("500 1\n510 NaN\n", 2, "finite"),
+            ("500 1\n3000 1\n", 2, "360-2500"),
+            ("500 1 2\n", 1, "3 column"),
+            ("500 1\n", 0, "at least 2"),
+            ("0.5 1\n0.6 1\n", 0, "micrometres"),
+            ("500 0\n600 0\n", 0, "0 everywhere"),
+            ("nm r\n500 1\nx y\n", 3, "not two numbers"),
+        ];
+        for (text, line, words) in cases {
+            let e = Response::parse(text).unwrap_err();
+            assert_eq!(e.line, line, "{text:?}: {e:?}");
+            assert!(e.message.contains(words), "{text:?}: {e:?}");
         }
     }
 

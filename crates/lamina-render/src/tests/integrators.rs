@@ -125,19 +125,18 @@ fn furnace_is_energy_conserving() {
 }
 
 /// The furnace in spectral bands: white stays white in every band (R = 1, R + T = 1 go
-/// through the linear basis unchanged), so every pixel converges to the sky's band value.
+/// through the linear basis unchanged), so every pixel converges to the sky's band value;
+/// also for a band weighted by a response curve.
 #[test]
 fn furnace_in_bands_is_energy_conserving() {
-    use lamina_leaf::spectrum::bands::{Band, BandBasis};
-    let band = |name: &str, lo: f32, hi: f32| Band {
-        name: name.into(),
-        lo_nm: lo,
-        hi_nm: hi,
-    };
+    use lamina_leaf::spectrum::bands::{Band, BandBasis, Response};
+    let band = |name: &str, lo: f32, hi: f32| Band::flat(name, lo, hi);
+    // The NIR band by a (triangular) response curve.
+    let nir_response = Response::parse("780 0\n840 1\n900 0\n").unwrap();
     let (b, g, nir) = (
         band("b", 450.0, 520.0),
         band("g", 540.0, 570.0),
-        band("nir", 780.0, 900.0),
+        Band::with_response("nir", nir_response),
     );
     let scene = crate::bands::band_scene(&furnace_scene(), [&b, &g, &nir]).unwrap();
     let sky = BandBasis::new([&b, &g, &nir]).emission(Vec3::ONE);

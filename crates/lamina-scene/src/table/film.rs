@@ -9,7 +9,7 @@
 //! | `filter_sigma` | pixels, (0, 8] | `0.5` | Gaussian standard deviation |
 //! | `exposure` | stops, [-30, 30] | `0` | the PNG shows radiance × 2^exposure |
 //! | `tonemap` | `clamp`, `aces`, `reinhard` | `aces` | tone map of the PNG; the EXR is never tone-mapped |
-//! | `bands` | array of tables, 1-64 | none | render spectral bands instead of RGB: each `{ name, center, width }` or `{ name, min, max }` (nm, inside 360-2500; names unique, letters, digits, `_ - .`); the EXR gets one channel per band (band-mean spectral radiance, W m⁻² sr⁻¹ nm⁻¹), the PNG a false-colour composite |
+//! | `bands` | array of tables, 1-64 | none | render spectral bands instead of RGB: each `{ name, center, width }` or `{ name, min, max }` (nm, inside 360-2500), or `{ name, response = "file.csv" }`: a relative spectral response curve (two columns, nm and response, linear between samples, zero outside; a header line and `#` comments allowed), the band value then weighted by it (its centre, where pigment leaves are evaluated, is the response-weighted mean wavelength); names unique, letters, digits, `_ - .`; the EXR gets one channel per band (band-mean spectral radiance, W m⁻² sr⁻¹ nm⁻¹), the PNG a false-colour composite |
 //! | `false_color` | three band names | the first three bands | the bands the PNG shows as red, green, blue |
 
 use crate::dict::{Dict, Keys, Kind, S, Table};
@@ -38,7 +38,11 @@ const BAND_KEYS: Keys = Keys::plain(&[
     ("width", Kind::Num),
     ("min", Kind::Num),
     ("max", Kind::Num),
+    ("response", Kind::Str),
 ]);
+
+/// Largest band response file read (bytes): a response curve is a few hundred lines.
+const MAX_RESPONSE_FILE_BYTES: u64 = 4 << 20;
 
 /// Checks the keys of `[film]` and their types.
 pub(crate) fn check(ld: &Loader, t: &S<Table>) -> Result<(), SceneError> {
@@ -153,6 +157,33 @@ fn read_bands(ld: &Loader, d: &Dict) -> Result<(), SceneError> {
         if bands.iter().any(|x| x.name == *n) {
             return Err(b.err(name.span(), "name", format!("'{n}' names two bands")));
         }
+        if let Some(file) = b.string("response")? {
+            for other in ["center", "width", "min", "max"] {
+                if let Some(v) = b.get(other) {
+                    return Err(b.err(
+                        v.span(),
+                        other,
+                        format!("band '{n}' has a `response` curve, which sets its wavelengths: drop `{other}`"),
+                    ));
+                }
+            }
+            let path = ld.path(file.get_ref());
+            let key = format!("{at}.response");
+            let text =
+                crate::error::read_text(&path, "band response file", MAX_RESPONSE_FILE_BYTES)
+                    .map_err(|e| SceneError::new(&e.file, e.line, key.clone(), e.message))?;
+            let response = lamina_leaf::spectrum::bands::Response::parse(&text).map_err(|e| {
+                SceneError::new(
+                    &path,
+                    (e.line > 0).then_some(e.line),
+                    key.clone(),
+                    format!("band '{n}': {}", e.message),
+                )
+            })?;
+            bands.push(Band::with_response(n.to_string(), response));
+            b.finish()?;
+            continue;
+        }
         let (lo, hi) = match (b.get("center"), b.get("min")) {
             (Some(_), None) => {
                 let c = b.req_float("center", 360.0, 2500.0, false)?;
@@ -167,7 +198,7 @@ fn read_bands(ld: &Loader, d: &Dict) -> Result<(), SceneError> {
                 return Err(b.err(
                     item.span(),
                     "center",
-                    "give `center` and `width`, or `min` and `max` (nm)",
+                    "give `center` and `width`, `min` and `max` (nm), or a `response` file",
                 ));
             }
         };
@@ -178,11 +209,7 @@ fn read_bands(ld: &Loader, d: &Dict) -> Result<(), SceneError> {
                 format!("band '{n}' spans {lo}-{hi} nm: it must lie inside 360-2500 nm and be wider than 0"),
             ));
         }
-        bands.push(Band {
-            name: n.to_string(),
-            lo_nm: lo,
-            hi_nm: hi,
-        });
+        bands.push(Band::flat(n.to_string(), lo, hi));
         b.finish()?;
     }
     let last = bands.len() - 1;

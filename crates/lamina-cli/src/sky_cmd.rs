@@ -5,7 +5,6 @@
 
 use crate::output_file::claim;
 use anyhow::{Context, bail};
-use glam::DVec3;
 use std::path::PathBuf;
 
 /// `lamina sky`'s flags.
@@ -72,7 +71,7 @@ const BANDS: [(&str, f64, f64); 8] = [
 
 /// `lamina sky`.
 pub fn run(a: &SkyArgs) -> anyhow::Result<()> {
-    use lamina_sky::{Observer, PreethamSky, SolarQuery, Spectral2Query, UniformGrid};
+    use lamina_sky::{Observer, SolarQuery, Spectral2Query, UniformGrid};
     for p in a.out.iter().chain(a.spectrum.iter()) {
         claim(p, a.force, &[])?;
     }
@@ -149,16 +148,18 @@ pub fn run(a: &SkyArgs) -> anyhow::Result<()> {
             100.0 * b.diffuse_fraction()
         );
     }
-    // The sun as an RGB light: the direct normal spectrum through the CIE observer, in the
-    // convention of lamina's RGB radiance (Y = ∫ E ȳ dλ).
-    let grid = UniformGrid::new(360.0, 830.0, 1.0).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let r = s.resample(&grid);
-    let mut xyz = DVec3::ZERO;
-    for (i, nm) in grid.wavelengths().enumerate() {
-        let bar = lamina_leaf::spectrum::cie_xyz_bar(nm as f32).as_dvec3();
-        xyz += bar * r.direct_normal[i];
-    }
-    let rgb = lamina_sky::preetham::xyz_to_linear_rec709(xyz);
+    // The sun and sky of the same atmosphere, as `[sky] type = "sunsky"` makes them: the sun
+    // as an RGB light (the direct normal spectrum through the CIE observer, Y = ∫ E ȳ dλ).
+    let mut params = lamina_sky::SunSkyParams::new(observer, time);
+    params.turbidity = a.turbidity;
+    params.aod500 = a.aod;
+    params.water = a.water;
+    params.ozone = a.ozone;
+    params.ground_albedo = a.ground_albedo;
+    params.pressure = Some(pressure);
+    let model = lamina_sky::SunSky::new(&params)
+        .map_err(|e| anyhow::anyhow!("--{}: {e}", e.field.replace('_', "-")))?;
+    let rgb = model.sun_rgb();
     eprintln!(
         "  the sun for a scene: type = \"sun\", position = {{ latitude = {}, longitude = {}, time = \"{}\" }}, \
          irradiance = [{:.2}, {:.2}, {:.2}]",
@@ -197,50 +198,26 @@ pub fn run(a: &SkyArgs) -> anyhow::Result<()> {
     }
 
     if let Some(path) = &a.out {
-        let sky = PreethamSky::from_solar_position(&sun, a.turbidity)
-            .map_err(|e| anyhow::anyhow!("--{}: {e}", e.field().replace('_', "-")))?;
-        let (w, h) = (a.width, a.width / 2);
-        let mut pixels = Vec::with_capacity((w * h) as usize);
-        let mut e_sky = 0.0f64; // horizontal irradiance of the Preetham sky, Y convention
-        for j in 0..h {
-            let zenith = 180.0 * (j as f64 + 0.5) / h as f64;
-            let solid = (2.0 * std::f64::consts::PI / w as f64)
-                * (std::f64::consts::PI / h as f64)
-                * zenith.to_radians().sin();
-            for i in 0..w {
-                let azimuth = 360.0 * (i as f64 + 0.5) / w as f64 - 180.0;
-                let dir = lamina_sky::sun_direction(zenith, azimuth);
-                e_sky += sky.xyz(dir).y * dir.y.max(0.0) * solid;
-                pixels.push(sky.linear_rec709(dir));
-            }
-        }
         // Preetham gives the sky's shape and colour; its level is put on SPCTRAL2's diffuse
         // horizontal irradiance (the same ȳ weighting), so that sun and sky come from one
-        // atmosphere.
-        let mut e_diffuse = 0.0;
-        for (i, nm) in grid.wavelengths().enumerate() {
-            e_diffuse +=
-                lamina_leaf::spectrum::cie_xyz_bar(nm as f32).y as f64 * r.diffuse_horizontal[i];
-        }
-        let scale = if e_sky > 0.0 { e_diffuse / e_sky } else { 1.0 };
+        // atmosphere. The frame is lamina-sky's (x east, y up, z south): a scene's default.
+        let (w, h) = (a.width, (a.width / 2).max(1));
+        let px = lamina_sky::sunsky::bake_map(w, |d| d, |d| model.sky_rgb(d).as_vec3().to_array());
         let mut img = image::Rgb32FImage::new(w, h);
-        for (k, c) in pixels.iter().enumerate() {
-            let c = (*c * scale).max(DVec3::ZERO);
-            img.put_pixel(
-                k as u32 % w,
-                k as u32 / w,
-                image::Rgb(c.as_vec3().to_array()),
-            );
+        for (k, c) in px.iter().enumerate() {
+            img.put_pixel(k as u32 % w, k as u32 / w, image::Rgb(*c));
         }
         claim(path, a.force, &[])?;
         lamina_io::save_image(path, &img)
             .with_context(|| format!("writing '{}'", path.display()))?;
         eprintln!(
-            "wrote {} ({w}x{h}): the Preetham sky (turbidity {}) scaled by {scale:.3} to SPCTRAL2's \
-             diffuse horizontal irradiance ({e_diffuse:.2} W/m², ȳ-weighted); use it as \
-             [sky] type = \"image\", file = \"{}\"",
+            "wrote {} ({w}x{h}): the Preetham sky (turbidity {}) at SPCTRAL2's diffuse \
+             horizontal irradiance ({:.2} W/m², ȳ-weighted); use it as [sky] type = \"image\", \
+             file = \"{}\" (or [sky] type = \"sunsky\" with the same position, which also \
+             renders it spectrally)",
             path.display(),
             a.turbidity,
+            model.diffuse_y(),
             path.display()
         );
     }

@@ -396,18 +396,8 @@ fn a_scene_renders_in_bands_to_a_named_channel_exr_and_a_false_colour_png() {
 
 /// Mean of channel `name` of an EXR file.
 fn channel_mean(path: &std::path::Path, name: &str) -> f64 {
-    let img = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
-    let ch = img.layer_data[0]
-        .channel_data
-        .list
-        .iter()
-        .find(|c| c.name.to_string() == name)
-        .unwrap();
-    let n = ch.sample_data.len();
-    (0..n)
-        .map(|i| ch.sample_data.value_by_flat_index(i).to_f32() as f64)
-        .sum::<f64>()
-        / n as f64
+    let c = &common::channels(path)[name];
+    c.iter().map(|&x| x as f64).sum::<f64>() / c.len() as f64
 }
 
 #[test]

@@ -193,7 +193,24 @@ pub enum Sky {
         scale: f32,
         /// Rotation of the map about `+y` (degrees).
         rotation_deg: f32,
+        /// The sky's spectral source, when it is known spectrally (a physical sun and sky):
+        /// renders in spectral bands make the map from it instead of converting the RGB
+        /// map. `None` for an image file.
+        spectral: Option<Arc<dyn SpectralSky>>,
     },
+}
+
+/// A sky known spectrally (a physical sun and sky, `[sky] type = "sunsky"`), so that renders
+/// in spectral bands make its map, and its sun's irradiance, per band instead of
+/// converting the RGB ones through the RGB-to-band basis.
+pub trait SpectralSky: std::fmt::Debug + Send + Sync {
+    /// The map in three bands (channel `i` = `bands[i]`; alpha 1): band-mean spectral
+    /// radiance, W m⁻² sr⁻¹ nm⁻¹, oriented as [`Sky::Image`]'s map.
+    fn band_map(&self, bands: [&lamina_leaf::spectrum::bands::Band; 3]) -> Texture;
+    /// The direct normal irradiance of the sun this sky brought (a scene with such a sky
+    /// has that sun as its **last** light) in three bands, W m⁻² nm⁻¹; `None` when the sky
+    /// brought no sun.
+    fn band_sun(&self, bands: [&lamina_leaf::spectrum::bands::Band; 3]) -> Option<Vec3>;
 }
 
 /// A colour that is either constant or read from a map.

@@ -52,6 +52,7 @@ pub fn sky_irradiance_sh(sky: Option<&Sky>) -> [Vec3; 9] {
             map,
             scale,
             rotation_deg,
+            ..
         }) => {
             let (w, h) = (map.width() as usize, map.height() as usize);
             let rot = glam::Quat::from_rotation_y(rotation_deg.to_radians());
@@ -130,6 +131,7 @@ mod tests {
             map,
             scale: 1.0,
             rotation_deg: 0.0,
+            spectral: None,
         }));
         let up = eval_irradiance(&c, Vec3::Y).x;
         let down = eval_irradiance(&c, -Vec3::Y).x;

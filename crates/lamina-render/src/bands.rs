@@ -7,6 +7,8 @@
 //! * Every other material value (colours, colour maps, a leaf's colour maps and layer
 //!   coefficients, PBR base and transmission colours) goes through the reflectance basis;
 //!   lights and skies through the emission basis (band-mean spectral radiance per nm).
+//! * A physical sky (`[sky] type = "sunsky"`, [`lamina_core::SpectralSky`]) is remade in the
+//!   bands from its spectra, and so is the sun it brought.
 //! * Geometry, alpha mattes, normal and bump maps, roughness and every scalar are kept.
 
 use crate::RenderError;
@@ -36,6 +38,19 @@ pub fn band_scene(scene: &Scene, bands: [&Band; 3]) -> Result<Scene, RenderError
     if let Some(sky) = &mut s.sky {
         match sky {
             Sky::Constant(c) => *c = basis.emission(*c),
+            // A physical sky is remade in the bands, with its sun (the scene's last light).
+            Sky::Image {
+                map,
+                spectral: Some(spectral),
+                ..
+            } => {
+                *map = spectral.band_map(bands);
+                if let Some(e) = spectral.band_sun(bands)
+                    && let Some(Light::Sun { irradiance, .. }) = s.lights.last_mut()
+                {
+                    *irradiance = e;
+                }
+            }
             Sky::Image { map, .. } => *map = map_texture(map, |c| basis.emission(c)),
         }
     }

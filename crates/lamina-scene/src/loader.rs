@@ -118,17 +118,20 @@ pub fn reload_settings(
         let camera = crate::table::camera::read(&ld, &doc.camera)?;
         let film = crate::table::film::read(&ld, doc.film.as_ref())?;
         let integrator = crate::table::integrator::read(&ld, doc.integrator.as_ref())?;
-        let sky = doc
-            .sky
-            .as_ref()
-            .map(|s| crate::table::sky::read(&ld, s))
-            .transpose()?;
-        let lights = doc
+        let (sky, sky_sun) = match doc.sky.as_ref() {
+            Some(s) => {
+                let (sky, sun) = crate::table::sky::read(&ld, s)?;
+                (Some(sky), sun)
+            }
+            None => (None, None),
+        };
+        let mut lights = doc
             .light
             .iter()
             .enumerate()
             .map(|(i, l)| crate::light::read(&ld, i, l))
             .collect::<Result<Vec<_>, _>>()?;
+        lights.extend(sky_sun);
         let mut changed = Vec::new();
         for (i, m) in doc.material.iter().enumerate() {
             if mats_was[i] == mats_now[i] {
@@ -417,17 +420,21 @@ impl Loader {
         let camera = crate::table::camera::read(self, &doc.camera)?;
         let film = crate::table::film::read(self, doc.film.as_ref())?;
         let integrator = crate::table::integrator::read(self, doc.integrator.as_ref())?;
-        let sky = doc
-            .sky
-            .as_ref()
-            .map(|s| crate::table::sky::read(self, s))
-            .transpose()?;
-        let lights = doc
+        let (sky, sky_sun) = match doc.sky.as_ref() {
+            Some(s) => {
+                let (sky, sun) = crate::table::sky::read(self, s)?;
+                (Some(sky), sun)
+            }
+            None => (None, None),
+        };
+        // A physical sky's sun is the last light (band renders find it there).
+        let mut lights = doc
             .light
             .iter()
             .enumerate()
             .map(|(i, l)| crate::light::read(self, i, l))
             .collect::<Result<Vec<_>, _>>()?;
+        lights.extend(sky_sun);
         let mut materials = Vec::new();
         let mut by_name = HashMap::new();
         for (i, m) in doc.material.iter().enumerate() {

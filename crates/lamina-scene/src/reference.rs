@@ -34,7 +34,7 @@ fn readers() -> Vec<Reader> {
         ),
         reader!(
             "table/sky.rs",
-            every(&[table::sky::CONSTANT, table::sky::IMAGE]),
+            every(&[table::sky::CONSTANT, table::sky::IMAGE, table::sky::SUNSKY]),
             "## `[sky]`"
         ),
         reader!("object/mod.rs", common_object_keys(), "## `[[object]]`"),

@@ -65,6 +65,7 @@ mod input;
 pub mod preetham;
 pub mod solar_position;
 pub mod spectral2;
+pub mod sunsky;
 pub mod time;
 
 pub use preetham::{DaylightSpectrum, Perez, PreethamSky, SkyError, SkySpectrum, XyY};
@@ -75,4 +76,5 @@ pub use spectral2::{
     AirMass, BandIrradiance, EarthSun, Formulation, ResampledSpectrum, Spectral2Error,
     Spectral2Query, Spectral2Spectrum, UniformGrid, spectral2,
 };
+pub use sunsky::{SunSky, SunSkyError, SunSkyParams};
 pub use time::parse_local_time;

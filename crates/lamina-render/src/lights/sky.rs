@@ -179,6 +179,7 @@ impl SkyLight {
                 map,
                 scale,
                 rotation_deg,
+                ..
             } => {
                 let scale = if scale.is_finite() { *scale } else { 0.0 };
                 let texels = map.texels().iter().map(|t| t.truncate() * scale).collect();

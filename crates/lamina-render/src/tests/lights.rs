@@ -103,6 +103,7 @@ fn image_sky_furnace() {
             map: tex,
             scale: 2.0,
             rotation_deg: 10.0,
+            spectral: None,
         }),
         materials: vec![diffuse_transmission(Vec3::splat(0.7), Vec3::splat(0.3))],
         meshes: vec![card(0.5, 0.0, 0)],

@@ -8,7 +8,7 @@ use crate::scene::Light;
 mod point;
 mod quad;
 mod sphere;
-mod sun;
+pub(crate) mod sun;
 
 /// The keys of a light type that takes `own`.
 const fn keys(own: &'static [Key]) -> Keys {

@@ -49,11 +49,36 @@ pub(crate) fn read(d: &Dict) -> Result<Light, SceneError> {
     })
 }
 
-/// The direction toward the sun for `position = { ... }`.
-fn from_position(d: &Dict, pos: toml::Spanned<&crate::dict::Table>) -> Result<Vec3, SceneError> {
+/// A place and a time (`position = { latitude, longitude, elevation, time, north }`) and
+/// the scene's frame there.
+pub(crate) struct Place {
+    /// Where on Earth.
+    pub(crate) observer: lamina_sky::Observer,
+    /// When.
+    pub(crate) time: lamina_sky::LocalTime,
+    /// The scene's horizontal north (unit).
+    pub(crate) north: Vec3,
+    /// The span of `time`, for errors about it.
+    pub(crate) time_span: std::ops::Range<usize>,
+}
+
+impl Place {
+    /// A direction in lamina-sky's frame (x east, y up, z south) in the scene's frame.
+    pub(crate) fn to_scene(&self, v: glam::DVec3) -> Vec3 {
+        let east = self.north.cross(Vec3::Y);
+        east * v.x as f32 + Vec3::Y * v.y as f32 - self.north * v.z as f32
+    }
+}
+
+/// Reads a `position` table (`key` the table's own key, e.g. `position`).
+pub(crate) fn read_place(
+    d: &Dict,
+    key: &str,
+    pos: toml::Spanned<&crate::dict::Table>,
+) -> Result<Place, SceneError> {
     let p = Dict::open(
         d.ld,
-        d.key("position"),
+        d.key(key),
         None,
         pos.span(),
         pos.get_ref(),
@@ -74,29 +99,40 @@ fn from_position(d: &Dict, pos: toml::Spanned<&crate::dict::Table>) -> Result<Ve
             "must be horizontal (y is up): it has no x or z component",
         ));
     }
-    let north = north_h.normalize();
-    let observer = lamina_sky::Observer {
-        latitude: latitude as f64,
-        longitude: longitude as f64,
-        elevation: elevation as f64,
-    };
-    let sun = lamina_sky::solar_position(&lamina_sky::SolarQuery::new(observer, time))
-        .map_err(|e| p.err(pos.span(), e.field(), e.to_string()))?;
+    p.finish()?;
+    Ok(Place {
+        observer: lamina_sky::Observer {
+            latitude: latitude as f64,
+            longitude: longitude as f64,
+            elevation: elevation as f64,
+        },
+        time,
+        north: north_h.normalize(),
+        time_span: time_s.span(),
+    })
+}
+
+/// The direction toward the sun for `position = { ... }`.
+fn from_position(d: &Dict, pos: toml::Spanned<&crate::dict::Table>) -> Result<Vec3, SceneError> {
+    let place = read_place(d, "position", pos.clone())?;
+    let sun = lamina_sky::solar_position(&lamina_sky::SolarQuery::new(place.observer, place.time))
+        .map_err(|e| {
+            d.err(
+                pos.span(),
+                &format!("position.{}", e.field()),
+                e.to_string(),
+            )
+        })?;
     if sun.zenith >= 90.0 {
-        return Err(p.err(
-            time_s.span(),
-            "time",
+        return Err(d.err(
+            place.time_span,
+            "position.time",
             format!(
-                "the sun is below the horizon then (zenith {:.2} degrees, azimuth {:.2}):                  choose a daytime, or light the scene another way",
+                "the sun is below the horizon then (zenith {:.2} degrees, azimuth {:.2}): \
+                 choose a daytime, or light the scene another way",
                 sun.zenith, sun.azimuth
             ),
         ));
     }
-    // lamina-sky's frame is x east, y up, z south; the scene's north may be any
-    // horizontal direction.
-    let east = north.cross(Vec3::Y);
-    let v = sun.direction;
-    let dir = east * v.x as f32 + Vec3::Y * v.y as f32 - north * v.z as f32;
-    p.finish()?;
-    Ok(dir.normalize())
+    Ok(place.to_scene(sun.direction).normalize())
 }

@@ -1,0 +1,386 @@
+//! A physical sun and clear sky for one place and time, from one atmosphere: the sun's
+//! position from NREL's SPA ([`crate::solar_position`]), its spectral irradiance at the
+//! ground and the sky's diffuse irradiance from SPCTRAL2 ([`crate::spectral2`]), and the
+//! sky's distribution over directions from Preetham ([`crate::preetham`]).
+//!
+//! * **Sun**: the direct normal spectral irradiance `E_sun(λ)` (W m⁻² nm⁻¹), 300-4000 nm.
+//!   In RGB, `E_sun` through the CIE 1931 observer into linear Rec.709 with `Y = ∫ E ȳ dλ`
+//!   (lamina's RGB convention).
+//! * **Sky**: Preetham's radiance `L_P(ω)` gives the shape and colour; its level is set so
+//!   that the sky's horizontal irradiance equals SPCTRAL2's diffuse horizontal irradiance
+//!   (ȳ-weighted): `L = s L_P` with `s = ∫ E_diff ȳ dλ / ∫ Y_P(ω) cos θ dω`. Spectrally,
+//!   over 360-830 nm, the CIE daylight spectrum of Preetham's chromaticity at each
+//!   direction (scaled by `s`); beyond 830 nm, where the daylight basis ends,
+//!   `s Y_P(ω) E_diff(λ) / ∫ E_diff ȳ dλ`: SPCTRAL2's diffuse spectrum spread over the sky
+//!   with Preetham's luminance (the sky's near-infrared colour does not vary with
+//!   direction in this model). So the sky's horizontal irradiance in any band is
+//!   SPCTRAL2's diffuse irradiance there, up to the visible part's daylight spectrum.
+//!   Zero below the horizon (the ground is the scene's).
+//!
+//! Directions are in lamina-sky's frame: x east, y up, z south.
+
+use crate::preetham::{PreethamSky, SkyError, xyz_to_linear_rec709};
+use crate::solar_position::LocalTime;
+use crate::solar_position::{Observer, SolarPosition, SolarQuery, solar_position};
+use crate::spectral2::{ResampledSpectrum, Spectral2Query, UniformGrid};
+use glam::DVec3;
+use lamina_leaf::spectrum::bands::Band;
+use lamina_leaf::spectrum::cie_xyz_bar;
+
+/// Where and when, and the atmosphere.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SunSkyParams {
+    /// The place.
+    pub observer: Observer,
+    /// Local time with its UTC offset.
+    pub time: LocalTime,
+    /// Preetham's turbidity, 1.7 (very clear) to 10 (hazy).
+    pub turbidity: f64,
+    /// Aerosol optical depth at 500 nm (SPCTRAL2).
+    pub aod500: f64,
+    /// Precipitable water, cm (SPCTRAL2).
+    pub water: f64,
+    /// Total ozone, atm-cm (SPCTRAL2).
+    pub ozone: f64,
+    /// Ground albedo for SPCTRAL2's ground-sky reflections.
+    pub ground_albedo: f64,
+    /// Surface air pressure, hPa; `None`: from the observer's elevation (standard
+    /// atmosphere).
+    pub pressure: Option<f64>,
+}
+
+impl SunSkyParams {
+    /// The defaults of `lamina sky` (turbidity 3, AOD 0.1, water 1.42 cm, ozone 0.344
+    /// atm-cm, ground albedo 0.2) for `observer` at `time`.
+    pub fn new(observer: Observer, time: LocalTime) -> Self {
+        SunSkyParams {
+            observer,
+            time,
+            turbidity: 3.0,
+            aod500: 0.1,
+            water: 1.42,
+            ozone: 0.344,
+            ground_albedo: 0.2,
+            pressure: None,
+        }
+    }
+}
+
+/// Why no sun and sky could be made: the input at fault (`field`) and why.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{message}")]
+pub struct SunSkyError {
+    /// The input at fault (`latitude`, `time`, `turbidity`, `aod500`, ...).
+    pub field: &'static str,
+    /// What was wrong.
+    pub message: String,
+}
+
+/// A sun and sky ready to evaluate.
+#[derive(Clone, Debug)]
+pub struct SunSky {
+    sun: SolarPosition,
+    preetham: PreethamSky,
+    /// SPCTRAL2 at 1 nm over 300-2500 nm.
+    spectrum: ResampledSpectrum,
+    /// Preetham's radiance times this is the sky's (ȳ-weighted).
+    scale: f64,
+    /// `∫ E_diff ȳ dλ`, W m⁻² (the diffuse horizontal irradiance, ȳ-weighted).
+    diffuse_y: f64,
+}
+
+/// Wavelengths where the sky's visible-range daylight spectrum hands over to SPCTRAL2's
+/// diffuse shape.
+const VISIBLE_END_NM: f64 = 830.0;
+
+impl SunSky {
+    /// The sun and sky of `p`. Errors name the input: a sun below the horizon is one
+    /// (`time`).
+    pub fn new(p: &SunSkyParams) -> Result<SunSky, SunSkyError> {
+        let pressure = p.pressure.unwrap_or(
+            1013.25
+                * (1.0 - 2.25577e-5 * p.observer.elevation)
+                    .max(0.0)
+                    .powf(5.25588),
+        );
+        let mut sq = SolarQuery::new(p.observer, p.time);
+        sq.pressure = pressure;
+        let sun = solar_position(&sq).map_err(|e| SunSkyError {
+            field: e.field(),
+            message: e.to_string(),
+        })?;
+        if sun.zenith >= 90.0 {
+            return Err(SunSkyError {
+                field: "time",
+                message: format!(
+                    "the sun is below the horizon then (zenith {:.2} degrees): no clear-sky \
+                     model applies",
+                    sun.zenith
+                ),
+            });
+        }
+        let mut q = Spectral2Query::for_sun(&sun);
+        q.pressure = pressure;
+        q.aod500 = p.aod500;
+        q.precipitable_water = p.water;
+        q.ozone = p.ozone;
+        q.ground_albedo = p.ground_albedo;
+        let s = q.compute().map_err(|e| SunSkyError {
+            field: e.field(),
+            message: e.to_string(),
+        })?;
+        let grid = UniformGrid::new(300.0, 2500.0, 1.0).expect("a valid grid");
+        let spectrum = s.resample(&grid);
+        let preetham =
+            PreethamSky::from_solar_position(&sun, p.turbidity).map_err(|e: SkyError| {
+                SunSkyError {
+                    field: e.field(),
+                    message: e.to_string(),
+                }
+            })?;
+        let diffuse_y: f64 = grid
+            .wavelengths()
+            .enumerate()
+            .filter(|(_, nm)| (360.0..=830.0).contains(nm))
+            .map(|(i, nm)| cie_xyz_bar(nm as f32).y as f64 * spectrum.diffuse_horizontal[i])
+            .sum();
+        // Preetham's horizontal irradiance (ȳ-weighted), by a fine midpoint rule.
+        let (nz, na) = (256, 512);
+        let mut e_p = 0.0;
+        for j in 0..nz {
+            let th = 0.5 * std::f64::consts::PI * (j as f64 + 0.5) / nz as f64;
+            let w = th.sin()
+                * th.cos()
+                * (0.5 * std::f64::consts::PI / nz as f64)
+                * (2.0 * std::f64::consts::PI / na as f64);
+            for i in 0..na {
+                let az = 2.0 * std::f64::consts::PI * (i as f64 + 0.5) / na as f64;
+                let d = DVec3::new(th.sin() * az.sin(), th.cos(), th.sin() * az.cos());
+                e_p += preetham.xyz(d).y * w;
+            }
+        }
+        let scale = if e_p > 0.0 { diffuse_y / e_p } else { 0.0 };
+        Ok(SunSky {
+            sun,
+            preetham,
+            spectrum,
+            scale,
+            diffuse_y,
+        })
+    }
+
+    /// The sun's position (apparent zenith, azimuth, direction).
+    pub fn sun(&self) -> &SolarPosition {
+        &self.sun
+    }
+
+    /// Unit vector toward the sun (x east, y up, z south).
+    pub fn sun_direction(&self) -> DVec3 {
+        self.sun.direction
+    }
+
+    /// The sun's direct normal irradiance in linear Rec.709, `Y = ∫ E ȳ dλ` (W m⁻²).
+    pub fn sun_rgb(&self) -> DVec3 {
+        let mut xyz = DVec3::ZERO;
+        for (i, nm) in self.spectrum.grid.wavelengths().enumerate() {
+            if (360.0..=830.0).contains(&nm) {
+                xyz += cie_xyz_bar(nm as f32).as_dvec3() * self.spectrum.direct_normal[i];
+            }
+        }
+        xyz_to_linear_rec709(xyz)
+    }
+
+    /// The SPCTRAL2 spectra at 1 nm over 300-2500 nm (direct normal, direct and diffuse
+    /// horizontal), W m⁻² nm⁻¹.
+    pub fn spectrum(&self) -> &ResampledSpectrum {
+        &self.spectrum
+    }
+
+    /// Diffuse horizontal irradiance, ȳ-weighted (W m⁻²): the sky's level.
+    pub fn diffuse_y(&self) -> f64 {
+        self.diffuse_y
+    }
+
+    /// SPCTRAL2 at `nm` (linear between its 1 nm samples): (direct normal, diffuse
+    /// horizontal).
+    fn at(&self, nm: f64) -> (f64, f64) {
+        let x = (nm - 300.0).clamp(0.0, 2199.999);
+        let i = x.floor() as usize;
+        let t = x - i as f64;
+        let s = &self.spectrum;
+        let lerp = |v: &[f64]| v[i] + t * (v[i + 1] - v[i]);
+        (lerp(&s.direct_normal), lerp(&s.diffuse_horizontal))
+    }
+
+    /// Band means `Σ w(λ) v(λ) / Σ w(λ)` at 1 nm over `band` of `v`.
+    fn band_mean(band: &Band, v: impl Fn(f64) -> f64) -> f64 {
+        let (lo, hi) = (band.lo_nm as f64, band.hi_nm as f64);
+        let n = ((hi - lo).ceil() as usize).max(1);
+        let step = (hi - lo) / n as f64;
+        let (mut sum, mut sw) = (0.0, 0.0);
+        for k in 0..n {
+            let nm = lo + (k as f64 + 0.5) * step;
+            let w = band.weight(nm as f32) as f64;
+            sum += w * v(nm);
+            sw += w;
+        }
+        if sw > 0.0 { sum / sw } else { 0.0 }
+    }
+
+    /// The sun's direct normal irradiance in `band`: its band mean, W m⁻² nm⁻¹.
+    pub fn sun_band(&self, band: &Band) -> f64 {
+        Self::band_mean(band, |nm| self.at(nm).0)
+    }
+
+    /// The sky's radiance toward `-dir` seen along `dir` (a direction in the sky), linear
+    /// Rec.709 with `Y = ∫ L ȳ dλ`, W m⁻² sr⁻¹. Zero below the horizon.
+    pub fn sky_rgb(&self, dir: DVec3) -> DVec3 {
+        if dir.y <= 0.0 {
+            return DVec3::ZERO;
+        }
+        (self.preetham.linear_rec709(dir) * self.scale).max(DVec3::ZERO)
+    }
+
+    /// The sky's band-mean spectral radiance along `dir` in `band`, W m⁻² sr⁻¹ nm⁻¹ (see
+    /// the module docs). Zero below the horizon.
+    pub fn sky_band(&self, dir: DVec3, band: &Band) -> f64 {
+        if dir.y <= 0.0 {
+            return 0.0;
+        }
+        let visible = self.preetham.spectrum(dir);
+        let y = self.preetham.xyz(dir).y;
+        Self::band_mean(band, |nm| {
+            if nm <= VISIBLE_END_NM {
+                visible.eval(nm) * self.scale
+            } else if self.diffuse_y > 0.0 {
+                y * self.scale * self.at(nm).1 / self.diffuse_y
+            } else {
+                0.0
+            }
+        })
+        .max(0.0)
+    }
+}
+
+/// An equirectangular map `width x width / 2` of `f(direction in the sky's frame)`, in the
+/// orientation of lamina's sky maps: pixel `(i, j)` looks along the scene direction
+/// `d = (sin θ sin φ, cos θ, -sin θ cos φ)` with `φ = -π + 2π (i + ½) / width`,
+/// `θ = π (j + ½) / height`; `to_sky` takes a scene direction into the sky's frame (x east,
+/// y up, z south). Rows are computed in parallel.
+pub fn bake_map(
+    width: u32,
+    to_sky: impl Fn(DVec3) -> DVec3 + Sync,
+    f: impl Fn(DVec3) -> [f32; 3] + Sync,
+) -> Vec<[f32; 3]> {
+    use rayon::prelude::*;
+    let (w, h) = (width as usize, (width / 2).max(1) as usize);
+    let mut out = vec![[0.0f32; 3]; w * h];
+    out.par_chunks_mut(w).enumerate().for_each(|(j, row)| {
+        let th = std::f64::consts::PI * (j as f64 + 0.5) / h as f64;
+        for (i, px) in row.iter_mut().enumerate() {
+            let ph =
+                -std::f64::consts::PI + 2.0 * std::f64::consts::PI * (i as f64 + 0.5) / w as f64;
+            let d = DVec3::new(th.sin() * ph.sin(), th.cos(), -th.sin() * ph.cos());
+            *px = f(to_sky(d));
+        }
+    });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn paris_noon() -> SunSky {
+        let p = SunSkyParams::new(
+            Observer {
+                latitude: 48.8566,
+                longitude: 2.3522,
+                elevation: 35.0,
+            },
+            crate::parse_local_time("2024-06-21T13:30:00+02:00").unwrap(),
+        );
+        SunSky::new(&p).unwrap()
+    }
+
+    /// Horizontal irradiance of `f` over the upper hemisphere.
+    fn irradiance(f: impl Fn(DVec3) -> f64) -> f64 {
+        let (nz, na) = (128, 256);
+        let mut e = 0.0;
+        for j in 0..nz {
+            let th = 0.5 * std::f64::consts::PI * (j as f64 + 0.5) / nz as f64;
+            let w = th.sin()
+                * th.cos()
+                * (0.5 * std::f64::consts::PI / nz as f64)
+                * (2.0 * std::f64::consts::PI / na as f64);
+            for i in 0..na {
+                let az = 2.0 * std::f64::consts::PI * (i as f64 + 0.5) / na as f64;
+                e += f(DVec3::new(
+                    th.sin() * az.sin(),
+                    th.cos(),
+                    th.sin() * az.cos(),
+                )) * w;
+            }
+        }
+        e
+    }
+
+    #[test]
+    fn the_sky_carries_spectral2s_diffuse_irradiance_in_every_band() {
+        let s = paris_noon();
+        // ȳ-weighted, from the RGB sky: Y of linear Rec.709.
+        let y = |c: DVec3| 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
+        let e_rgb = irradiance(|d| y(s.sky_rgb(d)));
+        assert!(
+            (e_rgb / s.diffuse_y() - 1.0).abs() < 0.01,
+            "{e_rgb} vs {}",
+            s.diffuse_y()
+        );
+        // In near-infrared bands the sky's irradiance is SPCTRAL2's diffuse, exactly by
+        // construction; in a visible band, close (the daylight spectrum's shape).
+        for (lo, hi, tol) in [
+            (850.0, 880.0, 0.01),
+            (1550.0, 1650.0, 0.01),
+            (540.0, 570.0, 0.1),
+        ] {
+            let b = Band::flat("b", lo, hi);
+            let e = irradiance(|d| s.sky_band(d, &b));
+            let want = SunSky::band_mean(&b, |nm| s.at(nm).1);
+            assert!((e / want - 1.0).abs() < tol, "{lo}-{hi} nm: {e} vs {want}");
+        }
+    }
+
+    #[test]
+    fn sun_rgb_and_bands_agree_with_spectral2() {
+        let s = paris_noon();
+        let rgb = s.sun_rgb();
+        // A clear high sun (`lamina sky` prints [169.30, 145.11, 120.45] for 14:30): in
+        // the ȳ convention Y = ∫ E ȳ dλ, about 107 nm times the visible mean of E.
+        let y = 0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z;
+        assert!((130.0..170.0).contains(&y), "{rgb}");
+        assert!(rgb.x > rgb.z, "{rgb}");
+        let nir = s.sun_band(&Band::flat("nir", 850.0, 880.0));
+        let direct = s.spectrum().direct_normal[565]; // 865 nm
+        assert!((nir / direct - 1.0).abs() < 0.05, "{nir} vs {direct}");
+        // Below the horizon: no sky.
+        assert_eq!(
+            s.sky_rgb(DVec3::new(0.0, -0.5, 0.8).normalize()),
+            DVec3::ZERO
+        );
+    }
+
+    #[test]
+    fn a_sun_below_the_horizon_names_the_time() {
+        let p = SunSkyParams::new(
+            Observer {
+                latitude: 48.8566,
+                longitude: 2.3522,
+                elevation: 0.0,
+            },
+            crate::parse_local_time("2024-06-21T02:00:00+02:00").unwrap(),
+        );
+        let e = SunSky::new(&p).unwrap_err();
+        assert_eq!(e.field, "time");
+        assert!(e.message.contains("below the horizon"), "{e}");
+    }
+}

@@ -318,6 +318,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     } else {
         args.output.clone()
     };
+    if args.gpu {
+        crate::gpu_cmd::check_flags(&args.flags)?;
+    }
     if splitting {
         if args.gpu {
             bail!("--part and --crop split the offline render; they do not apply to --gpu");
@@ -359,7 +362,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         );
     }
     if args.gpu {
-        return crate::gpu_cmd::render_gpu(&scene, &label, &outputs);
+        return crate::gpu_cmd::render_gpu(&scene, &label, &outputs, args.flags.spp);
     }
     if !args.flags.quiet && !std::io::stderr().is_terminal() {
         eprintln!(

@@ -176,3 +176,77 @@ fn ctrl_c_closes_the_view_without_a_screenshot() {
     assert!(log.contains("no screenshot written"), "{log}");
     assert!(!d.join("shot.png").exists(), "{log}");
 }
+
+#[test]
+fn render_gpu_refuses_flags_that_do_not_apply() {
+    let d = tmp_dir("flags");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/leaf_cards.toml");
+    for (flag, value, words) in [
+        ("--seed", "3", "no random numbers"),
+        ("--threads", "2", "CPU threads"),
+        ("--time-limit", "1", "progressive"),
+    ] {
+        let out = d.join("x.png");
+        let o = lamina()
+            .args(["render", "--gpu", flag, value])
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .expect("run lamina");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{flag}: {stderr}");
+        assert!(
+            stderr.contains(flag)
+                && stderr.contains("does not apply to --gpu")
+                && stderr.contains(words),
+            "{flag}: {stderr}"
+        );
+        assert!(!out.exists());
+    }
+}
+
+#[test]
+fn render_gpu_spp_is_supersampling() {
+    let d = tmp_dir("spp");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/leaf_cards.toml");
+    let mut images = Vec::new();
+    for spp in ["1", "10"] {
+        let out = d.join(format!("spp{spp}.png"));
+        let o = lamina()
+            .args(["render", "--gpu", "--spp", spp])
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .expect("run lamina");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        if !o.status.success()
+            && stderr.contains("no GPU adapter")
+            && std::env::var_os("CI").is_none()
+        {
+            eprintln!("skipped: no Vulkan adapter (apt-get install -y mesa-vulkan-drivers)");
+            return;
+        }
+        assert!(o.status.success(), "{stderr}");
+        if spp == "1" {
+            assert!(stderr.contains("1 samples per pixel (1x1"), "{stderr}");
+        } else {
+            // 10 is not a square: the nearest grid, said so.
+            assert!(stderr.contains("3x3 = 9 samples per pixel"), "{stderr}");
+        }
+        images.push(image::open(&out).expect("a PNG").to_rgb8());
+    }
+    // The same picture, smoother edges: close on average, not identical.
+    let diff: f64 = images[0]
+        .pixels()
+        .zip(images[1].pixels())
+        .map(|(a, b)| {
+            (0..3)
+                .map(|k| (a.0[k] as f64 - b.0[k] as f64).abs())
+                .sum::<f64>()
+        })
+        .sum::<f64>()
+        / (3.0 * images[0].pixels().len() as f64);
+    assert!(diff > 0.0 && diff < 6.0, "mean |difference| {diff}");
+}

@@ -146,7 +146,7 @@ impl Response {
             }
         }
         let peak = samples.iter().map(|s| s.1).fold(0.0f32, f32::max);
-        if !(peak > 0.0) {
+        if peak <= 0.0 {
             return Err(err(0, "the response is 0 everywhere".into()));
         }
         let mut r = Response {

@@ -16,25 +16,36 @@ fn tmp_dir(name: &str) -> std::path::PathBuf {
     d
 }
 
-#[test]
-fn render_gpu_writes_the_film_sized_png() {
-    let out = tmp_dir("render").join("cards.png");
+/// `lamina render --gpu EXTRA... examples/leaf_cards.toml -o OUT`: its stderr, or `None`
+/// (with a note) when the machine has no Vulkan adapter and `CI` is not set. Panics if the
+/// render fails otherwise.
+fn render_cards_gpu(extra: &[&str], out: &Path) -> Option<String> {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/leaf_cards.toml");
     let o = lamina()
         .args(["render", "--gpu"])
+        .args(extra)
         .arg(&scene)
         .arg("-o")
-        .arg(&out)
+        .arg(out)
         .output()
         .expect("run lamina");
-    let stderr = String::from_utf8_lossy(&o.stderr);
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
     if !o.status.success() && stderr.contains("no GPU adapter") && std::env::var_os("CI").is_none()
     {
         eprintln!("skipped: no Vulkan adapter (apt-get install -y mesa-vulkan-drivers)");
         assert!(stderr.contains("mesa-vulkan-drivers"), "{stderr}");
-        return;
+        return None;
     }
     assert!(o.status.success(), "{stderr}");
+    Some(stderr)
+}
+
+#[test]
+fn render_gpu_writes_the_film_sized_png() {
+    let out = tmp_dir("render").join("cards.png");
+    if render_cards_gpu(&[], &out).is_none() {
+        return;
+    }
     let img = image::open(&out).expect("a PNG").to_rgb8();
     assert_eq!(img.dimensions(), (480, 360));
     // Not blank: sky above, lit leaves and ground below give a spread of values.
@@ -209,26 +220,12 @@ fn render_gpu_refuses_flags_that_do_not_apply() {
 #[test]
 fn render_gpu_spp_is_supersampling() {
     let d = tmp_dir("spp");
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/leaf_cards.toml");
     let mut images = Vec::new();
     for spp in ["1", "10"] {
         let out = d.join(format!("spp{spp}.png"));
-        let o = lamina()
-            .args(["render", "--gpu", "--spp", spp])
-            .arg(&scene)
-            .arg("-o")
-            .arg(&out)
-            .output()
-            .expect("run lamina");
-        let stderr = String::from_utf8_lossy(&o.stderr);
-        if !o.status.success()
-            && stderr.contains("no GPU adapter")
-            && std::env::var_os("CI").is_none()
-        {
-            eprintln!("skipped: no Vulkan adapter (apt-get install -y mesa-vulkan-drivers)");
+        let Some(stderr) = render_cards_gpu(&["--spp", spp], &out) else {
             return;
-        }
-        assert!(o.status.success(), "{stderr}");
+        };
         if spp == "1" {
             assert!(stderr.contains("1 samples per pixel (1x1"), "{stderr}");
         } else {

@@ -63,6 +63,23 @@ pub enum MeasuredError {
     },
 }
 
+/// The lines of a numeric table file that hold something: `(1-based line, trimmed text,
+/// fields)`, fields separated by commas, semicolons or white space; blank lines, `#`
+/// comments and a byte-order mark skipped. Shared by the spectrum and response-curve readers.
+pub(crate) fn table_lines(text: &str) -> impl Iterator<Item = (usize, &str, Vec<&str>)> {
+    text.lines().enumerate().filter_map(|(k, raw)| {
+        let s = raw.trim().trim_start_matches('\u{feff}');
+        if s.is_empty() || s.starts_with('#') {
+            return None;
+        }
+        let fields = s
+            .split(|c: char| c == ',' || c == ';' || c.is_whitespace())
+            .filter(|f| !f.is_empty())
+            .collect();
+        Some((k + 1, s, fields))
+    })
+}
+
 impl MeasuredSpectrum {
     /// Reads and checks a spectrum file (see the module docs).
     pub fn read(path: &Path) -> Result<Self, MeasuredError> {
@@ -98,16 +115,7 @@ impl MeasuredSpectrum {
         let mut columns: Option<(usize, usize)> = None; // (count, first data line)
         let mut seen_data_or_header = false;
         let mut rows: Vec<(usize, [f64; 3])> = Vec::new();
-        for (k, raw) in text.lines().enumerate() {
-            let line = k + 1;
-            let s = raw.trim().trim_start_matches('\u{feff}');
-            if s.is_empty() || s.starts_with('#') {
-                continue;
-            }
-            let fields: Vec<&str> = s
-                .split(|c: char| c == ',' || c == ';' || c.is_whitespace())
-                .filter(|f| !f.is_empty())
-                .collect();
+        for (line, _, fields) in table_lines(text) {
             let numbers: Vec<Option<f64>> = fields.iter().map(|f| f.parse::<f64>().ok()).collect();
             if numbers.iter().any(Option::is_none) {
                 if !seen_data_or_header {

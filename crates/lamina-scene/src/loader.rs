@@ -118,20 +118,7 @@ pub fn reload_settings(
         let camera = crate::table::camera::read(&ld, &doc.camera)?;
         let film = crate::table::film::read(&ld, doc.film.as_ref())?;
         let integrator = crate::table::integrator::read(&ld, doc.integrator.as_ref())?;
-        let (sky, sky_sun) = match doc.sky.as_ref() {
-            Some(s) => {
-                let (sky, sun) = crate::table::sky::read(&ld, s)?;
-                (Some(sky), sun)
-            }
-            None => (None, None),
-        };
-        let mut lights = doc
-            .light
-            .iter()
-            .enumerate()
-            .map(|(i, l)| crate::light::read(&ld, i, l))
-            .collect::<Result<Vec<_>, _>>()?;
-        lights.extend(sky_sun);
+        let (sky, lights) = ld.sky_and_lights(&doc)?;
         let mut changed = Vec::new();
         for (i, m) in doc.material.iter().enumerate() {
             if mats_was[i] == mats_now[i] {
@@ -413,13 +400,9 @@ impl Loader {
         Ok(())
     }
 
-    /// Reads the tables in order: camera, film, integrator, sky, lights, materials (names
-    /// unique), objects (which may add the materials of the files they import).
-    fn build(&self, doc: SceneFile) -> Result<Scene, SceneError> {
-        self.check_types(&doc)?;
-        let camera = crate::table::camera::read(self, &doc.camera)?;
-        let film = crate::table::film::read(self, doc.film.as_ref())?;
-        let integrator = crate::table::integrator::read(self, doc.integrator.as_ref())?;
+    /// Reads `[sky]` and the `[[light]]` tables; a physical sky's sun is added as the last
+    /// light (band renders find it there).
+    fn sky_and_lights(&self, doc: &SceneFile) -> Result<(Option<Sky>, Vec<Light>), SceneError> {
         let (sky, sky_sun) = match doc.sky.as_ref() {
             Some(s) => {
                 let (sky, sun) = crate::table::sky::read(self, s)?;
@@ -427,7 +410,6 @@ impl Loader {
             }
             None => (None, None),
         };
-        // A physical sky's sun is the last light (band renders find it there).
         let mut lights = doc
             .light
             .iter()
@@ -435,6 +417,17 @@ impl Loader {
             .map(|(i, l)| crate::light::read(self, i, l))
             .collect::<Result<Vec<_>, _>>()?;
         lights.extend(sky_sun);
+        Ok((sky, lights))
+    }
+
+    /// Reads the tables in order: camera, film, integrator, sky, lights, materials (names
+    /// unique), objects (which may add the materials of the files they import).
+    fn build(&self, doc: SceneFile) -> Result<Scene, SceneError> {
+        self.check_types(&doc)?;
+        let camera = crate::table::camera::read(self, &doc.camera)?;
+        let film = crate::table::film::read(self, doc.film.as_ref())?;
+        let integrator = crate::table::integrator::read(self, doc.integrator.as_ref())?;
+        let (sky, lights) = self.sky_and_lights(&doc)?;
         let mut materials = Vec::new();
         let mut by_name = HashMap::new();
         for (i, m) in doc.material.iter().enumerate() {

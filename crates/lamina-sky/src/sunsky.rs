@@ -144,21 +144,8 @@ impl SunSky {
             .filter(|(_, nm)| (360.0..=830.0).contains(nm))
             .map(|(i, nm)| cie_xyz_bar(nm as f32).y as f64 * spectrum.diffuse_horizontal[i])
             .sum();
-        // Preetham's horizontal irradiance (ȳ-weighted), by a fine midpoint rule.
-        let (nz, na) = (256, 512);
-        let mut e_p = 0.0;
-        for j in 0..nz {
-            let th = 0.5 * std::f64::consts::PI * (j as f64 + 0.5) / nz as f64;
-            let w = th.sin()
-                * th.cos()
-                * (0.5 * std::f64::consts::PI / nz as f64)
-                * (2.0 * std::f64::consts::PI / na as f64);
-            for i in 0..na {
-                let az = 2.0 * std::f64::consts::PI * (i as f64 + 0.5) / na as f64;
-                let d = DVec3::new(th.sin() * az.sin(), th.cos(), th.sin() * az.cos());
-                e_p += preetham.xyz(d).y * w;
-            }
-        }
+        // Preetham's horizontal irradiance (ȳ-weighted).
+        let e_p = horizontal_irradiance(256, |d| preetham.xyz(d).y);
         let scale = if e_p > 0.0 { diffuse_y / e_p } else { 0.0 };
         Ok(SunSky {
             sun,
@@ -262,6 +249,27 @@ impl SunSky {
     }
 }
 
+/// `∫ f(ω) cos θ dω` over the upper hemisphere (y up) by the midpoint rule on
+/// `n x 2n` cells in (zenith, azimuth).
+pub fn horizontal_irradiance(n: usize, f: impl Fn(DVec3) -> f64) -> f64 {
+    use std::f64::consts::PI;
+    let na = 2 * n;
+    let mut e = 0.0;
+    for j in 0..n {
+        let th = 0.5 * PI * (j as f64 + 0.5) / n as f64;
+        let w = th.sin() * th.cos() * (0.5 * PI / n as f64) * (2.0 * PI / na as f64);
+        for i in 0..na {
+            let az = 2.0 * PI * (i as f64 + 0.5) / na as f64;
+            e += f(DVec3::new(
+                th.sin() * az.sin(),
+                th.cos(),
+                th.sin() * az.cos(),
+            )) * w;
+        }
+    }
+    e
+}
+
 /// An equirectangular map `width x width / 2` of `f(direction in the sky's frame)`, in the
 /// orientation of lamina's sky maps: pixel `(i, j)` looks along the scene direction
 /// `d = (sin θ sin φ, cos θ, -sin θ cos φ)` with `φ = -π + 2π (i + ½) / width`,
@@ -305,24 +313,7 @@ mod tests {
 
     /// Horizontal irradiance of `f` over the upper hemisphere.
     fn irradiance(f: impl Fn(DVec3) -> f64) -> f64 {
-        let (nz, na) = (128, 256);
-        let mut e = 0.0;
-        for j in 0..nz {
-            let th = 0.5 * std::f64::consts::PI * (j as f64 + 0.5) / nz as f64;
-            let w = th.sin()
-                * th.cos()
-                * (0.5 * std::f64::consts::PI / nz as f64)
-                * (2.0 * std::f64::consts::PI / na as f64);
-            for i in 0..na {
-                let az = 2.0 * std::f64::consts::PI * (i as f64 + 0.5) / na as f64;
-                e += f(DVec3::new(
-                    th.sin() * az.sin(),
-                    th.cos(),
-                    th.sin() * az.cos(),
-                )) * w;
-            }
-        }
-        e
+        horizontal_irradiance(128, f)
     }
 
     #[test]

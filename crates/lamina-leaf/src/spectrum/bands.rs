@@ -176,16 +176,7 @@ impl Response {
     pub fn parse(text: &str) -> Result<Response, ResponseError> {
         let mut samples = Vec::new();
         let mut lines = Vec::new();
-        for (k, raw) in text.lines().enumerate() {
-            let line = k + 1;
-            let s = raw.trim().trim_start_matches('\u{feff}');
-            if s.is_empty() || s.starts_with('#') {
-                continue;
-            }
-            let fields: Vec<&str> = s
-                .split(|c: char| c == ',' || c == ';' || c.is_whitespace())
-                .filter(|f| !f.is_empty())
-                .collect();
+        for (line, s, fields) in crate::measured::table_lines(text) {
             let nums: Vec<Option<f32>> = fields.iter().map(|f| f.parse::<f32>().ok()).collect();
             if samples.is_empty() && lines.is_empty() && nums.iter().any(Option::is_none) {
                 lines.push(0); // the header

@@ -25,4 +25,7 @@ if [ "$rc" -ne 0 ]; then exit "$rc"; fi
 if [ "$(id -u)" -ne 0 ]; then skip "the local cluster needs root"; fi
 if ! unshare --net true 2>/dev/null; then skip "no network namespaces here (unshare --net failed)"; fi
 
-LAMINA_SLURM_TEST=1 cargo test --release -p lamina-cli --test slurm -- --nocapture
+# `--workspace` (the test is lamina-cli's): the same feature unification as `cargo test
+# --release --workspace` before it, so nothing is compiled again (with `-p lamina-cli` cargo
+# resolves features for that package alone and rebuilds some 50 crates).
+LAMINA_SLURM_TEST=1 cargo test --release --workspace --test slurm -- --nocapture

@@ -89,8 +89,26 @@ fn main() -> ExitCode {
             ExitCode::from(lamina_io::interrupt::EXIT_CODE)
         }
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_text(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes joined by ": ", as anyhow's `{:#}` writes them, leaving out a
+/// cause whose text the message before it already ends with: lamina's library errors (a
+/// failed write, an unreadable leaf map) say their cause in their own message and also
+/// return it as their `source()`, and it should be printed once.
+fn error_text(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let t = cause.to_string();
+        if text.is_empty() {
+            text = t;
+        } else if !text.ends_with(&t) {
+            text.push_str(": ");
+            text.push_str(&t);
+        }
+    }
+    text
 }

@@ -491,3 +491,20 @@ fn sheets_glb_screenshots_and_the_demo_refuse_a_users_file() {
         ]
     );
 }
+
+/// An error whose message already ends with its cause prints the cause once.
+#[test]
+fn an_os_error_is_printed_once() {
+    let root = scratch("cause-once");
+    tiny_scene(&root);
+    // /proc takes no new files: the write fails with an OS error.
+    let o = run(&["render", "s.toml", "-o", "/proc/lamina-test.png"], &root);
+    let e = stderr(&o);
+    assert!(!o.status.success(), "{e}");
+    assert_eq!(e.matches("os error").count(), 1, "{e}");
+    // A leaf folder that is not there.
+    let o = run(&["leaf", "albedo", "no-such-leaf", "-o", "a.csv"], &root);
+    let e = stderr(&o);
+    assert!(!o.status.success(), "{e}");
+    assert_eq!(e.matches("os error").count(), 1, "{e}");
+}

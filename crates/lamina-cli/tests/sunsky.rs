@@ -49,6 +49,7 @@ fn a_white_floor_reflects_spectral2s_horizontal_irradiance_in_rgb_and_in_bands()
     let sun = m.sun_rgb();
     let sun_y = 0.2126 * sun.x + 0.7152 * sun.y + 0.0722 * sun.z;
     let want = 0.5 * (sun_y * cosz + m.diffuse_y()) / std::f64::consts::PI;
+    eprintln!("RGB (ȳ): floor {y:.4}, SPCTRAL2 {want:.4}");
     assert!((y / want - 1.0).abs() < 0.02, "Y {y}, expected {want}");
     // A near-infrared band: 0.5 (E_sun(band) cos z + E_diffuse(band)) / π, per nm.
     std::fs::write(
@@ -70,6 +71,7 @@ fn a_white_floor_reflects_spectral2s_horizontal_irradiance_in_rgb_and_in_bands()
             / (hi - lo) as f64;
         let want = 0.5 * (m.sun_band(&band) * cosz + diffuse) / std::f64::consts::PI;
         let got = mean(&c[name]);
+        eprintln!("{name} {lo}-{hi} nm: floor {got:.5}, SPCTRAL2 {want:.5} W/(m² sr nm)");
         assert!(
             (got / want - 1.0).abs() < 0.02,
             "{name}: {got}, expected {want}"
@@ -81,6 +83,7 @@ fn a_white_floor_reflects_spectral2s_horizontal_irradiance_in_rgb_and_in_bands()
     let c = channels(&d.join("nosun.exr"));
     let y = 0.2126 * mean(&c["R"]) + 0.7152 * mean(&c["G"]) + 0.0722 * mean(&c["B"]);
     let want = 0.5 * m.diffuse_y() / std::f64::consts::PI;
+    eprintln!("sky only (ȳ): floor {y:.4}, SPCTRAL2 {want:.4}");
     assert!(
         (y / want - 1.0).abs() < 0.02,
         "sky only: Y {y}, expected {want}"

@@ -71,7 +71,7 @@ const BANDS: [(&str, f64, f64); 8] = [
 
 /// `lamina sky`.
 pub fn run(a: &SkyArgs) -> anyhow::Result<()> {
-    use lamina_sky::{Observer, SolarQuery, Spectral2Query, UniformGrid};
+    use lamina_sky::{Observer, UniformGrid};
     for p in a.out.iter().chain(a.spectrum.iter()) {
         claim(p, a.force, &[])?;
     }
@@ -89,14 +89,24 @@ pub fn run(a: &SkyArgs) -> anyhow::Result<()> {
         longitude: a.longitude,
         elevation: a.elevation,
     };
-    // One air pressure for refraction and for the spectrum.
-    let pressure = a
-        .pressure
-        .unwrap_or(1013.25 * (1.0 - 2.25577e-5 * a.elevation).max(0.0).powf(5.25588));
-    let mut sq = SolarQuery::new(observer, time);
-    sq.pressure = pressure;
-    let sun = lamina_sky::solar_position(&sq)
-        .map_err(|e| anyhow::anyhow!("--{}: {e}", e.field().replace('_', "-")))?;
+    // One model of the sun and sky, as `[sky] type = "sunsky"` makes them: SPA, SPCTRAL2
+    // and Preetham, with one air pressure for refraction and for the spectrum.
+    let mut params = lamina_sky::SunSkyParams::new(observer, time);
+    params.turbidity = a.turbidity;
+    params.aod500 = a.aod;
+    params.water = a.water;
+    params.ozone = a.ozone;
+    params.ground_albedo = a.ground_albedo;
+    params.pressure = a.pressure;
+    let model = lamina_sky::SunSky::new(&params).map_err(|e| {
+        let flag = match e.field {
+            "aod500" => "aod",
+            "precipitable_water" => "water",
+            f => f,
+        };
+        anyhow::anyhow!("--{}: {e}", flag.replace('_', "-"))
+    })?;
+    let sun = model.sun();
     eprintln!(
         "sun at {:.4}° N {:.4}° E, {}: zenith {:.3}° (apparent; geometric {:.3}°), azimuth {:.3}° \
          (clockwise from north), elevation {:.3}°",
@@ -108,12 +118,6 @@ pub fn run(a: &SkyArgs) -> anyhow::Result<()> {
         sun.azimuth,
         sun.elevation()
     );
-    if sun.zenith >= 90.0 {
-        bail!(
-            "the sun is below the horizon then (zenith {:.2}°): no clear-sky model applies",
-            sun.zenith
-        );
-    }
     let d = sun.direction;
     eprintln!(
         "  direction toward the sun (x east, y up, z south): [{:.5}, {:.5}, {:.5}]",
@@ -121,18 +125,14 @@ pub fn run(a: &SkyArgs) -> anyhow::Result<()> {
     );
 
     // The solar spectrum at the ground.
-    let mut q = Spectral2Query::for_sun(&sun);
-    q.pressure = pressure;
-    q.aod500 = a.aod;
-    q.precipitable_water = a.water;
-    q.ozone = a.ozone;
-    q.ground_albedo = a.ground_albedo;
-    let s = q
-        .compute()
-        .map_err(|e| anyhow::anyhow!("SPCTRAL2 input `{}`: {e}", e.field()))?;
+    let s = model.spectral2();
     eprintln!(
         "clear-sky irradiance (SPCTRAL2, AOD500 {}, water {} cm, ozone {} atm-cm, {:.1} hPa, air mass {:.3}), W/m²:",
-        a.aod, a.water, a.ozone, q.pressure, s.relative_air_mass
+        a.aod,
+        a.water,
+        a.ozone,
+        model.pressure(),
+        s.relative_air_mass
     );
     eprintln!(
         "  {:<18} {:>10} {:>11} {:>11} {:>9}",
@@ -148,17 +148,8 @@ pub fn run(a: &SkyArgs) -> anyhow::Result<()> {
             100.0 * b.diffuse_fraction()
         );
     }
-    // The sun and sky of the same atmosphere, as `[sky] type = "sunsky"` makes them: the sun
-    // as an RGB light (the direct normal spectrum through the CIE observer, Y = ∫ E ȳ dλ).
-    let mut params = lamina_sky::SunSkyParams::new(observer, time);
-    params.turbidity = a.turbidity;
-    params.aod500 = a.aod;
-    params.water = a.water;
-    params.ozone = a.ozone;
-    params.ground_albedo = a.ground_albedo;
-    params.pressure = Some(pressure);
-    let model = lamina_sky::SunSky::new(&params)
-        .map_err(|e| anyhow::anyhow!("--{}: {e}", e.field.replace('_', "-")))?;
+    // The sun as an RGB light: the direct normal spectrum through the CIE observer,
+    // Y = ∫ E ȳ dλ.
     let rgb = model.sun_rgb();
     eprintln!(
         "  the sun for a scene: type = \"sun\", position = {{ latitude = {}, longitude = {}, time = \"{}\" }}, \

@@ -22,7 +22,7 @@
 use crate::preetham::{PreethamSky, SkyError, xyz_to_linear_rec709};
 use crate::solar_position::LocalTime;
 use crate::solar_position::{Observer, SolarPosition, SolarQuery, solar_position};
-use crate::spectral2::{ResampledSpectrum, Spectral2Query, UniformGrid};
+use crate::spectral2::{ResampledSpectrum, Spectral2Query, Spectral2Spectrum, UniformGrid};
 use glam::DVec3;
 use lamina_leaf::spectrum::bands::Band;
 use lamina_leaf::spectrum::cie_xyz_bar;
@@ -81,6 +81,10 @@ pub struct SunSkyError {
 pub struct SunSky {
     sun: SolarPosition,
     preetham: PreethamSky,
+    /// SPCTRAL2's spectra on its own wavelengths, 300-4000 nm.
+    spectral2: Spectral2Spectrum,
+    /// Surface air pressure used, hPa.
+    pressure: f64,
     /// SPCTRAL2 at 1 nm over 300-2500 nm.
     spectrum: ResampledSpectrum,
     /// Preetham's radiance times this is the sky's (ȳ-weighted).
@@ -150,6 +154,8 @@ impl SunSky {
         Ok(SunSky {
             sun,
             preetham,
+            spectral2: s,
+            pressure,
             spectrum,
             scale,
             diffuse_y,
@@ -175,6 +181,16 @@ impl SunSky {
             }
         }
         xyz_to_linear_rec709(xyz)
+    }
+
+    /// SPCTRAL2's spectra on its own wavelengths (300-4000 nm), for band integrals.
+    pub fn spectral2(&self) -> &Spectral2Spectrum {
+        &self.spectral2
+    }
+
+    /// The surface air pressure used for refraction and the spectrum, hPa.
+    pub fn pressure(&self) -> f64 {
+        self.pressure
     }
 
     /// The SPCTRAL2 spectra at 1 nm over 300-2500 nm (direct normal, direct and diffuse

@@ -28,16 +28,11 @@ pub fn render_bands(
     // must hold the same samples).
     let mut sums: Vec<Vec<f64>> = vec![Vec::new(); bands.len()];
     let mut first_stats: Option<lamina_render::RenderStats> = None;
-    let groups: Vec<Vec<usize>> = (0..bands.len())
-        .collect::<Vec<_>>()
-        .chunks(3)
-        .map(|c| c.to_vec())
-        .collect();
+    let groups = lamina_render::bands::band_groups(bands.len());
     let t0 = std::time::Instant::now();
     for (g, idx) in groups.iter().enumerate() {
-        let pick = |k: usize| &bands[idx[k.min(idx.len() - 1)]];
         let names: Vec<&str> = idx.iter().map(|&i| bands[i].name.as_str()).collect();
-        let banded = lamina_render::bands::band_scene(scene, [pick(0), pick(1), pick(2)])
+        let banded = lamina_render::bands::group_scene(scene, bands, idx)
             .with_context(|| format!("bands {}", names.join(", ")))?;
         let group_label = format!("{label} [{}]", names.join(", "));
         let (mut opts, bar) = options(flags, &group_label, false)?;

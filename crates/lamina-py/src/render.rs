@@ -127,21 +127,15 @@ fn run_render(
             }
             Some(sp) => {
                 let bands = &sp.bands;
-                let groups: Vec<Vec<usize>> = (0..bands.len())
-                    .collect::<Vec<_>>()
-                    .chunks(3)
-                    .map(<[usize]>::to_vec)
-                    .collect();
+                let groups = lamina_render::bands::band_groups(bands.len());
                 let k_all = bands.len();
                 let mut data: Vec<f32> = Vec::new();
                 let mut stats = Vec::new();
                 let (mut w, mut h) = (0, 0);
                 for (g, idx) in groups.iter().enumerate() {
                     *group.lock().unwrap_or_else(|e| e.into_inner()) = (g, groups.len());
-                    let pick = |k: usize| &bands[idx[k.min(idx.len() - 1)]];
-                    let banded =
-                        lamina_render::bands::band_scene(&scene_arc, [pick(0), pick(1), pick(2)])
-                            .map_err(|e| e.to_string())?;
+                    let banded = lamina_render::bands::group_scene(&scene_arc, bands, idx)
+                        .map_err(|e| e.to_string())?;
                     let out = one(&banded)?;
                     if out.stats.passes_done == 0 {
                         break; // cancelled

@@ -57,6 +57,22 @@ pub fn band_scene(scene: &Scene, bands: [&Band; 3]) -> Result<Scene, RenderError
     Ok(s)
 }
 
+/// How `count` bands render: the indices of up to three bands per render, in order.
+pub fn band_groups(count: usize) -> Vec<Vec<usize>> {
+    (0..count)
+        .collect::<Vec<_>>()
+        .chunks(3)
+        .map(<[usize]>::to_vec)
+        .collect()
+}
+
+/// [`band_scene`] for the bands `group` of `bands` (one of [`band_groups`]); a group of
+/// fewer than three repeats its last band in the spare channels.
+pub fn group_scene(scene: &Scene, bands: &[Band], group: &[usize]) -> Result<Scene, RenderError> {
+    let pick = |k: usize| &bands[group[k.min(group.len() - 1)]];
+    band_scene(scene, [pick(0), pick(1), pick(2)])
+}
+
 /// A texture with `f` applied to the RGB of every texel (alpha kept).
 fn map_texture(t: &Texture, f: impl Fn(Vec3) -> Vec3) -> Texture {
     let texels: Vec<Vec4> = t

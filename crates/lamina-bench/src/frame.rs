@@ -34,6 +34,7 @@ pub fn frame_tree_scene(leaves: u32, size: (u32, u32)) -> Result<Scene, lamina_p
     let radius = 0.5 * (hi - lo).length();
     let dist = radius / (20f32.to_radians().tan());
     Ok(Scene {
+        radiometry: Default::default(),
         camera: Camera {
             position: target + Vec3::new(0.0, 0.25, 1.0).normalize() * dist,
             look_at: target,

@@ -237,6 +237,7 @@ pub fn tree_scene(
     );
     let eye = center + dir * dist;
     Scene {
+        radiometry: Default::default(),
         camera: Camera {
             position: eye,
             look_at: center,

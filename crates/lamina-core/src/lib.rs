@@ -10,7 +10,9 @@
 #![forbid(unsafe_code)]
 
 pub mod cards;
+pub mod radiometry;
 pub mod scene;
 pub mod transform;
 
+pub use radiometry::Radiometry;
 pub use scene::*;

@@ -31,6 +31,8 @@ pub struct Scene {
     pub prototypes: Vec<Prototype>,
     /// Placements of [`Scene::prototypes`].
     pub instances: Vec<Instance>,
+    /// The periodic domain, sensors and object provenance (empty for a picture only).
+    pub radiometry: crate::Radiometry,
 }
 
 /// A pinhole or thin-lens perspective camera.

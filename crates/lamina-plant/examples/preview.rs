@@ -32,6 +32,7 @@ fn scene_for(
     )];
     all.extend(meshes);
     Scene {
+        radiometry: Default::default(),
         camera: Camera {
             position: eye,
             look_at: target,

@@ -199,6 +199,7 @@ mod tests {
         let [lo, hi] = plant.stats.bounds;
         let c = 0.5 * (lo + hi);
         let scene = |meshes, materials, prototypes, instances| Scene {
+            radiometry: Default::default(),
             camera: Camera {
                 position: c + Vec3::new(0.3, 0.4, 1.0) * (hi - lo).length(),
                 look_at: c,

@@ -64,6 +64,7 @@ fn leaf_panel(leaf: &BuiltinLeaf, sun_dir: Vec3, sun: Vec3, size: (u32, u32), sp
     append_cards(&mut mesh, &[card]);
     let dist = 1.25 * h / (20f32.to_radians().tan() * 2.0) + 0.0;
     Scene {
+        radiometry: Default::default(),
         camera: Camera {
             position: Vec3::new(0.0, 0.0, dist),
             look_at: Vec3::ZERO,
@@ -176,6 +177,7 @@ pub fn bush_scene_with(
         elevation.cos() * azimuth.cos(),
     );
     Ok(Scene {
+        radiometry: Default::default(),
         camera: Camera {
             position: eye,
             look_at: target,

@@ -115,6 +115,7 @@ pub fn pbr_square(material: lamina_scene::PbrMaterial, size: u32, spp: u32) -> S
     use glam::Vec3;
     use lamina_scene::{Camera, Film, Integrator, Light, Material, Mesh, Sky};
     Scene {
+        radiometry: Default::default(),
         camera: Camera {
             position: Vec3::new(0.0, 0.0, 1.0),
             look_at: Vec3::ZERO,

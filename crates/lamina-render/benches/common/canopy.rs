@@ -96,6 +96,7 @@ pub fn canopy_meshes(n: u32, seed: u32) -> Vec<Mesh> {
 /// A full scene around [`canopy_meshes`]: sun, blue sky, leaf material with a leaf matte.
 pub fn canopy_scene(n: u32, width: u32, height: u32, spp: u32) -> Scene {
     Scene {
+        radiometry: Default::default(),
         camera: Camera {
             position: Vec3::new(9.0, 4.0, 14.0),
             look_at: Vec3::new(0.0, 4.0, 0.0),

@@ -25,6 +25,7 @@ fn alpha_matte_lets_camera_and_shadow_rays_through() {
     };
     let e = 100.0;
     let scene = Scene {
+        radiometry: Default::default(),
         camera: camera_at(20.0, 4.0), // ±0.7 m at the ground, nearly orthographic
         film: film(40, 8, 4),
         integrator: Integrator::Path {
@@ -81,6 +82,7 @@ fn alpha_tested_instances_cast_shadows_through_holes() {
     for (mirror, sun_x, lit, shadowed, card_px) in [(1.0, 1.0, 3, 15, 32), (-1.0, -1.0, 36, 24, 7)]
     {
         let scene = Scene {
+            radiometry: Default::default(),
             camera: camera_at(20.0, 4.0),
             film: film(40, 8, 4),
             integrator: Integrator::Path {

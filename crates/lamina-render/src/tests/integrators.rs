@@ -41,6 +41,7 @@ fn lambertian_card_matches_analytic_sun_value() {
                         let dir =
                             Vec3::new(th.sin(), 0.0, if front { th.cos() } else { -th.cos() });
                         let scene = Scene {
+                            radiometry: Default::default(),
                             camera: camera_at(1.0, 60.0),
                             film: film(16, 12, 4),
                             integrator,
@@ -91,6 +92,7 @@ fn furnace_scene() -> Scene {
         *p = Vec3::new(p.z - 0.2, p.y, p.x);
     }
     Scene {
+        radiometry: Default::default(),
         camera: camera_at(2.5, 50.0),
         film: film(24, 24, 256),
         integrator: Integrator::Path {

@@ -56,6 +56,7 @@ fn area_lights_match_analytic_irradiance() {
     ];
     for (light, e) in cases {
         let scene = Scene {
+            radiometry: Default::default(),
             camera: Camera {
                 position: Vec3::new(2.0, 0.0, 0.8),
                 look_at: Vec3::ZERO,
@@ -92,6 +93,7 @@ fn area_lights_match_analytic_irradiance() {
 fn image_sky_furnace() {
     let tex = Texture::from_texels(8, 4, vec![Vec4::new(0.5, 0.5, 0.5, 1.0); 32], Wrap::Repeat);
     let scene = Scene {
+        radiometry: Default::default(),
         camera: camera_at(2.0, 40.0),
         film: film(12, 12, 32),
         integrator: Integrator::Path {

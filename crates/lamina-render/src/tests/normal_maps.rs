@@ -29,6 +29,7 @@ fn pbr(normal_map: Option<NormalMap>) -> Material {
 
 fn scene(meshes: Vec<Mesh>, material: Material) -> Scene {
     Scene {
+        radiometry: Default::default(),
         camera: camera_at(3.0, 40.0),
         film: film(16, 16, 4),
         integrator: Integrator::Path {
@@ -286,6 +287,7 @@ fn pbr_furnace() {
         let mut p = PbrMaterial::uniform("w", Vec3::ONE, metallic, 0.5);
         p.normal_map = normal_map;
         let scene = Scene {
+            radiometry: Default::default(),
             camera: camera_at(2.5, 50.0),
             film: film(16, 16, 256),
             integrator: Integrator::Path {

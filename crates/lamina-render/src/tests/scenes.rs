@@ -112,6 +112,7 @@ pub(crate) fn small_canopy_scene() -> Scene {
         meshes.push(m);
     }
     Scene {
+        radiometry: Default::default(),
         camera: camera_at(3.0, 50.0),
         film: Film {
             filter: PixelFilter::Gaussian {
@@ -162,6 +163,7 @@ pub(crate) fn small_canopy_scene() -> Scene {
 /// and 1 (diffuse transmission 0.3 / 0.4).
 pub(crate) fn sphere_scene(mesh: Mesh, lights: Vec<Light>, sky: Option<Sky>) -> Scene {
     Scene {
+        radiometry: Default::default(),
         camera: camera_at(4.0, 40.0),
         film: film(24, 24, 8),
         integrator: Integrator::Path {

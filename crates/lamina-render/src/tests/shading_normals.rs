@@ -184,6 +184,7 @@ fn furnace_with_shading_normals() {
         *p = Vec3::new(p.x, p.y * 0.6, p.z + p.y * 0.8 + 0.3);
     }
     let scene = Scene {
+        radiometry: Default::default(),
         camera: camera_at(2.5, 50.0),
         film: film(24, 24, 256),
         integrator: Integrator::Path {

@@ -79,6 +79,7 @@ pub(super) fn random_rays(rng: &mut Rng, n: usize) -> Vec<Ray> {
 /// A scene of the given meshes, materials, prototypes and instances, with no lights.
 pub(super) fn scene(materials: Vec<Material>, meshes: Vec<Mesh>) -> Scene {
     Scene {
+        radiometry: Default::default(),
         camera: camera_at(5.0, 40.0),
         film: film(4, 4, 1),
         integrator: lamina_core::Integrator::Path {

@@ -86,7 +86,7 @@ impl Value {
     }
 
     /// The number as `f64` (integers too), or `None`.
-    fn number(&self) -> Option<f64> {
+    pub(crate) fn number(&self) -> Option<f64> {
         match self {
             Value::Integer(i) => Some(*i as f64),
             Value::Float(f) => Some(*f),

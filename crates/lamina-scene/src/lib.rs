@@ -26,10 +26,11 @@ mod object;
 pub mod overrides;
 #[cfg(test)]
 mod reference;
+mod sensor;
 mod table;
 
 pub use error::SceneError;
-pub use lamina_core::{scene, transform};
+pub use lamina_core::{radiometry, scene, transform};
 pub use loader::{
     SpectralOutput, load_scene, load_scene_with_output, parse_scene, parse_scene_with_output,
     reload_settings,

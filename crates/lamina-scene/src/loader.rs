@@ -135,6 +135,13 @@ pub fn reload_settings(
             }
             changed.push((i, crate::material::read(&ld, i, m)?));
         }
+        let by_name: HashMap<String, u32> = scene
+            .materials
+            .iter()
+            .enumerate()
+            .map(|(i, m)| (m.name().to_string(), i as u32))
+            .collect();
+        let radiometry = ld.radiometry(&doc, scene, &lights, &by_name)?;
         scene.camera = camera;
         scene.film = film;
         scene.integrator = integrator;
@@ -143,6 +150,7 @@ pub fn reload_settings(
         for (i, m) in changed {
             scene.materials[i] = m;
         }
+        scene.radiometry = radiometry;
         *spectral = ld.spectral.into_inner();
         Ok(())
     })
@@ -162,6 +170,9 @@ struct SceneFile {
     material: Vec<S<Table>>,
     #[serde(default)]
     object: Vec<S<Table>>,
+    domain: Option<S<Table>>,
+    #[serde(default)]
+    sensor: Vec<S<Table>>,
 }
 
 /// [`parse_scene`] with the scene-wide budgets `budgets` (tests use small ones).
@@ -397,7 +408,111 @@ impl Loader {
         for (i, o) in doc.object.iter().enumerate() {
             crate::object::check(self, i, o)?;
         }
+        if let Some(d) = &doc.domain {
+            crate::table::domain::check(self, d)?;
+        }
+        for (i, s) in doc.sensor.iter().enumerate() {
+            crate::sensor::check(self, i, s)?;
+        }
         Ok(())
+    }
+
+    /// Reads `[domain]` and the `[[sensor]]` tables into a copy of `scene.radiometry` (its
+    /// `objects` filled in), and checks them against the scene's geometry and `lights`: only
+    /// the sun and sky light a periodic domain, and every object fits the periodic cell.
+    fn radiometry(
+        &self,
+        doc: &SceneFile,
+        scene: &Scene,
+        lights: &[Light],
+        materials: &HashMap<String, u32>,
+    ) -> Result<lamina_core::Radiometry, SceneError> {
+        let mut out = lamina_core::Radiometry {
+            objects: scene.radiometry.objects.clone(),
+            ..Default::default()
+        };
+        let periodic = crate::table::domain::read(self, doc.domain.as_ref())?;
+        if let (Some(p), Some(dt)) = (&periodic, &doc.domain) {
+            for (i, l) in lights.iter().enumerate() {
+                if !matches!(l, Light::Sun { .. }) {
+                    let span = doc.light.get(i).map_or(dt.span(), |t| t.span());
+                    return Err(self.err(
+                        span,
+                        format!("light[{i}].type"),
+                        "only the sun and the sky can light a periodic domain (a lamp would repeat in every cell)",
+                    ));
+                }
+            }
+            out.periodic = Some(*p);
+            if scene.meshes.is_empty() && scene.instances.is_empty() {
+                return Err(self.err(
+                    dt.span(),
+                    "domain.periodic",
+                    "the periodic domain holds no geometry: its height range is empty",
+                ));
+            }
+            if let Err(e) = lamina_core::radiometry::periodic_copies(scene, &p.cell) {
+                let objects = &out.objects;
+                let at = objects.iter().position(|o| {
+                    e.mesh.is_some_and(|m| o.meshes.contains(&m))
+                        || e.instance.is_some_and(|i| o.instances.contains(&i))
+                });
+                return Err(match at {
+                    Some(k) => self.err(
+                        // The object's `name` (or `type`) line: a table's own span may start
+                        // at its header or before it.
+                        doc.object[k]
+                            .get_ref()
+                            .iter()
+                            .find(|(key, _)| key.get_ref() == "name")
+                            .or_else(|| {
+                                doc.object[k]
+                                    .get_ref()
+                                    .iter()
+                                    .find(|(key, _)| key.get_ref() == "type")
+                            })
+                            .map_or(doc.object[k].span(), |(key, _)| key.span()),
+                        format!("object[{k}]"),
+                        format!(
+                            "'{}' does not fit the periodic cell (domain.periodic): {}",
+                            objects[k].name, e.message
+                        ),
+                    ),
+                    None => self.err(dt.span(), "domain.periodic", e.message),
+                });
+            }
+        }
+        let channels: Vec<String> = match &*self.spectral.borrow() {
+            Some(s) => s.bands.iter().map(|b| b.name.clone()).collect(),
+            None => ["R", "G", "B"].map(String::from).to_vec(),
+        };
+        let cx = crate::sensor::Context {
+            cell: periodic.map(|p| p.cell),
+            materials,
+        };
+        out.sensors = doc
+            .sensor
+            .iter()
+            .enumerate()
+            .map(|(i, t)| crate::sensor::read(self, i, t, &cx, &channels))
+            .collect::<Result<_, _>>()?;
+        let distant_only = out
+            .sensors
+            .iter()
+            .any(|s| matches!(s.kind, lamina_core::radiometry::SensorKind::Absorbed { .. }));
+        if distant_only {
+            for (i, l) in lights.iter().enumerate() {
+                if !matches!(l, Light::Sun { .. }) {
+                    let span = doc.light.get(i).map_or(doc.camera.span(), |t| t.span());
+                    return Err(self.err(
+                        span,
+                        format!("light[{i}].type"),
+                        "an absorbed sensor counts the light of the sun and the sky only: this light would be left out",
+                    ));
+                }
+            }
+        }
+        Ok(out)
     }
 
     /// Reads `[sky]` and the `[[light]]` tables; a physical sky's sun is added as the last
@@ -447,8 +562,24 @@ impl Loader {
         let mut meshes = Vec::new();
         let mut prototypes = Vec::new();
         let mut instances = Vec::new();
+        let mut objects = Vec::new();
         for (i, o) in doc.object.iter().enumerate() {
             let g = crate::object::read(self, i, o, &by_name, &mut materials)?;
+            let name = o
+                .get_ref()
+                .iter()
+                .find(|(k, _)| k.get_ref() == "name")
+                .and_then(|(_, v)| match v.get_ref() {
+                    crate::dict::Value::String(s) => Some(s.clone()),
+                    _ => None,
+                })
+                .unwrap_or_else(|| format!("object[{i}]"));
+            let (m0, i0) = (meshes.len() as u32, instances.len() as u32);
+            objects.push(lamina_core::radiometry::ObjectRecord {
+                name,
+                meshes: m0..m0 + g.meshes.len() as u32,
+                instances: i0..i0 + g.instances.len() as u32,
+            });
             // Instances the object brought without placements (glTF meshes used by several
             // nodes, curved leaves); placed objects were checked before their allocation.
             self.check_instances(o.span(), &format!("object[{i}]"), g.instances.len())?;
@@ -461,7 +592,11 @@ impl Loader {
                 inst
             }));
         }
-        Ok(Scene {
+        let mut scene = Scene {
+            radiometry: lamina_core::Radiometry {
+                objects,
+                ..Default::default()
+            },
             camera,
             film,
             integrator,
@@ -471,6 +606,8 @@ impl Loader {
             meshes,
             prototypes,
             instances,
-        })
+        };
+        scene.radiometry = self.radiometry(&doc, &scene, &scene.lights, &by_name)?;
+        Ok(scene)
     }
 }

@@ -82,6 +82,32 @@ fn readers() -> Vec<Reader> {
             heading: leak(format!("### `[[object]]` `type = \"{name}\"`")),
         });
     }
+    v.push(reader!(
+        "table/domain.rs",
+        table::domain::KEYS,
+        "## `[domain]`"
+    ));
+    v.push(reader!(
+        "sensor/mod.rs",
+        Keys::plain(crate::sensor::COMMON),
+        "## `[[sensor]]`"
+    ));
+    let sensors = [
+        include_str!("sensor/brf.rs"),
+        include_str!("sensor/irradiance.rs"),
+        include_str!("sensor/absorbed.rs"),
+        include_str!("sensor/fisheye.rs"),
+    ];
+    for ((name, keys, _), source) in crate::sensor::TYPES.iter().zip(sensors) {
+        v.push(Reader {
+            source,
+            keys: Keys {
+                common: &[],
+                ..*keys
+            },
+            heading: leak(format!("### `[[sensor]]` `type = \"{name}\"`")),
+        });
+    }
     v
 }
 

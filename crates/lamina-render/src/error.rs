@@ -18,6 +18,9 @@ pub enum RenderError {
         #[source]
         source: rayon::ThreadPoolBuildError,
     },
+    /// The work was cancelled (Ctrl-C) before it completed.
+    #[error("cancelled")]
+    Cancelled,
     /// Writing the image failed (lamina-image's error, message unchanged).
     #[error(transparent)]
     Image(#[from] lamina_image::ImageWriteError),

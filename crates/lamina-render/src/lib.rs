@@ -18,6 +18,7 @@
 //! * [`film`]: pixel filters (importance-sampled) and the sample accumulator.
 //! * [`output`]: EXR / PNG writing with tone maps, atomically (lamina-image's writer).
 //! * [`render`](mod@render): tiles, passes, threads, time limit and cancellation.
+//! * [`sensors`]: the scene's `[[sensor]]`s: BRF, irradiance, absorbed power, fisheye.
 //!
 //! Where this crate sits among the others, and the invariants it keeps: ARCHITECTURE.md.
 
@@ -38,6 +39,7 @@ pub mod materials;
 pub mod output;
 pub mod render;
 pub mod sampler;
+pub mod sensors;
 pub mod shading;
 
 mod error;

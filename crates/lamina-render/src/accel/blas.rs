@@ -40,6 +40,9 @@ pub(super) struct Blas {
     /// empty when no smooth primitive of this level came with tangents; an all-zero entry
     /// means "none" (the tangent then comes from the UVs).
     pub(super) tangents: Vec<[Vec4; 3]>,
+    /// Per mesh pushed, the number of primitives after it: primitive `i` belongs to the
+    /// first mesh whose end is above `i` (none for the quad lights pushed after them).
+    pub(super) mesh_ends: Vec<u32>,
 }
 
 /// "Flat primitive" in `Blas::nidx`.
@@ -229,6 +232,7 @@ impl BlasBuilder {
                 self.push(idx.map(pos), idx.map(tex), vn, vt, flags);
                 ti += 1;
             }
+            self.blas.mesh_ends.push(self.blas.prims.len() as u32);
         }
         Ok(())
     }
@@ -241,5 +245,13 @@ impl Blas {
             + self.nidx.len() * 4
             + self.normals.len() * std::mem::size_of::<[Vec3; 3]>()
             + self.tangents.len() * std::mem::size_of::<[Vec4; 3]>()
+            + self.mesh_ends.len() * 4
+    }
+
+    /// The index (in push order) of the mesh primitive `prim` came from, `None` for a
+    /// primitive pushed after the meshes (a quad light).
+    pub(super) fn mesh_of(&self, prim: u32) -> Option<u32> {
+        let i = self.mesh_ends.partition_point(|&end| end <= prim);
+        (i < self.mesh_ends.len()).then_some(i as u32)
     }
 }

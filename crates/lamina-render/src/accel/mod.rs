@@ -52,7 +52,7 @@ use alpha::AlphaTest;
 use blas::{Blas, BlasBuilder};
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
 use lamina_accel::{AccelError, Geometry, Instance, SceneDesc, Sphere};
-use lamina_core::{Light, Material, Scene};
+use lamina_core::{Light, Material, Mesh, Scene};
 use lamina_leaf::frame::Frame;
 
 pub use lamina_accel::Ray;
@@ -162,6 +162,130 @@ pub struct Accel {
     alpha: Vec<AlphaTest>,
     /// Per lamina-accel sphere, its index in [`Scene::lights`].
     sphere_lights: Vec<u32>,
+    /// The periodic domain rays wrap around, if the scene has one.
+    wrap: Option<Wrap>,
+    /// Provenance, kept for scenes that measure (`scene.radiometry` not empty): per world
+    /// mesh pushed (the scene's, then periodic copies) the scene mesh index, and per
+    /// instance id (the top level's order) the scene instance index it places or copies.
+    origins: Option<Origins>,
+}
+
+/// Where primitives came from (see [`Accel::scene_mesh`], [`Accel::scene_instance`]).
+#[derive(Clone, Debug, Default)]
+struct Origins {
+    meshes: Vec<u32>,
+    instances: Vec<u32>,
+}
+
+/// A periodic domain as the traversal uses it: the cell (x, z) and the height range of the
+/// geometry (rays outside it meet nothing).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Wrap {
+    min: Vec2,
+    max: Vec2,
+    ymin: f32,
+    ymax: f32,
+}
+
+/// Most cells a ray crosses in a periodic domain before it counts as escaped (a ray
+/// running almost horizontally through an empty layer).
+pub const MAX_WRAPS: u32 = 4096;
+
+impl Wrap {
+    /// `p` moved by whole cells into the cell (x, z), unchanged when already inside.
+    #[inline]
+    fn wrap_point(&self, mut p: Vec3) -> Vec3 {
+        let size = self.max - self.min;
+        if p.x < self.min.x || p.x > self.max.x {
+            p.x =
+                (self.min.x + (p.x - self.min.x).rem_euclid(size.x)).clamp(self.min.x, self.max.x);
+        }
+        if p.z < self.min.y || p.z > self.max.y {
+            p.z =
+                (self.min.y + (p.z - self.min.y).rem_euclid(size.y)).clamp(self.min.y, self.max.y);
+        }
+        p
+    }
+
+    /// Runs `segment(ray, skip)` over the pieces of `ray` inside the cell, one cell after
+    /// the other (each piece ends at a side wall, the next starts at the opposite wall),
+    /// within the height range of the geometry; returns the first `Some`, with the
+    /// distance travelled before its piece.
+    #[inline]
+    fn trace<R>(
+        &self,
+        ray: &Ray,
+        skip: PrimRef,
+        mut segment: impl FnMut(&Ray, PrimRef) -> Option<R>,
+    ) -> Option<(f32, R)> {
+        let d = ray.dir;
+        let (mut t0, mut t1) = (0.0f32, ray.tmax);
+        if d.y != 0.0 {
+            let (a, b) = (
+                (self.ymin - ray.origin.y) / d.y,
+                (self.ymax - ray.origin.y) / d.y,
+            );
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        } else if ray.origin.y < self.ymin || ray.origin.y > self.ymax {
+            return None;
+        }
+        if !(t0 <= t1) {
+            return None;
+        }
+        // Start where the ray enters the height range (a camera far above the canopy).
+        let mut t = if t0 > 0.0 { t0 } else { 0.0 };
+        let mut o = self.wrap_point(if t > 0.0 {
+            ray.origin + d * t
+        } else {
+            ray.origin
+        });
+        let mut skip = skip;
+        for _ in 0..MAX_WRAPS {
+            let tx = if d.x > 0.0 {
+                (self.max.x - o.x) / d.x
+            } else if d.x < 0.0 {
+                (self.min.x - o.x) / d.x
+            } else {
+                f32::INFINITY
+            };
+            let tz = if d.z > 0.0 {
+                (self.max.y - o.z) / d.z
+            } else if d.z < 0.0 {
+                (self.min.y - o.z) / d.z
+            } else {
+                f32::INFINITY
+            };
+            let wall = tx.min(tz).max(0.0);
+            let rest = t1 - t;
+            let piece = Ray {
+                origin: o,
+                dir: d,
+                tmax: wall.min(rest),
+            };
+            if let Some(r) = segment(&piece, skip) {
+                return Some((t, r));
+            }
+            if wall >= rest {
+                return None;
+            }
+            t += wall;
+            o += d * wall;
+            if tx <= tz {
+                o.x = if d.x > 0.0 { self.min.x } else { self.max.x };
+            }
+            if tz <= tx {
+                o.z = if d.z > 0.0 { self.min.y } else { self.max.y };
+            }
+            o = o.clamp(
+                Vec3::new(self.min.x, f32::NEG_INFINITY, self.min.y),
+                Vec3::new(self.max.x, f32::INFINITY, self.max.y),
+            );
+            // The primitive left behind is one cell away now: another copy may be hit.
+            skip = PrimRef::NONE;
+        }
+        None
+    }
 }
 
 fn accel_error(e: AccelError) -> RenderError {
@@ -202,10 +326,25 @@ impl Accel {
                     .map_or(AlphaTest::None, AlphaTest::Mask),
             })
             .collect();
+        let copies = match &scene.radiometry.periodic {
+            Some(p) => Some(
+                lamina_core::radiometry::periodic_copies(scene, &p.cell)
+                    .map_err(|e| RenderError::InvalidScene(periodic_message(&e)))?,
+            ),
+            None => None,
+        };
         let mut world = BlasBuilder::default();
         world.push_meshes(&scene.meshes, &alpha, merge_cards, &|mi| {
             format!("mesh {mi}")
         })?;
+        let mut mesh_origins: Vec<u32> = (0..scene.meshes.len() as u32).collect();
+        if let Some(c) = &copies {
+            let extra: Vec<Mesh> = c.meshes.iter().map(|(_, m)| m.clone()).collect();
+            world.push_meshes(&extra, &alpha, merge_cards, &|mi| {
+                format!("periodic copy of mesh {}", c.meshes[mi].0)
+            })?;
+            mesh_origins.extend(c.meshes.iter().map(|(o, _)| *o));
+        }
         let mut spheres = Vec::new();
         let mut sphere_lights = Vec::new();
         for (li, light) in scene.lights.iter().enumerate() {
@@ -264,17 +403,28 @@ impl Accel {
             .collect::<Result<Vec<BlasBuilder>, RenderError>>()?;
         let (proto_geometry, prototypes): (Vec<Geometry>, Vec<Blas>) =
             prototypes.into_iter().map(|b| (b.geometry, b.blas)).unzip();
+        let mut instance_origins: Vec<u32> = (0..scene.instances.len() as u32).collect();
+        let mut instances: Vec<Instance> = scene
+            .instances
+            .iter()
+            .map(|i| Instance {
+                object_to_world: i.transform,
+                prototype: i.prototype,
+            })
+            .collect();
+        if let Some(c) = &copies {
+            for (o, i) in &c.instances {
+                instance_origins.push(*o);
+                instances.push(Instance {
+                    object_to_world: i.transform,
+                    prototype: i.prototype,
+                });
+            }
+        }
         let desc = SceneDesc {
             world: world.geometry,
             prototypes: proto_geometry,
-            instances: scene
-                .instances
-                .iter()
-                .map(|i| Instance {
-                    object_to_world: i.transform,
-                    prototype: i.prototype,
-                })
-                .collect(),
+            instances,
             spheres,
             masks: alpha.iter().map(AlphaTest::mask).collect(),
         };
@@ -286,12 +436,33 @@ impl Accel {
             },
         )
         .map_err(accel_error)?;
+        let measuring = scene.radiometry != lamina_core::Radiometry::default();
+        let origins = measuring.then(|| Origins {
+            meshes: mesh_origins,
+            instances: core
+                .scene_instances(&desc)
+                .into_iter()
+                .map(|k| instance_origins[k as usize])
+                .collect(),
+        });
+        let wrap = match (&scene.radiometry.periodic, &copies) {
+            (Some(p), Some(c)) => Some(Wrap {
+                min: p.cell.min,
+                max: p.cell.max,
+                // A margin so that surfaces at the extremes are inside the range.
+                ymin: c.y_range.0 - 1e-3 * (1.0 + c.y_range.0.abs()),
+                ymax: c.y_range.1 + 1e-3 * (1.0 + c.y_range.1.abs()),
+            }),
+            _ => None,
+        };
         Ok(Accel {
             core,
             world: world.blas,
             prototypes,
             alpha,
             sphere_lights,
+            wrap,
+            origins,
         })
     }
 
@@ -459,9 +630,51 @@ impl Accel {
         |id, uv| self.alpha[id as usize].opaque(uv)
     }
 
-    /// [`Accel::intersect`], ignoring primitive `skip` (the one the ray leaves).
+    /// [`Accel::intersect`], ignoring primitive `skip` (the one the ray leaves). In a
+    /// periodic domain the ray wraps around the cell (see [`Accel::periodic`]); `t` is then
+    /// the distance travelled, and the hit's surface lies inside the cell.
     #[inline]
     pub fn intersect_skip(&self, ray: &Ray, skip: PrimRef) -> Option<Hit> {
+        if let Some(w) = &self.wrap {
+            let (t, h) = w.trace(ray, skip, |r, s| self.intersect_once(r, s))?;
+            return Some(Hit { t: t + h.t, ..h });
+        }
+        self.intersect_once(ray, skip)
+    }
+
+    /// The periodic cell `(min, max)` of (x, z) rays wrap around, if the scene has one.
+    /// Rays that leave the cell through a side re-enter through the opposite side; rays
+    /// outside the height range of the geometry meet nothing; a ray crossing more than
+    /// [`MAX_WRAPS`] cells is taken as escaped.
+    pub fn periodic(&self) -> Option<(Vec2, Vec2)> {
+        self.wrap.map(|w| (w.min, w.max))
+    }
+
+    /// The lowest and highest `y` of the geometry of a periodic scene (m), with a small
+    /// margin; `None` without a periodic domain.
+    pub fn periodic_heights(&self) -> Option<(f32, f32)> {
+        self.wrap.map(|w| (w.ymin, w.ymax))
+    }
+
+    /// The scene mesh (index into [`Scene::meshes`]) a world primitive comes from, or the
+    /// scene instance (index into [`Scene::instances`]) an instance primitive belongs to:
+    /// `(Some(mesh), None)` or `(None, Some(instance))`, periodic copies mapped to what they
+    /// copy. `(None, None)` for quad lights, spheres, and for scenes that measure nothing
+    /// (their provenance is not kept).
+    pub fn origin(&self, prim: PrimRef) -> (Option<u32>, Option<u32>) {
+        let Some(o) = &self.origins else {
+            return (None, None);
+        };
+        if prim.inst == NO_INSTANCE {
+            let mesh = self.world.mesh_of(prim.prim);
+            (mesh.and_then(|m| o.meshes.get(m as usize).copied()), None)
+        } else {
+            (None, o.instances.get(prim.inst as usize).copied())
+        }
+    }
+
+    #[inline]
+    fn intersect_once(&self, ray: &Ray, skip: PrimRef) -> Option<Hit> {
         let h = self.core.intersect(ray, skip, &self.filter())?;
         let kind = if h.prim.inst == lamina_accel::SPHERE {
             HitKind::Sphere {
@@ -499,6 +712,22 @@ impl Accel {
     /// [`Accel::occluded`], ignoring primitive `skip` (the one the ray leaves).
     #[inline]
     pub fn occluded_skip(&self, ray: &Ray, skip: PrimRef) -> bool {
+        if let Some(w) = &self.wrap {
+            return w
+                .trace(ray, skip, |r, s| {
+                    self.core.occluded(r, s, &self.filter()).then_some(())
+                })
+                .is_some();
+        }
         self.core.occluded(ray, skip, &self.filter())
+    }
+}
+
+/// A periodic-domain error as the renderer reports it.
+fn periodic_message(e: &lamina_core::radiometry::PeriodicError) -> String {
+    match (e.mesh, e.instance) {
+        (Some(m), _) => format!("periodic domain: mesh {m}: {}", e.message),
+        (_, Some(i)) => format!("periodic domain: instance {i}: {}", e.message),
+        _ => format!("periodic domain: {}", e.message),
     }
 }

@@ -29,16 +29,44 @@ use lamina_leaf::Bsdf;
 /// (primary, indirect, shadow) to `rays`.
 pub fn radiance(
     ctx: &SceneContext,
-    mut ray: Ray,
+    ray: Ray,
     sampler: &mut PixelSampler,
     max_depth: u32,
     rr_depth: u32,
     rays: &mut u64,
 ) -> Vec3 {
+    trace(ctx, ray, sampler, max_depth, rr_depth, rays, None)
+}
+
+/// Radiance arriving along `ray` when `ray` was sampled with solid-angle density `pdf` at
+/// a point whose light is also sampled by next-event estimation (a sensor's virtual
+/// receiver): emitters and distant lights it reaches directly are weighted by the power
+/// heuristic against their light-sampling density, as after a BSDF sample.
+pub fn radiance_sampled(
+    ctx: &SceneContext,
+    ray: Ray,
+    pdf: f32,
+    sampler: &mut PixelSampler,
+    max_depth: u32,
+    rr_depth: u32,
+    rays: &mut u64,
+) -> Vec3 {
+    trace(ctx, ray, sampler, max_depth, rr_depth, rays, Some(pdf))
+}
+
+fn trace(
+    ctx: &SceneContext,
+    mut ray: Ray,
+    sampler: &mut PixelSampler,
+    max_depth: u32,
+    rr_depth: u32,
+    rays: &mut u64,
+    first_pdf: Option<f32>,
+) -> Vec3 {
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
-    let mut prev_pdf = 0.0f32;
-    let mut camera_ray = true;
+    let mut prev_pdf = first_pdf.unwrap_or(0.0);
+    let mut camera_ray = first_pdf.is_none();
     let mut skip = PrimRef::NONE;
     let mut bounces = 0u32;
     let lights = &ctx.lights.lights;

@@ -13,6 +13,8 @@ pub struct Series<'a> {
     pub dotted: bool,
     /// Legend text (upper case letters, digits, `.`, `-`, `:` and spaces).
     pub label: &'a str,
+    /// Error bars: per point the half-length (data units) of a vertical bar; empty: none.
+    pub errors: Vec<f64>,
 }
 
 /// The chart's frame: data ranges, tick spacing and the axis titles.
@@ -73,7 +75,15 @@ pub fn draw(chart: &Chart, series: &[Series]) -> RgbImage {
         for x in LEFT..=LEFT + pw {
             put(&mut img, x, sy as i32, grid);
         }
-        text(&mut img, 20, sy as i32 - 5, &format!("{y:.1}"), 2, black);
+        let decimals = (-chart.ticks.1.log10()).ceil().max(1.0) as usize;
+        text(
+            &mut img,
+            8,
+            sy as i32 - 5,
+            &format!("{y:.decimals$}"),
+            2,
+            black,
+        );
         y += chart.ticks.1;
     }
     for x in LEFT..=LEFT + pw {
@@ -110,6 +120,21 @@ pub fn draw(chart: &Chart, series: &[Series]) -> RgbImage {
                 for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                     put(&mut img, x as i32 + dx, y as i32 + dy, c);
                 }
+            }
+        }
+    }
+    // Error bars, with caps.
+    for s in series {
+        let c = Rgb(s.colour);
+        for (&(x, y), &e) in s.points.iter().zip(&s.errors) {
+            let (sx, lo) = px(x, y - e);
+            let (_, hi) = px(x, y + e);
+            for yy in hi.round() as i32..=lo.round() as i32 {
+                put(&mut img, sx as i32, yy, c);
+            }
+            for dx in -3..=3 {
+                put(&mut img, sx as i32 + dx, hi.round() as i32, c);
+                put(&mut img, sx as i32 + dx, lo.round() as i32, c);
             }
         }
     }

@@ -451,6 +451,8 @@ fn task(dir: &Path, index: u32) -> Result<()> {
         gpu: false,
         force: false,
         part: Some((t.part, plan.parts)),
+        no_sensors: true,
+        sensor_scale: None,
         crop: (plan.tile_count() > 1).then_some(lamina_render::Crop { x0, y0, x1, y1 }),
         set,
         flags: RenderFlags {

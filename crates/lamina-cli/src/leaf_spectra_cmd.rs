@@ -533,12 +533,14 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
             colour: [20, 140, 40],
             dotted: true,
             label: "MEASURED R",
+            errors: Vec::new(),
         },
         crate::chart::Series {
             points: pts(&model_r),
             colour: [20, 140, 40],
             dotted: false,
             label: "MODEL R",
+            errors: Vec::new(),
         },
     ];
     if let Some(t) = &m.t {
@@ -547,6 +549,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
             colour: [30, 80, 220],
             dotted: true,
             label: "MEASURED T",
+            errors: Vec::new(),
         });
     }
     series.push(crate::chart::Series {
@@ -558,6 +561,7 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         } else {
             "MODEL T (PREDICTED)"
         },
+        errors: Vec::new(),
     });
     let title = format!(
         "LEAF FIT: RMSE R {rmse_r:.4}{}",

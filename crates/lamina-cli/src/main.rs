@@ -12,6 +12,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod bands_render;
+mod canopy_cmd;
 mod chart;
 mod demo;
 mod farm_cmd;
@@ -23,6 +24,7 @@ mod output_file;
 mod parts_cmd;
 mod plant_cmd;
 mod render_cmd;
+mod sensors_cmd;
 mod sky_cmd;
 mod view_cmd;
 
@@ -47,6 +49,9 @@ enum Command {
     Farm(farm_cmd::FarmCommand),
     /// Open a window with the real-time (GPU) view of a scene: orbit the camera, move the sun.
     View(view_cmd::ViewArgs),
+    /// Canopy scenes for radiative-transfer studies: RAMI's discrete canopies.
+    #[command(subcommand)]
+    Canopy(canopy_cmd::CanopyCommand),
     /// Render the built-in demo: a leaf lit from the front and from behind, and a bush.
     Demo(demo::DemoArgs),
     /// Leaf maps and spectra: procedural leaves, captures, contact sheets, PROSPECT.
@@ -77,6 +82,7 @@ fn main() -> ExitCode {
         Command::Merge(args) => parts_cmd::run_merge(&args),
         Command::Farm(cmd) => farm_cmd::run(cmd),
         Command::Demo(args) => demo::run(args),
+        Command::Canopy(cmd) => canopy_cmd::run(cmd),
         Command::View(args) => view_cmd::run(args),
         Command::Leaf(cmd) => leaf_cmd::run(cmd),
         Command::Plant(PlantCommand::Generate(args)) => plant_cmd::run_generate(args),

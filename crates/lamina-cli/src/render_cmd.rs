@@ -63,6 +63,13 @@ pub struct RenderArgs {
     /// The value goes through the same checks as in the file.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<lamina_scene::Override>,
+    /// Skip the scene's `[[sensor]]`s (by default they run, and a scene with sensors
+    /// renders its image only when `-o` names one).
+    #[arg(long)]
+    pub no_sensors: bool,
+    /// Multiply every sensor's sample count by this (e.g. 0.1 for a quick look).
+    #[arg(long, value_name = "K")]
+    pub sensor_scale: Option<f64>,
     #[command(flatten)]
     pub flags: RenderFlags,
 }
@@ -337,13 +344,50 @@ pub fn run(args: RenderArgs) -> Result<()> {
         force: args.force,
         inputs: vec![args.scene.clone()],
     };
-    outputs.check()?;
+    if let Some(k) = args.sensor_scale
+        && !(k > 0.0 && k.is_finite())
+    {
+        bail!("--sensor-scale must be a positive number, got {k}");
+    }
+    // A scene with sensors and no -o measures only: its default image is not checked.
+    if !args.output.is_empty() {
+        outputs.check()?;
+    }
     if !args.flags.quiet && !std::io::stderr().is_terminal() {
         eprintln!("loading {}", args.scene.display());
     }
     let load_start = std::time::Instant::now();
     let (scene, spectral) = lamina_scene::load_scene_with_overrides(&args.scene, &args.set)?;
     let label = args.scene.display().to_string();
+    let sensors = !args.no_sensors && !scene.radiometry.sensors.is_empty();
+    if sensors {
+        if args.gpu || splitting {
+            bail!(
+                "the scene has [[sensor]]s, which the offline renderer measures whole: drop \
+                 --gpu / --part / --crop, or pass --no-sensors"
+            );
+        }
+        if spectral.is_some() {
+            bail!(
+                "the scene has [[sensor]]s and [film] bands: sensors measure in RGB (or in \
+                 single-value bands given as grey colours) for now; drop the bands or pass \
+                 --no-sensors"
+            );
+        }
+        crate::sensors_cmd::check(&scene, args.force, &outputs.inputs)?;
+        if args.output.is_empty() {
+            return crate::sensors_cmd::run(
+                &scene,
+                &args.scene,
+                &args.flags,
+                args.sensor_scale,
+                args.force,
+            );
+        }
+    }
+    if args.output.is_empty() {
+        outputs.check()?;
+    }
     let split = crate::parts_cmd::Split::new(&args, &scene, spectral.as_ref())?;
     // A part's overheads (what each node of a cluster pays before and after its share of
     // the samples): loading includes the scene hash.
@@ -376,7 +420,19 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     let out = render_scene(&scene, &opts, bar, &label)?;
     match &split {
-        None => write_result(&outputs, &out, &scene.film),
+        None => {
+            write_result(&outputs, &out, &scene.film)?;
+            if sensors {
+                crate::sensors_cmd::run(
+                    &scene,
+                    &args.scene,
+                    &args.flags,
+                    args.sensor_scale,
+                    args.force,
+                )?;
+            }
+            Ok(())
+        }
         Some(split) => {
             let part = split.rgb_part(&out)?;
             let t = std::time::Instant::now();

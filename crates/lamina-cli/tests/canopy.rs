@@ -1,0 +1,167 @@
+//! `lamina canopy rami` and the sensors through the real binary: the folder, the files a
+//! render of it writes, RAMI's CSV layout, the energy budget, and bad input.
+
+mod common;
+use common::{fails, lamina, ok, scratch};
+use std::path::Path;
+
+/// The rows of a lamina CSV (mark line and header dropped), split on commas.
+fn rows(path: &Path) -> (String, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    assert!(lines.next().unwrap().starts_with("# lamina"), "{text}");
+    let header = lines.next().unwrap().to_string();
+    let rows = lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    (header, rows)
+}
+
+fn value(rows: &[Vec<String>], measure: &str) -> f64 {
+    rows.iter().find(|r| r[0] == measure).unwrap()[1]
+        .parse()
+        .unwrap()
+}
+
+#[test]
+fn a_rami_folder_renders_to_rami_files_whose_budget_closes() {
+    let d = scratch("canopy", "rami");
+    let dir = d.join("hom12");
+    let o = lamina(
+        &[
+            "canopy",
+            "rami",
+            "--case",
+            "HOM12",
+            "--lad",
+            "pla",
+            "--band",
+            "nir",
+            "--sun-zenith",
+            "50",
+            "--cell",
+            "3",
+            "--brf-samples",
+            "256",
+            "--photons",
+            "100000",
+            "-o",
+            dir.to_str().unwrap(),
+        ],
+        &d,
+    );
+    let msg = ok(&o);
+    assert!(msg.contains("LAI 2.000"), "{msg}");
+    for f in ["scene.toml", "disc.obj", "leaves.csv"] {
+        assert!(dir.join(f).is_file(), "{f}");
+    }
+    let o = lamina(&["render", "scene.toml", "--threads", "2"], &dir);
+    let msg = ok(&o);
+    assert!(
+        msg.contains("sensor 'fluxes'") && msg.contains("sensor 'brf'"),
+        "{msg}"
+    );
+    assert!(!dir.join("scene.png").exists(), "no -o: sensors only");
+    for f in ["brfpp.csv", "brfop.csv"] {
+        let (header, r) = rows(&dir.join(f));
+        assert_eq!(header, "sza,vza,raa,brf,std");
+        assert_eq!(r.len(), 76, "-75..75 in 2° steps");
+        for row in &r {
+            assert_eq!(row[0], "50.00");
+            let brf: f64 = row[3].parse().unwrap();
+            assert!(brf > 0.1 && brf < 1.0, "{row:?}");
+        }
+    }
+    let (header, r) = rows(&dir.join("fluxes.csv"));
+    assert_eq!(header, "measure,value,std");
+    let (a, fa, ft) = (value(&r, "albedo"), value(&r, "fabs"), value(&r, "ftran"));
+    let budget = a + fa + ft * (1.0 - 0.159);
+    assert!(
+        (budget - 1.0).abs() < 0.01,
+        "{a} + {fa} + {ft}·(1 − 0.159) = {budget}"
+    );
+    let png = image::open(dir.join("brf.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (960, 540));
+    // The folder is lamina's: writing it again (results and all) is allowed.
+    let o = lamina(
+        &[
+            "canopy",
+            "rami",
+            "--case",
+            "HOM11",
+            "-o",
+            dir.to_str().unwrap(),
+        ],
+        &d,
+    );
+    ok(&o);
+    // A foreign file where a sensor writes is kept, and the render refused before work.
+    std::fs::write(dir.join("brfpp.csv"), "my own data\n").unwrap();
+    let o = lamina(&["render", "scene.toml", "--sensor-scale", "0.01"], &dir);
+    fails(&o, &["brfpp.csv", "not written by lamina"]);
+    assert_eq!(
+        std::fs::read_to_string(dir.join("brfpp.csv")).unwrap(),
+        "my own data\n"
+    );
+}
+
+#[test]
+fn bad_rami_arguments_are_named() {
+    let d = scratch("canopy", "bad");
+    let out = d.join("x");
+    let o = lamina(
+        &[
+            "canopy",
+            "rami",
+            "--case",
+            "HOM99",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        &d,
+    );
+    fails(&o, &["--case HOM99", "unknown RAMI case", "HOM11"]);
+    let o = lamina(
+        &[
+            "canopy",
+            "rami",
+            "--case",
+            "HOM11",
+            "--band",
+            "blue",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        &d,
+    );
+    fails(&o, &["--band blue", "red, nir, nr1"]);
+    let o = lamina(
+        &[
+            "canopy",
+            "rami",
+            "--case",
+            "HOM11",
+            "--lad",
+            "sph",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        &d,
+    );
+    fails(&o, &["--lad sph"]);
+    let o = lamina(
+        &[
+            "canopy",
+            "rami",
+            "--case",
+            "HOM11",
+            "--sun-zenith",
+            "90",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        &d,
+    );
+    fails(&o, &["--sun-zenith 90"]);
+    assert!(!out.exists());
+}

@@ -40,6 +40,10 @@ pub struct RamiArgs {
     /// Seed of the leaves' positions and orientations.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Leaf radius (m): RAMI's is 0.05; smaller leaves at the same LAI approach the turbid
+    /// medium of SAIL-like models.
+    #[arg(long, default_value_t = LEAF_RADIUS)]
+    pub leaf_radius: f64,
     /// Side of the periodic cell (m); the HOM cases default to 10 m, HET01 to 100 m.
     #[arg(long)]
     pub cell: Option<f64>,
@@ -194,13 +198,13 @@ fn disc_obj() -> String {
 
 /// The leaves of a homogeneous layer: `lai` over a `cell`-sided square, centres uniform in
 /// the layer `[r, h − r]` (so that no leaf reaches into the soil or above the top).
-fn hom_leaves(rng: &mut Rng, lnd: Lnd, lai: f64, h: f64, cell: f64) -> Vec<Leaf> {
-    let n = (lai * cell * cell / (PI * LEAF_RADIUS * LEAF_RADIUS)).round() as usize;
+fn hom_leaves(rng: &mut Rng, lnd: Lnd, lai: f64, h: f64, cell: f64, lr: f64) -> Vec<Leaf> {
+    let n = (lai * cell * cell / (PI * lr * lr)).round() as usize;
     (0..n)
         .map(|_| {
             let c = [
                 rng.next() * cell,
-                LEAF_RADIUS + rng.next() * (h - 2.0 * LEAF_RADIUS),
+                lr + rng.next() * (h - 2.0 * lr),
                 rng.next() * cell,
             ];
             Leaf {
@@ -215,7 +219,7 @@ fn hom_leaves(rng: &mut Rng, lnd: Lnd, lai: f64, h: f64, cell: f64) -> Vec<Leaf>
 /// HET01-like floating spheres: 15 spheres of radius 10 m, centres 11 to 19 m high, placed
 /// without overlap in a `cell`-sided square (periodic), leaf area density 0.47 m² m⁻³,
 /// leaf centres uniform in each sphere.
-fn het_leaves(rng: &mut Rng, lnd: Lnd, cell: f64) -> Result<(Vec<Leaf>, f64)> {
+fn het_leaves(rng: &mut Rng, lnd: Lnd, cell: f64, lr: f64) -> Result<(Vec<Leaf>, f64)> {
     let (radius, lad, count) = (10.0, 0.47, 15);
     let mut centres: Vec<[f64; 3]> = Vec::new();
     let mut tries = 0;
@@ -239,8 +243,7 @@ fn het_leaves(rng: &mut Rng, lnd: Lnd, cell: f64) -> Result<(Vec<Leaf>, f64)> {
             centres.push(c);
         }
     }
-    let per =
-        (lad * 4.0 / 3.0 * PI * radius.powi(3) / (PI * LEAF_RADIUS * LEAF_RADIUS)).round() as usize;
+    let per = (lad * 4.0 / 3.0 * PI * radius.powi(3) / (PI * lr * lr)).round() as usize;
     let mut leaves = Vec::with_capacity(per * count);
     for o in &centres {
         for _ in 0..per {
@@ -254,7 +257,7 @@ fn het_leaves(rng: &mut Rng, lnd: Lnd, cell: f64) -> Result<(Vec<Leaf>, f64)> {
                     break p;
                 }
             };
-            let r = radius - LEAF_RADIUS;
+            let r = radius - lr;
             leaves.push(Leaf {
                 c: [o[0] + r * p[0], o[1] + r * p[1], o[2] + r * p[2]],
                 incl: lnd.sample(rng.next()).to_degrees(),
@@ -262,21 +265,28 @@ fn het_leaves(rng: &mut Rng, lnd: Lnd, cell: f64) -> Result<(Vec<Leaf>, f64)> {
             });
         }
     }
-    let lai = leaves.len() as f64 * PI * LEAF_RADIUS * LEAF_RADIUS / (cell * cell);
+    let lai = leaves.len() as f64 * PI * lr * lr / (cell * cell);
     Ok((leaves, lai))
 }
 
-/// The placements file: the disc rotated about x by its inclination, then about y by its
-/// azimuth, then moved to its centre.
-fn leaves_csv(leaves: &[Leaf]) -> String {
+/// The placements file: the disc (radius [`LEAF_RADIUS`]) scaled to radius `lr`, rotated
+/// about x by its inclination, then about y by its azimuth, then moved to its centre.
+fn leaves_csv(leaves: &[Leaf], lr: f64) -> String {
+    let scaled = lr != LEAF_RADIUS;
     let mut s = format!(
-        "{}\ntx,ty,tz,rx,ry\n",
-        lamina_io::text_mark_line("lamina canopy rami: leaf placements")
+        "{}\ntx,ty,tz,rx,ry{}\n",
+        lamina_io::text_mark_line("lamina canopy rami: leaf placements"),
+        if scaled { ",s" } else { "" }
     );
+    let scale = if scaled {
+        format!(",{:.9}", lr / LEAF_RADIUS)
+    } else {
+        String::new()
+    };
     for l in leaves {
         let _ = writeln!(
             s,
-            "{:.5},{:.5},{:.5},{:.4},{:.4}",
+            "{:.5},{:.5},{:.5},{:.4},{:.4}{scale}",
             l.c[0], l.c[1], l.c[2], l.incl, l.az
         );
     }
@@ -345,23 +355,31 @@ fn rami(a: &RamiArgs) -> Result<()> {
     let mode = crate::output_file::replace_mode(a.force);
     lamina_io::check_folder(&a.output, &spec, mode)
         .with_context(|| format!("writing '{}'", a.output.display()))?;
+    let lr = a.leaf_radius;
+    if !(0.001..=0.5).contains(&lr) {
+        bail!("--leaf-radius {lr}: give 0.001 to 0.5 m");
+    }
     let mut rng = Rng(a.seed ^ 0x6c61_6d69_6e61);
     let (leaves, lai, height) = match hom {
         Some((lai, h)) => {
-            if cell < 2.0 * LEAF_RADIUS * 2.0 {
-                bail!("--cell {cell}: smaller than a leaf");
+            if cell < 4.0 * lr {
+                bail!("--cell {cell}: give at least twice a leaf's diameter");
             }
-            (hom_leaves(&mut rng, lnd, lai, h, cell), lai, h)
+            let n = lai * cell * cell / (PI * lr * lr);
+            if n > 5e7 {
+                bail!("{n:.0} leaves: too many; use a smaller --cell or larger --leaf-radius");
+            }
+            (hom_leaves(&mut rng, lnd, lai, h, cell, lr), lai, h)
         }
         None => {
-            let (l, lai) = het_leaves(&mut rng, lnd, cell)?;
+            let (l, lai) = het_leaves(&mut rng, lnd, cell, lr)?;
             (l, lai, 29.0)
         }
     };
     let sz = a.sun_zenith.to_radians();
     let title = format!(
-        "RAMI {case}, {} leaf normals, band {}, sun zenith {}°, cell {cell} m, seed {}: \
-         {} leaves, LAI {lai:.3}",
+        "RAMI {case}, {} leaf normals, band {}, sun zenith {}°, cell {cell} m, leaf radius \
+         {lr} m, seed {}: {} leaves, LAI {lai:.3}",
         a.lad,
         band.name,
         a.sun_zenith,
@@ -372,7 +390,7 @@ fn rami(a: &RamiArgs) -> Result<()> {
         r#"{mark}
 # {title}
 # Written by `lamina canopy rami`; `lamina render scene.toml` writes the sensors' files.
-# Leaves: bi-Lambertian discs of radius {LEAF_RADIUS} m (R {lr}, T {lt}); soil Lambertian {soil}.
+# Leaves: bi-Lambertian discs of radius {radius} m (R {lr}, T {lt}); soil Lambertian {soil}.
 # The sun lies in the x-y plane: the principal plane is x-y, the orthogonal plane y-z.
 
 [camera]
@@ -384,7 +402,7 @@ fov = 50
 width = 640
 height = 400
 spp = 32
-exposure = 1
+exposure = {exposure:.2}
 
 [integrator]
 type = "path"
@@ -446,6 +464,9 @@ ground = ["soil"]
 file = "fluxes.csv"
 "#,
         mark = lamina_io::text_mark_line("lamina canopy rami"),
+        radius = lr,
+        // A picture that is neither black in the red band nor white in the conservative one.
+        exposure = (0.35 / (band.leaf_r + band.leaf_t)).log2().clamp(0.0, 4.0),
         lr = band.leaf_r,
         lt = band.leaf_t,
         soil = band.soil,
@@ -467,7 +488,7 @@ file = "fluxes.csv"
         std::fs::write(dir.join(name), text).with_context(|| format!("writing {name}"))
     };
     write("disc.obj", &disc_obj())?;
-    write("leaves.csv", &leaves_csv(&leaves))?;
+    write("leaves.csv", &leaves_csv(&leaves, lr))?;
     write("scene.toml", &scene)?;
     let out = staged
         .commit(&spec)
@@ -513,7 +534,7 @@ mod tests {
     #[test]
     fn hom_layer_has_its_lai() {
         let mut rng = Rng(3);
-        let l = hom_leaves(&mut rng, Lnd::Uniform, 3.0, 2.0, 4.0);
+        let l = hom_leaves(&mut rng, Lnd::Uniform, 3.0, 2.0, 4.0, LEAF_RADIUS);
         let lai = l.len() as f64 * PI * LEAF_RADIUS * LEAF_RADIUS / 16.0;
         assert!((lai - 3.0).abs() < 1e-3);
         assert!(

@@ -165,3 +165,53 @@ fn bad_rami_arguments_are_named() {
     fails(&o, &["--sun-zenith 90"]);
     assert!(!out.exists());
 }
+
+#[test]
+fn smaller_leaves_keep_the_lai_and_the_render_reads_their_scale() {
+    let d = scratch("canopy", "radius");
+    let dir = d.join("small");
+    let o = lamina(
+        &[
+            "canopy",
+            "rami",
+            "--case",
+            "HOM11",
+            "--leaf-radius",
+            "0.02",
+            "--cell",
+            "1.5",
+            "--brf-samples",
+            "64",
+            "--photons",
+            "20000",
+            "-o",
+            dir.to_str().unwrap(),
+        ],
+        &d,
+    );
+    let msg = ok(&o);
+    assert!(
+        msg.contains("leaf radius 0.02 m") && msg.contains("LAI 1.000"),
+        "{msg}"
+    );
+    let csv = std::fs::read_to_string(dir.join("leaves.csv")).unwrap();
+    assert_eq!(csv.lines().nth(1), Some("tx,ty,tz,rx,ry,s"));
+    assert!(csv.lines().nth(2).unwrap().ends_with(",0.400000000"), "{csv:.200}");
+    let o = lamina(&["render", "scene.toml", "--threads", "2"], &dir);
+    let msg = ok(&o);
+    assert!(msg.contains("albedo"), "{msg}");
+    let o = lamina(
+        &[
+            "canopy",
+            "rami",
+            "--case",
+            "HOM11",
+            "--leaf-radius",
+            "0",
+            "-o",
+            dir.to_str().unwrap(),
+        ],
+        &d,
+    );
+    fails(&o, &["--leaf-radius 0"]);
+}

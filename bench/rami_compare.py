@@ -356,6 +356,31 @@ def main():
         summary.append(
             f"{a.case},{band},mitsuba,{mi_secs:.3f},{len(zs)},{mi_max_std:.5f},,,,{m_alb:.5f},"
             f"{m_alb_s:.5f},{m_ftr:.5f},{m_ftr_s:.5f},{m_fab:.5f},{m_fab_s:.5f}")
+        if a.target_error:
+            # Samples each renderer needs for its largest standard error to reach the target
+            # (error ∝ 1/√samples, from the run above), then both run at that count.
+            need_l = math.ceil(a.samples * (lamina_max / a.target_error) ** 2)
+            need_m = math.ceil(a.samples * (mi_max_std / a.target_error) ** 2)
+            r = subprocess.run([str(lamina), "render", str(folder / "scene.toml"), "--threads",
+                                str(a.threads), "--quiet", "--set", f"sensor[0].samples={need_l}",
+                                "--set", "sensor[1].samples=32"], capture_output=True, text=True)
+            if r.returncode != 0:
+                sys.exit(r.stderr)
+            tl = [float(x.split("sensor 'brf': ")[1].split(" s")[0])
+                  for x in r.stderr.splitlines() if "sensor 'brf': " in x][0]
+            got_l = max(float(x["std"]) for x in read_rows(folder / "brfpp.csv") + read_rows(folder / "brfop.csv"))
+            tm, got_m = 0.0, 0.0
+            for name, rows in (("principal", pp), ("orthogonal", op)):
+                dirs = [(float(x["vza"]), float(x["raa"])) for x in rows]
+                _, ms, secs = mitsuba_brf(mi, dr, base, dirs, a.cell, top, need_m, a.batches, 1024,
+                                          math.cos(math.radians(a.sun_zenith)))
+                tm += secs
+                got_m = max(got_m, float(ms.max()))
+            print(f"  to a standard error of {a.target_error}: lamina {need_l} rays per direction, "
+                  f"{tl:.1f} s (largest std {got_l:.5f}); Mitsuba {need_m} rays, {tm:.1f} s "
+                  f"(largest std {got_m:.5f}): Mitsuba / lamina = {tm / tl:.2f}")
+            summary.append(f"{a.case},{band},lamina@{a.target_error},{tl:.3f},{len(zs)},{got_l:.5f},,,,,,,,,")
+            summary.append(f"{a.case},{band},mitsuba@{a.target_error},{tm:.3f},{len(zs)},{got_m:.5f},,,,,,,,,")
         os.remove(ply)
     (out / "summary.csv").write_text("\n".join(summary) + "\n")
     print(f"\nwrote {out / 'summary.csv'} and the plots in {out}")

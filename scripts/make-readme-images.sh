@@ -3,6 +3,7 @@
 # renderer, committed only so that the README shows them; this script is the source.
 #   scripts/make-readme-images.sh            everything
 #   scripts/make-readme-images.sh gallery    only the gallery (the paper's Fig. 4 and 5)
+#   scripts/make-readme-images.sh rami       only the RAMI BRF plot
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -p lamina-cli
@@ -28,6 +29,22 @@ if [[ $what == all ]]; then
   rm -rf "$out"
   # The GPU path next to a converged offline render (GPU left), for the README's GPU section.
   cargo run --release -q -p lamina-gpu --example compare -- docs/images/gpu 192 1024
+fi
+
+if [[ $what == all || $what == rami ]]; then
+  # RAMI HOM11 in the NIR: lamina's BRF against Mitsuba 3's (README, "Measuring canopies").
+  # Needs Mitsuba 3 and matplotlib (bench/README.md says how); without them, lamina's own plot.
+  rami=$(mktemp -d)
+  if python3 -c "import mitsuba, matplotlib" 2>/dev/null; then
+    python3 bench/rami_compare.py --no-build --case HOM11 --bands nir --out "$rami"
+    cp "$rami/HOM11_uni_nir.png" docs/images/rami_hom11_nir.png
+  else
+    $lamina canopy rami --case HOM11 --band nir -o "$rami/hom11" --force
+    $lamina render "$rami/hom11/scene.toml" --quiet
+    cp "$rami/hom11/brf.png" docs/images/rami_hom11_nir.png
+  fi
+  rm -rf "$rami"
+  [[ $what == rami ]] && exit 0
 fi
 
 # The gallery: the paper's Fig. 4 (one plant from four sides under one sun) and Fig. 5 (a

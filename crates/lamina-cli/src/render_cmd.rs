@@ -367,18 +367,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
                  --gpu / --part / --crop, or pass --no-sensors"
             );
         }
-        if spectral.is_some() {
-            bail!(
-                "the scene has [[sensor]]s and [film] bands: sensors measure in RGB (or in \
-                 single-value bands given as grey colours) for now; drop the bands or pass \
-                 --no-sensors"
-            );
-        }
         crate::sensors_cmd::check(&scene, args.force, &outputs.inputs)?;
         if args.output.is_empty() {
             return crate::sensors_cmd::run(
                 &scene,
                 &args.scene,
+                spectral.as_ref(),
                 &args.flags,
                 args.sensor_scale,
                 args.force,
@@ -396,14 +390,25 @@ pub fn run(args: RenderArgs) -> Result<()> {
         if args.gpu {
             bail!("--gpu renders RGB only: the scene's [film] asks for spectral bands");
         }
-        return crate::bands_render::render_bands(
+        crate::bands_render::render_bands(
             &scene,
             spectral,
             &args.flags,
             &label,
             &outputs,
             split.as_ref(),
-        );
+        )?;
+        if sensors {
+            crate::sensors_cmd::run(
+                &scene,
+                &args.scene,
+                Some(spectral),
+                &args.flags,
+                args.sensor_scale,
+                args.force,
+            )?;
+        }
+        return Ok(());
     }
     if args.gpu {
         return crate::gpu_cmd::render_gpu(&scene, &label, &outputs, args.flags.spp);
@@ -426,6 +431,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
                 crate::sensors_cmd::run(
                     &scene,
                     &args.scene,
+                    None,
                     &args.flags,
                     args.sensor_scale,
                     args.force,

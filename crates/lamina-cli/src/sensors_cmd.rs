@@ -54,10 +54,14 @@ pub fn check(scene: &Scene, force: bool, inputs: &[PathBuf]) -> Result<()> {
     Ok(())
 }
 
-/// Runs the sensors of `scene` (loaded from `scene_path`) and writes their files.
+/// Runs the sensors of `scene` (loaded from `scene_path`) and writes their files. With
+/// `spectral` (the film's `bands`), the sensors run once per group of three bands
+/// (`lamina_render::bands::group_scene`, the same seed in every group) and every file holds
+/// every band.
 pub fn run(
     scene: &Scene,
     scene_path: &Path,
+    spectral: Option<&lamina_scene::SpectralOutput>,
     flags: &crate::render_cmd::RenderFlags,
     sample_scale: Option<f64>,
     force: bool,
@@ -66,81 +70,166 @@ pub fn run(
     check(scene, force, &inputs)?;
     let quiet = flags.quiet;
     let terminal = std::io::stderr().is_terminal();
-    let last = std::sync::Mutex::new((usize::MAX, -1i32));
-    let progress = Arc::new(move |i: usize, name: &str, f: f32| {
-        if quiet {
-            return;
-        }
-        let pct = (f * 100.0).floor() as i32;
-        let mut l = last.lock().unwrap_or_else(|e| e.into_inner());
-        let step = if terminal { 1 } else { 10 };
-        if l.0 != i || pct >= l.1 + step {
-            *l = (i, pct);
-            if terminal {
-                eprint!("\rsensor '{name}': {pct:3}%");
-            } else {
-                eprintln!("sensor '{name}': {pct}%");
+    let (names, groups): (Vec<String>, Vec<Vec<usize>>) = match spectral {
+        None => (sensors::channel_names(), vec![vec![0, 1, 2]]),
+        Some(sp) => (
+            sp.bands.iter().map(|b| b.name.clone()).collect(),
+            lamina_render::bands::band_groups(sp.bands.len()),
+        ),
+    };
+    // results[g][s]: sensor s in band group g.
+    let mut results: Vec<Vec<SensorOutput>> = Vec::new();
+    for group in &groups {
+        let label = if spectral.is_some() {
+            let n: Vec<&str> = group.iter().map(|&i| names[i].as_str()).collect();
+            format!(" [{}]", n.join(", "))
+        } else {
+            String::new()
+        };
+        let banded;
+        let target = match spectral {
+            None => scene,
+            Some(sp) => {
+                banded = lamina_render::bands::group_scene(scene, &sp.bands, group)
+                    .with_context(|| format!("sensors in bands{label}"))?;
+                &banded
             }
+        };
+        let last = std::sync::Mutex::new((usize::MAX, -1i32));
+        let progress = Arc::new(move |i: usize, name: &str, f: f32| {
+            if quiet {
+                return;
+            }
+            let pct = (f * 100.0).floor() as i32;
+            let mut l = last.lock().unwrap_or_else(|e| e.into_inner());
+            let step = if terminal { 1 } else { 10 };
+            if l.0 != i || pct >= l.1 + step {
+                *l = (i, pct);
+                if terminal {
+                    eprint!("\rsensor '{name}'{label}: {pct:3}%");
+                } else {
+                    eprintln!("sensor '{name}'{label}: {pct}%");
+                }
+            }
+        }) as sensors::SensorProgress;
+        let opts = MeasureOptions {
+            seed: flags.seed,
+            threads: flags.threads.map(|t| t as usize),
+            sample_scale,
+            cancel: Some(interrupt::flag()),
+            progress: Some(progress),
+        };
+        let r = match sensors::measure(target, &opts) {
+            Err(lamina_render::RenderError::Cancelled) => {
+                return Err(
+                    Interrupted("sensors interrupted, no sensor file written".into()).into(),
+                );
+            }
+            r => r.context("measuring the sensors")?,
+        };
+        if !quiet && terminal {
+            eprintln!();
         }
-    }) as Arc<dyn Fn(usize, &str, f32) + Send + Sync>;
-    let opts = MeasureOptions {
-        seed: flags.seed,
-        threads: flags.threads.map(|t| t as usize),
-        sample_scale,
-        cancel: Some(interrupt::flag()),
-        progress: Some(progress),
-    };
-    let results = match sensors::measure(scene, &opts) {
-        Err(lamina_render::RenderError::Cancelled) => {
-            return Err(Interrupted("sensors interrupted, no sensor file written".into()).into());
-        }
-        r => r.context("measuring the sensors")?,
-    };
-    if !quiet && terminal {
-        eprintln!();
+        results.push(r);
     }
-    let names = sensors::channel_names();
     let detail = format!("{}", scene_path.display());
-    for out in &results {
-        for (path, text) in sensors::csv_files(out, &names) {
+    for s in 0..scene.radiometry.sensors.len() {
+        let outs: Vec<&SensorOutput> = results.iter().map(|g| &g[s]).collect();
+        let first = outs[0];
+        for (path, text) in sensors::csv_files_bands(&outs, &groups, &names) {
             crate::output_file::claim(&path, force, &inputs)?;
             let mark =
-                lamina_io::text_mark_line(&format!("sensor '{}' of {detail}", out.sensor.name));
+                lamina_io::text_mark_line(&format!("sensor '{}' of {detail}", first.sensor.name));
             lamina_io::write_bytes(&path, format!("{mark}\n{text}").as_bytes())
                 .with_context(|| format!("writing '{}'", path.display()))?;
             eprintln!("wrote {}", path.display());
         }
-        match (&out.measurement, &out.sensor.kind) {
-            (Measurement::Fisheye(r), SensorKind::Fisheye { file, .. }) => {
+        // The group holding the sensor's channel (the first band without one), and where.
+        let c = first.sensor.channel.unwrap_or(0);
+        let (g, k) = groups
+            .iter()
+            .enumerate()
+            .find_map(|(g, idx)| idx.iter().position(|&i| i == c).map(|k| (g, k)))
+            .unwrap_or((0, 0));
+        let main = outs[g];
+        match (&first.measurement, &first.sensor.kind) {
+            (Measurement::Fisheye(_), SensorKind::Fisheye { file, .. }) => {
                 crate::output_file::claim(file, force, &inputs)?;
-                lamina_render::write_image(file, &r.image, &scene.film)
+                write_fisheye(file, &outs, &groups, &names, spectral, scene)
                     .with_context(|| format!("writing '{}'", file.display()))?;
                 eprintln!("wrote {}", file.display());
             }
             (
-                Measurement::Brf(r),
+                Measurement::Brf(_),
                 SensorKind::Brf {
                     sweeps,
                     plot: Some(plot),
                     ..
                 },
             ) => {
-                crate::output_file::claim(plot, force, &inputs)?;
-                let img = brf_plot(out, r, sweeps);
-                lamina_io::save_image(plot, &img)
-                    .with_context(|| format!("writing '{}'", plot.display()))?;
-                eprintln!("wrote {}", plot.display());
+                if let Measurement::Brf(r) = &main.measurement {
+                    crate::output_file::claim(plot, force, &inputs)?;
+                    let img = brf_plot(main, k, &names[c], r, sweeps);
+                    lamina_io::save_image(plot, &img)
+                        .with_context(|| format!("writing '{}'", plot.display()))?;
+                    eprintln!("wrote {}", plot.display());
+                }
             }
             _ => {}
         }
-        summary(out);
+        summary(main, k, &names[c]);
     }
     Ok(())
 }
 
-/// One line per sensor: time, rays, and its headline numbers.
-fn summary(out: &SensorOutput) {
-    let c = out.sensor.channel.unwrap_or(0);
+/// A fisheye image: RGB as the film writes it, or in bands one EXR channel per band (a PNG:
+/// the film's false-colour bands).
+fn write_fisheye(
+    file: &Path,
+    outs: &[&SensorOutput],
+    groups: &[Vec<usize>],
+    names: &[String],
+    spectral: Option<&lamina_scene::SpectralOutput>,
+    scene: &Scene,
+) -> Result<()> {
+    let image = |o: &SensorOutput| match &o.measurement {
+        Measurement::Fisheye(r) => Some(r.image.clone()),
+        _ => None,
+    };
+    let Some(sp) = spectral else {
+        let img = image(outs[0]).context("not a fisheye result")?;
+        return Ok(lamina_render::write_image(file, &img, &scene.film)?);
+    };
+    // Plane of every band.
+    let mut planes: Vec<Vec<f32>> = vec![Vec::new(); names.len()];
+    let (mut w, mut h) = (0, 0);
+    for (o, group) in outs.iter().zip(groups) {
+        let img = image(o).context("not a fisheye result")?;
+        (w, h) = (img.width, img.height);
+        for (k, &i) in group.iter().enumerate() {
+            planes[i] = img.pixels.iter().map(|p| p[k]).collect();
+        }
+    }
+    if crate::parts_cmd::is_exr(file) {
+        let channels: Vec<(String, Vec<f32>)> = names.iter().cloned().zip(planes).collect();
+        lamina_io::image_out::save_named_channels(file, w, h, &channels)?;
+        return Ok(());
+    }
+    let [r, g, b] = sp.false_color.map(|i| &planes[i]);
+    let pixels = (0..(w * h) as usize)
+        .map(|p| glam::Vec3::new(r[p], g[p], b[p]))
+        .collect();
+    let img = lamina_render::Image {
+        width: w,
+        height: h,
+        pixels,
+    };
+    Ok(lamina_render::write_image(file, &img, &scene.film)?)
+}
+
+/// One line per sensor: time, rays, and its headline numbers in channel `c` (named `name`)
+/// of `out`.
+fn summary(out: &SensorOutput, c: usize, name: &str) {
     let ch = |v: glam::DVec3| v.to_array()[c];
     let what = match &out.measurement {
         Measurement::Brf(r) => {
@@ -175,7 +264,7 @@ fn summary(out: &SensorOutput) {
         ),
     };
     eprintln!(
-        "sensor '{}': {:.2} s, {:.2} M rays: {what}",
+        "sensor '{}': {:.2} s, {:.2} M rays: {what} ({name})",
         out.sensor.name,
         out.elapsed.as_secs_f64(),
         out.rays as f64 / 1e6
@@ -185,10 +274,11 @@ fn summary(out: &SensorOutput) {
 /// The BRF of every sweep against the signed view zenith, ±2 standard errors as bars.
 fn brf_plot(
     out: &SensorOutput,
+    c: usize,
+    channel: &str,
     r: &sensors::brf::BrfResult,
     sweeps: &[lamina_scene::radiometry::BrfSweep],
 ) -> image::RgbImage {
-    let c = out.sensor.channel.unwrap_or(0);
     let colours = [[200, 40, 40], [40, 90, 200], [30, 150, 60], [150, 60, 170]];
     let labels: Vec<String> = sweeps.iter().map(|s| s.label.to_uppercase()).collect();
     let series: Vec<crate::chart::Series> = sweeps
@@ -232,9 +322,10 @@ fn brf_plot(
     let tick = nice_step(span / 6.0);
     let (lo, hi) = ((lo / tick).floor() * tick, (hi / tick).ceil() * tick);
     let title = format!(
-        "BRF, SUN ZENITH {:.0}: SENSOR {}",
+        "BRF, SUN ZENITH {:.0}: SENSOR {}, {}",
         r.sun_zenith,
-        out.sensor.name.to_uppercase()
+        out.sensor.name.to_uppercase(),
+        channel.to_uppercase()
     );
     crate::chart::draw(
         &crate::chart::Chart {

@@ -196,7 +196,10 @@ fn smaller_leaves_keep_the_lai_and_the_render_reads_their_scale() {
     );
     let csv = std::fs::read_to_string(dir.join("leaves.csv")).unwrap();
     assert_eq!(csv.lines().nth(1), Some("tx,ty,tz,rx,ry,s"));
-    assert!(csv.lines().nth(2).unwrap().ends_with(",0.400000000"), "{csv:.200}");
+    assert!(
+        csv.lines().nth(2).unwrap().ends_with(",0.400000000"),
+        "{csv:.200}"
+    );
     let o = lamina(&["render", "scene.toml", "--threads", "2"], &dir);
     let msg = ok(&o);
     assert!(msg.contains("albedo"), "{msg}");
@@ -214,4 +217,77 @@ fn smaller_leaves_keep_the_lai_and_the_render_reads_their_scale() {
         &d,
     );
     fails(&o, &["--leaf-radius 0"]);
+}
+
+#[test]
+fn sensors_measure_every_band_of_a_band_film() {
+    let d = scratch("canopy", "bands");
+    let dir = d.join("nir");
+    ok(&lamina(
+        &[
+            "canopy",
+            "rami",
+            "--case",
+            "HOM11",
+            "--band",
+            "nir",
+            "--cell",
+            "2",
+            "--brf-samples",
+            "256",
+            "--photons",
+            "20000",
+            "-o",
+            dir.to_str().unwrap(),
+        ],
+        &d,
+    ));
+    // RGB first (the grey scene's three channels are equal).
+    ok(&lamina(&["render", "scene.toml", "--threads", "2"], &dir));
+    let (_, rgb) = rows(&dir.join("brfpp.csv"));
+    // Four bands (two groups of three), every channel written for the fluxes.
+    let bands = "film.bands=[{name=\"red\",center=665,width=30},{name=\"nir\",center=865,width=40},\
+                 {name=\"swir\",center=1600,width=50},{name=\"green\",center=550,width=40}]";
+    let o = lamina(
+        &[
+            "render",
+            "scene.toml",
+            "--threads",
+            "2",
+            "--set",
+            bands,
+            "--set",
+            "sensor[0].channel=\"swir\"",
+            "--set",
+            "sensor[1].channel=\"nir\"",
+        ],
+        &dir,
+    );
+    let msg = ok(&o);
+    assert!(msg.contains("(swir)"), "{msg}");
+    let (header, banded) = rows(&dir.join("brfpp.csv"));
+    assert_eq!(header, "sza,vza,raa,brf,std");
+    for (a, b) in rgb.iter().zip(&banded) {
+        let (x, y): (f64, f64) = (a[3].parse().unwrap(), b[3].parse().unwrap());
+        assert!((x - y).abs() < 1e-4, "{a:?} vs {b:?}");
+    }
+    // A band no film channel names is refused, naming the key.
+    let o = lamina(
+        &[
+            "render",
+            "scene.toml",
+            "--set",
+            bands,
+            "--set",
+            "sensor[0].channel=\"R\"",
+        ],
+        &dir,
+    );
+    fails(
+        &o,
+        &[
+            "sensor[0].channel",
+            "'R' is not a channel of the film (red, nir, swir, green)",
+        ],
+    );
 }

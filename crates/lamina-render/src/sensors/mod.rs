@@ -22,7 +22,7 @@ pub mod fisheye;
 pub mod irradiance;
 mod output;
 
-pub use output::{channel_names, csv_files};
+pub use output::{channel_names, csv_files, csv_files_bands};
 
 use crate::error::RenderError;
 use crate::integrators::SceneContext;

@@ -1,11 +1,12 @@
-//! Sensor results as the CSV files the scene names.
+//! Sensor results as the CSV files the scene names, for an RGB run (one result per sensor)
+//! or a band run (one result per group of three bands, see [`crate::bands::band_groups`]).
 
 use super::{Estimate, Measurement, SensorOutput};
 use lamina_core::radiometry::SensorKind;
 use std::fmt::Write;
 use std::path::PathBuf;
 
-/// The film's channel names: `R, G, B`, or the three bands of a band render.
+/// The film's channel names of an RGB run.
 pub fn channel_names() -> Vec<String> {
     ["R", "G", "B"].map(String::from).to_vec()
 }
@@ -19,119 +20,171 @@ fn field(s: &str) -> String {
     }
 }
 
-/// Channel `c` of `v`.
-fn ch(v: glam::DVec3, c: usize) -> f64 {
-    v.to_array()[c]
+/// One sensor's results over all channels: per group of channels its result, and the
+/// channels (indices into the names) each group holds in its R, G, B.
+struct Runs<'a> {
+    outs: &'a [&'a SensorOutput],
+    groups: &'a [Vec<usize>],
+    names: &'a [String],
 }
 
-/// Appends the rows of one estimate: `prefix,value,std` for the one channel asked for, or
-/// `prefix,channel,value,std` per channel.
-fn rows(out: &mut String, prefix: &str, e: &Estimate, channel: Option<usize>, names: &[String]) {
-    match channel {
-        Some(c) => {
-            let _ = writeln!(out, "{prefix},{:.6},{:.6}", ch(e.value, c), ch(e.std, c));
+impl Runs<'_> {
+    /// `(value, std)` of every channel, in name order, of the estimate `get` picks.
+    fn values(&self, get: &dyn Fn(&SensorOutput) -> Option<Estimate>) -> Vec<(f64, f64)> {
+        let mut v = vec![(f64::NAN, f64::NAN); self.names.len()];
+        for (out, group) in self.outs.iter().zip(self.groups) {
+            if let Some(e) = get(out) {
+                for (k, &c) in group.iter().enumerate().take(3) {
+                    if let Some(slot) = v.get_mut(c) {
+                        *slot = (e.value.to_array()[k], e.std.to_array()[k]);
+                    }
+                }
+            }
         }
-        None => {
-            for (c, name) in names.iter().enumerate().take(3) {
-                let _ = writeln!(
-                    out,
-                    "{prefix},{},{:.6},{:.6}",
-                    field(name),
-                    ch(e.value, c),
-                    ch(e.std, c)
-                );
+        v
+    }
+
+    /// Appends the rows of one estimate: `prefix,value,std` for the one channel the sensor
+    /// asks for, or `prefix,channel,value,std` per channel.
+    fn rows(
+        &self,
+        out: &mut String,
+        prefix: &str,
+        get: &dyn Fn(&SensorOutput) -> Option<Estimate>,
+    ) {
+        let v = self.values(get);
+        match self.outs[0].sensor.channel {
+            Some(c) => {
+                let (x, s) = v.get(c).copied().unwrap_or((f64::NAN, f64::NAN));
+                let _ = writeln!(out, "{prefix},{x:.6},{s:.6}");
+            }
+            None => {
+                for (name, (x, s)) in self.names.iter().zip(v) {
+                    let _ = writeln!(out, "{prefix},{},{x:.6},{s:.6}", field(name));
+                }
             }
         }
     }
 }
 
-/// The CSV files of a sensor's result (path, text), channels named `names`. A fisheye
-/// sensor's image is not among them (it is an image, written with the film's settings).
+/// The CSV files of a sensor's result in an RGB run (path, text), channels named `names`.
+/// A fisheye sensor's image is not among them (it is an image, written with the film's
+/// settings).
 pub fn csv_files(out: &SensorOutput, names: &[String]) -> Vec<(PathBuf, String)> {
-    let channel = out.sensor.channel;
-    let head = |cols: &str| match channel {
-        Some(_) => format!("{cols}\n"),
+    csv_files_bands(&[out], &[vec![0, 1, 2]], names)
+}
+
+/// [`csv_files`] for a band run: `outs[g]` is the sensor's result for the bands `groups[g]`
+/// (indices into `names`, the film's bands).
+pub fn csv_files_bands(
+    outs: &[&SensorOutput],
+    groups: &[Vec<usize>],
+    names: &[String],
+) -> Vec<(PathBuf, String)> {
+    let Some(first) = outs.first() else {
+        return Vec::new();
+    };
+    let runs = Runs {
+        outs,
+        groups,
+        names,
+    };
+    let head = |cols: &str| match first.sensor.channel {
+        Some(_) => format!("{}\n", cols.replace('|', "")),
         None => {
-            let (a, b) = cols.split_once("|").unwrap_or((cols, ""));
+            let (a, b) = cols.split_once('|').unwrap_or((cols, ""));
             format!("{a}channel,{b}\n")
         }
     };
-    match (&out.measurement, &out.sensor.kind) {
+    match (&first.measurement, &first.sensor.kind) {
         (Measurement::Brf(r), SensorKind::Brf { sweeps, .. }) => sweeps
             .iter()
-            .zip(&r.sweeps)
-            .map(|(sweep, est)| {
-                let mut text = head("sza,vza,raa,|brf,std").replace('|', "");
-                for (d, e) in sweep.directions.iter().zip(est) {
+            .enumerate()
+            .map(|(si, sweep)| {
+                let mut text = head("sza,vza,raa,|brf,std");
+                for (di, d) in sweep.directions.iter().enumerate() {
                     let prefix = format!(
                         "{:.2},{:.2},{:.2}",
                         r.sun_zenith, d.zenith, d.relative_azimuth
                     );
-                    rows(&mut text, &prefix, e, channel, names);
+                    runs.rows(&mut text, &prefix, &|o| match &o.measurement {
+                        Measurement::Brf(b) => b.sweeps.get(si)?.get(di).copied(),
+                        _ => None,
+                    });
                 }
                 (sweep.file.clone(), text)
             })
             .collect(),
         (Measurement::Irradiance(r), SensorKind::Irradiance { file, .. }) => {
-            let mut text =
-                head("x_min,x_max,z_min,z_max,|down,down_std,up,up_std").replace('|', "");
-            for c in &r.cells {
+            let mut text = head("x_min,x_max,z_min,z_max,|down,down_std,up,up_std");
+            for (k, c) in r.cells.iter().enumerate() {
                 let prefix = format!(
                     "{},{},{},{}",
                     c.rect.min.x, c.rect.max.x, c.rect.min.y, c.rect.max.y
                 );
-                let chans: Vec<usize> = match channel {
-                    Some(k) => vec![k],
-                    None => (0..names.len().min(3)).collect(),
+                let cell = |o: &SensorOutput, up: bool| match &o.measurement {
+                    Measurement::Irradiance(i) => {
+                        i.cells.get(k).map(|c| if up { c.up } else { c.down })
+                    }
+                    _ => None,
                 };
-                for k in chans {
-                    let name = if channel.is_some() {
+                let down = runs.values(&|o| cell(o, false));
+                let up = runs.values(&|o| cell(o, true));
+                let chans: Vec<usize> = match first.sensor.channel {
+                    Some(c) => vec![c],
+                    None => (0..names.len()).collect(),
+                };
+                for ci in chans {
+                    let name = if first.sensor.channel.is_some() {
                         String::new()
                     } else {
-                        format!("{},", field(&names[k]))
+                        format!("{},", field(&names[ci]))
                     };
+                    let (d, u) = (down[ci], up[ci]);
                     let _ = writeln!(
                         text,
                         "{prefix},{name}{:.6},{:.6},{:.6},{:.6}",
-                        ch(c.down.value, k),
-                        ch(c.down.std, k),
-                        ch(c.up.value, k),
-                        ch(c.up.std, k)
+                        d.0, d.1, u.0, u.1
                     );
                 }
             }
             vec![(file.clone(), text)]
         }
         (Measurement::Absorbed(r), SensorKind::Absorbed { file, .. }) => {
-            let mut text = head("measure,|value,std").replace('|', "");
-            rows(&mut text, "albedo", &r.albedo, channel, names);
-            rows(&mut text, "fabs", &r.fabs, channel, names);
-            rows(&mut text, "ftran", &r.ftran, channel, names);
-            rows(
-                &mut text,
-                "ftran_uncollided",
-                &r.ftran_uncollided,
-                channel,
-                names,
-            );
-            rows(&mut text, "escaped", &r.escaped, channel, names);
-            rows(&mut text, "incident", &r.incident, channel, names);
-            for (name, e) in &r.materials {
-                rows(
+            let mut text = head("measure,|value,std");
+            type Pick = fn(&super::absorbed::AbsorbedResult) -> Estimate;
+            let fixed: [(&str, Pick); 6] = [
+                ("albedo", |a| a.albedo),
+                ("fabs", |a| a.fabs),
+                ("ftran", |a| a.ftran),
+                ("ftran_uncollided", |a| a.ftran_uncollided),
+                ("escaped", |a| a.escaped),
+                ("incident", |a| a.incident),
+            ];
+            for (name, pick) in fixed {
+                runs.rows(&mut text, name, &|o| match &o.measurement {
+                    Measurement::Absorbed(a) => Some(pick(a)),
+                    _ => None,
+                });
+            }
+            for (k, (name, _)) in r.materials.iter().enumerate() {
+                runs.rows(
                     &mut text,
                     &field(&format!("absorbed:material:{name}")),
-                    e,
-                    channel,
-                    names,
+                    &|o| match &o.measurement {
+                        Measurement::Absorbed(a) => a.materials.get(k).map(|m| m.1),
+                        _ => None,
+                    },
                 );
             }
-            for (name, e) in &r.objects {
-                rows(
+            for (k, (name, _)) in r.objects.iter().enumerate() {
+                runs.rows(
                     &mut text,
                     &field(&format!("absorbed:object:{name}")),
-                    e,
-                    channel,
-                    names,
+                    &|o| match &o.measurement {
+                        Measurement::Absorbed(a) => a.objects.get(k).map(|m| m.1),
+                        _ => None,
+                    },
                 );
             }
             vec![(file.clone(), text)]
@@ -139,6 +192,7 @@ pub fn csv_files(out: &SensorOutput, names: &[String]) -> Vec<(PathBuf, String)>
         (Measurement::Fisheye(r), SensorKind::Fisheye { gap_file, .. }) => gap_file
             .iter()
             .map(|f| {
+                // The gap fraction is geometric: the same in every band.
                 let mut text = String::from("zenith_min,zenith_max,gap_fraction,std\n");
                 for (k, (g, s)) in r.gap.iter().enumerate() {
                     let z0 = k as f32 * super::fisheye::RING_DEG;

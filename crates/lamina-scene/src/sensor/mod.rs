@@ -9,7 +9,9 @@
 //! | `channel` | a film channel: `R`, `G`, `B`, or a band of `[film] bands` | every channel | write only this channel, in the single-value layout (RAMI's `brf std` columns) |
 //!
 //! Output files are relative to the scene file. Values are per film channel: linear
-//! Rec.709 R, G, B, or the film's bands.
+//! Rec.709 R, G, B, or the film's bands (each file then holds every band; the sensors run
+//! three bands at a time, as band images do, and irradiance is band-mean spectral
+//! irradiance, W m⁻² nm⁻¹; BRFs and fractions are ratios either way).
 
 use crate::dict::{Dict, Key, Keys, Kind, S, Table, open_typed};
 use crate::error::SceneError;

@@ -1,7 +1,7 @@
 //! `lamina._lamina`, the extension module of the `lamina` Python package (python/lamina):
 //! scenes loaded from files or built from dicts through the same loader as the CLI
 //! ([`scene`]), renders returned as NumPy arrays with the GIL released, progress reported
-//! and Ctrl-C honoured ([`render`]), leaf optics vectorised over NumPy arrays ([`leaf`]),
+//! and Ctrl-C honoured ([`render`]), the scene's sensors as dicts of arrays ([`measure`]), leaf optics vectorised over NumPy arrays ([`leaf`]),
 //! PROSPECT and its inversion ([`spectra`]), and images written and read back
 //! ([`exr_read`]).
 //!
@@ -18,6 +18,7 @@ mod convert;
 mod errors;
 mod exr_read;
 mod leaf;
+mod measure;
 mod render;
 mod scene;
 mod spectra;
@@ -37,6 +38,7 @@ fn _lamina(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scene::load_scene, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_gpu, m)?)?;
+    m.add_function(wrap_pyfunction!(measure::measure, m)?)?;
     m.add_function(wrap_pyfunction!(spectra::prospect, m)?)?;
     m.add_function(wrap_pyfunction!(spectra::fit_leaf, m)?)?;
     m.add_function(wrap_pyfunction!(exr_read::read_exr, m)?)?;

@@ -2,7 +2,8 @@
 
 Scenes are loaded from TOML files (``load_scene``) or built from dicts with the same keys
 (``Scene.from_dict``), edited from Python and rendered to NumPy arrays (``render``,
-``render_gpu``). Leaf optics (``Leaf``: BSDF evaluation and sampling over arrays of
+``render_gpu``), and measured through their sensors (``measure``: BRF, irradiance,
+absorbed power, fisheye gap fractions, with standard errors). Leaf optics (``Leaf``: BSDF evaluation and sampling over arrays of
 directions, directional-hemispherical albedo), PROSPECT leaf spectra (``prospect``) and
 their inversion (``fit_leaf``) use the same code as the renderer and the ``lamina`` CLI.
 
@@ -24,6 +25,7 @@ from ._lamina import (  # noqa: F401  (re-exported)
     __version__,
     fit_leaf,
     load_scene,
+    measure,
     prospect,
     read_exr,
     render_gpu,
@@ -40,6 +42,7 @@ __all__ = [
     "__version__",
     "fit_leaf",
     "load_scene",
+    "measure",
     "prospect",
     "read_exr",
     "render",

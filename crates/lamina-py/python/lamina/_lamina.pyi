@@ -160,6 +160,19 @@ def render_gpu(scene: Scene, *, warnings: bool = False) -> Any:
     """The real-time GPU approximation: ``(H, W, 3)`` float32 linear radiance, or
     ``(image, warnings)``. Raises ``RenderError`` without a Vulkan adapter."""
 
+def measure(
+    scene: Scene,
+    *,
+    seed: int = 0,
+    threads: Optional[int] = None,
+    sample_scale: Optional[float] = None,
+) -> List[Dict[str, Any]]:
+    """Runs the scene's ``[[sensor]]`` tables (``brf``, ``irradiance``, ``absorbed``,
+    ``fisheye``) and returns one dict per sensor: ``name``, ``type``, ``channels``,
+    ``channel``, ``samples``, ``seconds``, ``rays`` and the sensor's values with their
+    standard errors as NumPy arrays (one column per channel: R, G, B or the film's bands).
+    The same values ``lamina render`` writes to the sensors' files for the same seed."""
+
 def prospect(
     *,
     n: Optional[float] = None,

@@ -291,3 +291,46 @@ fn sensors_measure_every_band_of_a_band_film() {
         ],
     );
 }
+
+#[test]
+fn the_meadow_example_measures_and_its_budget_closes_with_real_leaves() {
+    let d = scratch("canopy", "meadow");
+    let ex = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    for f in ["canopy_sensors.toml", "cards.csv"] {
+        std::fs::copy(ex.join(f), d.join(f)).unwrap();
+    }
+    let o = lamina(
+        &[
+            "render",
+            "canopy_sensors.toml",
+            "--sensor-scale",
+            "0.1",
+            "--threads",
+            "2",
+        ],
+        &d,
+    );
+    let msg = ok(&o);
+    assert!(msg.contains("sensor 'meadow_fisheye'"), "{msg}");
+    for f in [
+        "meadow_brf.csv",
+        "meadow_brf.png",
+        "meadow_fisheye.png",
+        "meadow_gap.csv",
+    ] {
+        assert!(d.join(f).is_file(), "{f}");
+    }
+    // Every channel (no `channel` key): rows `measure,channel,value,std`. The leaves are the
+    // layered beech model, not bi-Lambertian: the budget still closes, per channel.
+    let (header, r) = rows(&d.join("meadow_fluxes.csv"));
+    assert_eq!(header, "measure,channel,value,std");
+    for (c, soil) in [("R", 0.12), ("G", 0.09), ("B", 0.06)] {
+        let get = |m: &str| -> f64 {
+            r.iter().find(|x| x[0] == m && x[1] == c).unwrap()[2]
+                .parse()
+                .unwrap()
+        };
+        let budget = get("albedo") + get("fabs") + get("ftran") * (1.0 - soil);
+        assert!((budget - 1.0).abs() < 0.02, "{c}: {budget}");
+    }
+}

@@ -210,8 +210,10 @@ pub fn sun_azimuth_deg(dir: Vec3) -> f32 {
 /// (or lie outside it), shifted by whole cells, and the height range of all geometry.
 #[derive(Clone, Debug, Default)]
 pub struct PeriodicCopies {
-    /// Extra world meshes, each with the index of the scene mesh it copies from.
-    pub meshes: Vec<(u32, Mesh)>,
+    /// Extra world meshes (the copied triangles of one scene mesh each) ...
+    pub meshes: Vec<Mesh>,
+    /// ... and the index of the scene mesh each copies from.
+    pub mesh_origins: Vec<u32>,
     /// Extra instances, each with the index of the scene instance it copies.
     pub instances: Vec<(u32, Instance)>,
     /// Lowest and highest `y` of any geometry (m); `(0, 0)` for an empty scene.
@@ -339,7 +341,8 @@ pub fn periodic_copies(scene: &crate::Scene, cell: &Rect) -> Result<PeriodicCopi
             }
         }
         if !copy.indices.is_empty() {
-            out.meshes.push((mi as u32, copy));
+            out.meshes.push(copy);
+            out.mesh_origins.push(mi as u32);
         }
     }
     let bounds: Vec<Option<(Vec3, Vec3)>> = scene

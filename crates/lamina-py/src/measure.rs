@@ -31,16 +31,9 @@ struct Runs<'a> {
 impl Runs<'_> {
     /// Values and standard errors of every channel of the estimate `get` picks.
     fn gather(&self, get: &dyn Fn(&SensorOutput) -> Option<Estimate>) -> (Vec<f64>, Vec<f64>) {
-        let (mut v, mut s) = (vec![f64::NAN; self.k], vec![f64::NAN; self.k]);
-        for (o, group) in self.outs.iter().zip(self.groups) {
-            if let Some(e) = get(o) {
-                for (j, &c) in group.iter().enumerate().take(3) {
-                    v[c] = e.value.to_array()[j];
-                    s[c] = e.std.to_array()[j];
-                }
-            }
-        }
-        (v, s)
+        sensors::gather(&self.outs, self.groups, self.k, get)
+            .into_iter()
+            .unzip()
     }
 
     /// `(n, k)` arrays of the estimates `get(i)` for `i < n`.
@@ -170,16 +163,7 @@ fn sensor_dict<'py>(
         }
         (Measurement::Absorbed(r), SensorKind::Absorbed { .. }) => {
             d.set_item("type", "absorbed")?;
-            type Pick = fn(&sensors::absorbed::AbsorbedResult) -> Estimate;
-            let fixed: [(&str, Pick); 6] = [
-                ("albedo", |a| a.albedo),
-                ("fabs", |a| a.fabs),
-                ("ftran", |a| a.ftran),
-                ("ftran_uncollided", |a| a.ftran_uncollided),
-                ("escaped", |a| a.escaped),
-                ("incident", |a| a.incident),
-            ];
-            for (name, pick) in fixed {
+            for (name, pick) in sensors::absorbed::AbsorbedResult::MEASURES {
                 d.set_item(name, runs.pair(py, &|o| absorbed(o).map(pick))?)?;
             }
             let mats = PyDict::new(py);

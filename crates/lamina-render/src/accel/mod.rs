@@ -52,7 +52,7 @@ use alpha::AlphaTest;
 use blas::{Blas, BlasBuilder};
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
 use lamina_accel::{AccelError, Geometry, Instance, SceneDesc, Sphere};
-use lamina_core::{Light, Material, Mesh, Scene};
+use lamina_core::{Light, Material, Scene};
 use lamina_leaf::frame::Frame;
 
 pub use lamina_accel::Ray;
@@ -339,11 +339,10 @@ impl Accel {
         })?;
         let mut mesh_origins: Vec<u32> = (0..scene.meshes.len() as u32).collect();
         if let Some(c) = &copies {
-            let extra: Vec<Mesh> = c.meshes.iter().map(|(_, m)| m.clone()).collect();
-            world.push_meshes(&extra, &alpha, merge_cards, &|mi| {
-                format!("periodic copy of mesh {}", c.meshes[mi].0)
+            world.push_meshes(&c.meshes, &alpha, merge_cards, &|mi| {
+                format!("periodic copy of mesh {}", c.mesh_origins[mi])
             })?;
-            mesh_origins.extend(c.meshes.iter().map(|(o, _)| *o));
+            mesh_origins.extend(&c.mesh_origins);
         }
         let mut spheres = Vec::new();
         let mut sphere_lights = Vec::new();

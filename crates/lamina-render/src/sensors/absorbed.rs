@@ -45,6 +45,22 @@ pub struct AbsorbedResult {
     pub objects: Vec<(String, Estimate)>,
 }
 
+/// Picks one estimate of an [`AbsorbedResult`].
+pub type Pick = fn(&AbsorbedResult) -> Estimate;
+
+impl AbsorbedResult {
+    /// The whole-scene measures by the names the CSV files and the Python dicts use, in
+    /// their order.
+    pub const MEASURES: [(&'static str, Pick); 6] = [
+        ("albedo", |a| a.albedo),
+        ("fabs", |a| a.fabs),
+        ("ftran", |a| a.ftran),
+        ("ftran_uncollided", |a| a.ftran_uncollided),
+        ("escaped", |a| a.escaped),
+        ("incident", |a| a.incident),
+    ];
+}
+
 /// Tallies of one batch, in irradiance units (W m⁻² summed over photons).
 #[derive(Clone, Default)]
 struct Tally {

@@ -22,7 +22,7 @@ pub mod fisheye;
 pub mod irradiance;
 mod output;
 
-pub use output::{channel_names, csv_files, csv_files_bands};
+pub use output::{channel_names, csv_files, csv_files_bands, gather};
 
 use crate::error::RenderError;
 use crate::integrators::SceneContext;

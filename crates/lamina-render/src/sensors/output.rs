@@ -20,6 +20,29 @@ fn field(s: &str) -> String {
     }
 }
 
+/// `(value, std)` of each of `channels` channels of the estimate `get` picks from one
+/// sensor's results: `outs[g]` holds the channels `groups[g]` (indices) in its R, G, B (an
+/// RGB run: one output, group `[0, 1, 2]`; a band run: one output per group of three bands).
+/// NaN for a channel no group holds.
+pub fn gather(
+    outs: &[&SensorOutput],
+    groups: &[Vec<usize>],
+    channels: usize,
+    get: &dyn Fn(&SensorOutput) -> Option<Estimate>,
+) -> Vec<(f64, f64)> {
+    let mut v = vec![(f64::NAN, f64::NAN); channels];
+    for (out, group) in outs.iter().zip(groups) {
+        if let Some(e) = get(out) {
+            for (k, &c) in group.iter().enumerate().take(3) {
+                if let Some(slot) = v.get_mut(c) {
+                    *slot = (e.value.to_array()[k], e.std.to_array()[k]);
+                }
+            }
+        }
+    }
+    v
+}
+
 /// One sensor's results over all channels: per group of channels its result, and the
 /// channels (indices into the names) each group holds in its R, G, B.
 struct Runs<'a> {
@@ -31,17 +54,7 @@ struct Runs<'a> {
 impl Runs<'_> {
     /// `(value, std)` of every channel, in name order, of the estimate `get` picks.
     fn values(&self, get: &dyn Fn(&SensorOutput) -> Option<Estimate>) -> Vec<(f64, f64)> {
-        let mut v = vec![(f64::NAN, f64::NAN); self.names.len()];
-        for (out, group) in self.outs.iter().zip(self.groups) {
-            if let Some(e) = get(out) {
-                for (k, &c) in group.iter().enumerate().take(3) {
-                    if let Some(slot) = v.get_mut(c) {
-                        *slot = (e.value.to_array()[k], e.std.to_array()[k]);
-                    }
-                }
-            }
-        }
-        v
+        gather(self.outs, self.groups, self.names.len(), get)
     }
 
     /// Appends the rows of one estimate: `prefix,value,std` for the one channel the sensor
@@ -152,16 +165,7 @@ pub fn csv_files_bands(
         }
         (Measurement::Absorbed(r), SensorKind::Absorbed { file, .. }) => {
             let mut text = head("measure,|value,std");
-            type Pick = fn(&super::absorbed::AbsorbedResult) -> Estimate;
-            let fixed: [(&str, Pick); 6] = [
-                ("albedo", |a| a.albedo),
-                ("fabs", |a| a.fabs),
-                ("ftran", |a| a.ftran),
-                ("ftran_uncollided", |a| a.ftran_uncollided),
-                ("escaped", |a| a.escaped),
-                ("incident", |a| a.incident),
-            ];
-            for (name, pick) in fixed {
+            for (name, pick) in super::absorbed::AbsorbedResult::MEASURES {
                 runs.rows(&mut text, name, &|o| match &o.measurement {
                     Measurement::Absorbed(a) => Some(pick(a)),
                     _ => None,

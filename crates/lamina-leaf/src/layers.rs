@@ -82,8 +82,9 @@ impl LayerStack {
 /// direction whose cosine outside is `cos_out`. Never total internal reflection: `n >= 1`.
 #[inline]
 pub fn refracted_cos(cos_out: f32, n: f32) -> f32 {
-    let sin2 = (1.0 - cos_out * cos_out).max(0.0) / (n * n);
-    (1.0 - sin2).max(0.0).sqrt()
+    // `1 - (1 - c^2) / n^2` written as `((n - 1)(n + 1) + c^2) / n^2`, which does not cancel
+    // for indices near 1 at grazing angles.
+    (((n - 1.0) * (n + 1.0) + cos_out * cos_out).max(0.0)).sqrt() / n
 }
 
 /// Unpolarised Fresnel reflectance of a smooth dielectric border, for light arriving at

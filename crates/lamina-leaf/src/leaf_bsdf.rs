@@ -22,7 +22,7 @@
 //! normals; diffuse lobes: cosine-weighted on the respective side. [`Bsdf::pdf`] returns the
 //! mixture density, so `sample`'s weight is exactly `eval / pdf`.
 
-use crate::analytic::{single_scatter, single_scatter_mirrored};
+use crate::analytic::{single_scatter, single_scatter_and_surface, single_scatter_mirrored};
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::diffusion::Diffusion;
 use crate::frame::Frame;
@@ -45,6 +45,8 @@ pub struct LeafBsdf {
     pub(crate) diffusion: Diffusion,
     /// Hemispherical Fresnel reflectance of the adaxial / abaxial surface from outside.
     pub(crate) r_out: [f32; 2],
+    /// `1 / (1 - r_out)` per side: the diffusion lobes' normalisation.
+    pub(crate) inv_t_out: [f32; 2],
     /// Multipliers of the physical subsurface BSDF: adaxial R, abaxial R, T.
     pub(crate) scale: [Vec3; 3],
     /// Diffuse albedos at this texel (adaxial R, abaxial R, T), linear RGB.
@@ -55,8 +57,8 @@ pub struct LeafBsdf {
     pub(crate) alpha: [f32; 2],
     /// Weight of the specular lobe.
     pub(crate) specular: f32,
-    /// Sine of the blend width next to the plane.
-    pub(crate) blend: f32,
+    /// One over the sine of the blend width next to the plane.
+    pub(crate) inv_blend: f32,
 }
 
 /// `smoothstep(0, 1, x)`.
@@ -81,12 +83,13 @@ impl LeafBsdf {
             stack,
             diffusion,
             r_out,
+            inv_t_out: r_out.map(|r| 1.0 / (1.0 - r)),
             scale: [Vec3::ONE; 3],
             albedo: [Vec3::ZERO; 3],
             shading: Frame::from_normal_tangent(Vec3::Z, Vec3::X),
             alpha: [0.2, 0.5],
             specular: 0.0,
-            blend: 0.1,
+            inv_blend: 10.0,
         }
     }
 
@@ -123,7 +126,7 @@ impl LeafBsdf {
         } else {
             (1, self.stack.layers[2].ior)
         };
-        (1.0 - fresnel_dielectric(w.z.abs(), n)) / (1.0 - self.r_out[side])
+        (1.0 - fresnel_dielectric(w.z.abs(), n)) * self.inv_t_out[side]
     }
 
     /// Optical depth of the whole blade along the direction `w` refracted into it.
@@ -135,17 +138,33 @@ impl LeafBsdf {
         })
     }
 
-    /// The diffusion part of the physical model (1/sr, no cosine).
+    /// The diffuse albedo of the lobe `wo`, `wi` belong to (adaxial or abaxial reflection,
+    /// or transmission).
     #[inline]
-    fn diffusion_term(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        let a = if wo.z * wi.z < 0.0 {
+    fn diffuse_lobe(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if wo.z * wi.z < 0.0 {
             self.diffusion.t
         } else if wo.z > 0.0 {
             self.diffusion.r_top
         } else {
             self.diffusion.r_bottom
-        };
-        a * (self.surface_t(wo) * self.surface_t(wi) * FRAC_1_PI)
+        }
+    }
+
+    /// The diffusion part of the physical model (1/sr, no cosine).
+    #[inline]
+    fn diffusion_term(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.diffuse_lobe(wo, wi) * (self.surface_t(wo) * self.surface_t(wi) * FRAC_1_PI)
+    }
+
+    /// The layered model's subsurface BSDF (single scattering plus diffusion), the outer
+    /// surfaces' Fresnel transmissions taken from the single-scattering computation.
+    #[inline]
+    fn layered(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        let (ss, [t_wo, t_wi]) = single_scatter_and_surface(&self.stack, wo, wi);
+        let side = |w: Vec3| if w.z > 0.0 { 0 } else { 1 };
+        let norm = self.inv_t_out[side(wo)] * self.inv_t_out[side(wi)];
+        ss + self.diffuse_lobe(wo, wi) * (t_wo * t_wi * norm * FRAC_1_PI)
     }
 
     /// The physical subsurface BSDF of the texel's layers (1/sr, no cosine, maps not
@@ -161,22 +180,16 @@ impl LeafBsdf {
                 let ss = (-(self.optical_depth(wo) + self.optical_depth(wi))).exp();
                 (Vec3::ONE + ss) * FRAC_1_PI
             }
-            LeafMode::Diffuse => {
-                let a = if wo.z * wi.z < 0.0 {
-                    self.diffusion.t
-                } else if wo.z > 0.0 {
-                    self.diffusion.r_top
-                } else {
-                    self.diffusion.r_bottom
-                };
-                a * FRAC_1_PI
-            }
+            LeafMode::Diffuse => self.diffuse_lobe(wo, wi) * FRAC_1_PI,
         }
     }
 
     /// The physical subsurface BSDF (1/sr, no cosine, maps not applied) with the
     /// closed-form single scattering.
     pub fn subsurface(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if self.mode == LeafMode::Layered && wo.z != 0.0 && wi.z != 0.0 {
+            return self.layered(wo, wi);
+        }
         self.subsurface_with(wo, wi, || self.single(wo, wi))
     }
 
@@ -210,7 +223,7 @@ impl LeafBsdf {
             -self.shading.n
         };
         let cs = wi.dot(n).max(0.0);
-        cg + smooth(cg / self.blend) * (cs - cg)
+        cg + smooth(cg * self.inv_blend) * (cs - cg)
     }
 
     /// `wo`, `wi` in the shading frame of `wo`'s side (`+z` = `±n_s`), and the side index.
@@ -249,7 +262,7 @@ impl LeafBsdf {
             return 0.0;
         }
         let (lo, li, side) = self.shading_dirs(wo, wi);
-        let fade = smooth(wo.z.abs() / self.blend) * smooth(wi.z.abs() / self.blend);
+        let fade = smooth(wo.z.abs() * self.inv_blend) * smooth(wi.z.abs() * self.inv_blend);
         self.specular * fade * specular::eval(lo, li, self.alpha[side], self.eta(side))
     }
 
@@ -264,12 +277,14 @@ impl LeafBsdf {
         }
     }
 
+    /// `eval` with the physical subsurface BSDF supplied by `subsurface` (called only when
+    /// neither direction lies in the plane).
     #[inline]
-    fn eval_with(&self, wo: Vec3, wi: Vec3, single: impl FnOnce() -> Vec3) -> Vec3 {
+    fn eval_with(&self, wo: Vec3, wi: Vec3, subsurface: impl FnOnce() -> Vec3) -> Vec3 {
         if wo.z == 0.0 || wi.z == 0.0 {
             return Vec3::ZERO;
         }
-        let sub = self.subsurface_with(wo, wi, single) * self.lobe_scale(wo, wi) * self.cos_eff(wi);
+        let sub = subsurface() * self.lobe_scale(wo, wi) * self.cos_eff(wi);
         sub + Vec3::splat(self.specular_term(wo, wi))
     }
 
@@ -277,14 +292,16 @@ impl LeafBsdf {
     /// ([`crate::march`]) with `samples` steps per layer instead of the closed form.
     pub fn eval_marched(&self, wo: Vec3, wi: Vec3, samples: u32, rng: &mut Pcg32) -> Vec3 {
         self.eval_with(wo, wi, || {
-            if wo.z * wi.z < 0.0 {
-                let m = Vec3::new(1.0, 1.0, -1.0);
-                let half = samples.div_ceil(2);
-                0.5 * (single_scatter_marched(&self.stack, wo, wi, half, rng)
-                    + single_scatter_marched(&self.stack, wo * m, wi * m, half, rng))
-            } else {
-                single_scatter_marched(&self.stack, wo, wi, samples, rng)
-            }
+            self.subsurface_with(wo, wi, || {
+                if wo.z * wi.z < 0.0 {
+                    let m = Vec3::new(1.0, 1.0, -1.0);
+                    let half = samples.div_ceil(2);
+                    0.5 * (single_scatter_marched(&self.stack, wo, wi, half, rng)
+                        + single_scatter_marched(&self.stack, wo * m, wi * m, half, rng))
+                } else {
+                    single_scatter_marched(&self.stack, wo, wi, samples, rng)
+                }
+            })
         })
     }
 
@@ -311,7 +328,7 @@ impl LeafBsdf {
 
 impl Bsdf for LeafBsdf {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        self.eval_with(wo, wi, || self.single(wo, wi))
+        self.eval_with(wo, wi, || self.subsurface(wo, wi))
     }
 
     fn sample(&self, wo: Vec3, u: Vec3) -> Option<BsdfSample> {

@@ -34,6 +34,7 @@ pub mod analytic;
 pub mod bsdf;
 pub mod diffusion;
 pub mod error;
+mod fastexp;
 pub mod fit;
 pub mod frame;
 pub mod guard;

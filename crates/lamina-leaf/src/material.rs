@@ -232,8 +232,8 @@ struct Precomputed {
     ratios: AlbedoRatios,
     /// Kubelka-Munk diffusion of the nominal texel (thickness and extinction maps at 0.5).
     nominal_diffusion: Diffusion,
-    /// Sine of [`LeafParams::blend_width_deg`] ([`LeafBsdf`]'s blend band).
-    blend: f32,
+    /// One over the sine of [`LeafParams::blend_width_deg`] ([`LeafBsdf`]'s blend band).
+    inv_blend: f32,
 }
 
 /// A leaf's maps and validated parameters. `Send + Sync`; per-texel queries are cheap and
@@ -410,7 +410,7 @@ impl Precomputed {
             margin,
             ratios,
             nominal_diffusion: diffusion(&nominal, &borders),
-            blend: params.blend_width_deg.to_radians().sin(),
+            inv_blend: 1.0 / params.blend_width_deg.to_radians().sin(),
         }
     }
 
@@ -712,7 +712,7 @@ impl LeafMaterial {
         b.shading = Frame::from_normal_tangent(normal, Vec3::X);
         b.alpha = [p.roughness_adaxial, p.roughness_abaxial];
         b.specular = p.specular;
-        b.blend = self.pre.blend;
+        b.inv_blend = self.pre.inv_blend;
         b
     }
 
@@ -900,7 +900,7 @@ mod tests {
         b.shading = Frame::from_normal_tangent(normal, Vec3::X);
         b.alpha = [p.roughness_adaxial, p.roughness_abaxial];
         b.specular = p.specular;
-        b.blend = p.blend_width_deg.to_radians().sin();
+        b.inv_blend = 1.0 / p.blend_width_deg.to_radians().sin();
         b
     }
 
@@ -1046,10 +1046,22 @@ mod tests {
     fn bsdf_difference(a: &LeafBsdf, b: &LeafBsdf) -> f32 {
         assert_eq!(
             (
-                a.mode, a.stack, a.r_out, a.shading, a.alpha, a.specular, a.blend
+                a.mode,
+                a.stack,
+                a.r_out,
+                a.shading,
+                a.alpha,
+                a.specular,
+                a.inv_blend
             ),
             (
-                b.mode, b.stack, b.r_out, b.shading, b.alpha, b.specular, b.blend
+                b.mode,
+                b.stack,
+                b.r_out,
+                b.shading,
+                b.alpha,
+                b.specular,
+                b.inv_blend
             )
         );
         let rel = |x: Vec3, y: Vec3| {

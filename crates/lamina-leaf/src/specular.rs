@@ -53,12 +53,25 @@ fn half_vector(wo: Vec3, wi: Vec3) -> Option<Vec3> {
 /// else 0); `eta` is the index of the epidermis relative to air.
 #[inline]
 pub fn eval(wo: Vec3, wi: Vec3, alpha: f32, eta: f32) -> f32 {
-    let Some(wm) = half_vector(wo, wi) else {
+    // `F D G2 / (4 cos_o)` with the factors written over one division. With `h = wo + wi`
+    // (unnormalised, `|h|^2 = L`), `D = a^2 L^2 / (pi t^2)` where `t = h_z^2 (a^2 - 1) + L`,
+    // and `1 + Lambda_o + Lambda_i = (c_i s_o + c_o s_i) / (2 c_o c_i)` where
+    // `s = sqrt(c^2 + a^2 (1 - c^2))`; so the value is
+    // `F a^2 L^2 c_i / (2 pi t^2 (c_i s_o + c_o s_i))`.
+    let (co, ci) = (wo.z, wi.z);
+    if co <= 0.0 || ci <= 0.0 {
         return 0.0;
-    };
-    let f = fresnel_dielectric(wo.dot(wm), eta);
-    let g2 = 1.0 / (1.0 + ggx_lambda(wo, alpha) + ggx_lambda(wi, alpha));
-    f * ggx_d(wm, alpha) * g2 / (4.0 * wo.z)
+    }
+    let h = wo + wi;
+    let len2 = h.length_squared();
+    if len2 <= 1e-12 {
+        return 0.0;
+    }
+    let f = fresnel_dielectric(wo.dot(h) / len2.sqrt(), eta);
+    let a2 = alpha * alpha;
+    let t = h.z * h.z * (a2 - 1.0) + len2;
+    let s = |c: f32| (c * c + a2 * (1.0 - c * c).max(0.0)).sqrt();
+    f * a2 * len2 * len2 * ci / (2.0 * PI * t * t * (ci * s(co) + co * s(ci)))
 }
 
 /// Density (1/sr) of [`sample`] returning `wi` for `wo`: `G1(wo) D(wm) / (4 wo.z)`, zero

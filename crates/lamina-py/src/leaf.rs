@@ -84,18 +84,31 @@ fn broadcast(all: &[(&str, &Rows)]) -> PyResult<usize> {
 }
 
 /// Rows of `width` values converted in parallel by `f`, which returns `None` for a value
-/// that is not allowed: then the error `bad(first bad row index, its values)`.
-fn convert<T: Send>(
+/// that is not allowed: then the error `bad(first bad row index, its values)`. One pass
+/// over valid input (the first bad row is looked for only when there is one).
+fn convert<T: Send + Default>(
     r: &Rows,
     width: usize,
     f: impl Fn(&[f64]) -> Option<T> + Sync,
     bad: impl FnOnce(usize, &[f64]) -> PyErr,
 ) -> PyResult<Vec<T>> {
     let chunks = || r.values.par_chunks(width).with_min_len(4096);
-    if let Some(i) = chunks().position_first(|v| f(v).is_none()) {
+    let failed = std::sync::atomic::AtomicBool::new(false);
+    let out = chunks()
+        .map(|v| {
+            f(v).unwrap_or_else(|| {
+                failed.store(true, std::sync::atomic::Ordering::Relaxed);
+                T::default()
+            })
+        })
+        .collect();
+    if failed.into_inner() {
+        let i = chunks()
+            .position_first(|v| f(v).is_none())
+            .expect("a row failed");
         return Err(bad(i, &r.values[width * i..width * i + width]));
     }
-    Ok(chunks().map(|v| f(v).expect("checked above")).collect())
+    Ok(out)
 }
 
 /// A 3-wide input's rows as unit vectors; errors name the row.

@@ -153,7 +153,10 @@ struct State {
     right: bool,
     cursor: Option<(f64, f64)>,
     last: Instant,
+    /// Wall-clock time between frames (ms), smoothed.
     frame_ms: f64,
+    /// The latest GPU time per pass, where the adapter has timestamp queries.
+    gpu: Option<lamina_gpu::renderer::PassTimes>,
     frames: u64,
     triangles: u64,
 }
@@ -183,13 +186,24 @@ impl State {
                 s.elevation.to_degrees()
             )
         });
-        let text = format!(
-            "{:.1} MS ({:.1} FPS){}  {:.2}M TRIS",
-            self.frame_ms,
-            1000.0 / self.frame_ms.max(1e-3),
-            sun,
-            self.triangles as f64 / 1e6
-        );
+        // GPU time per pass where the adapter has timestamp queries; wall-clock time
+        // between frames otherwise, labelled so.
+        let time = match self.gpu {
+            Some(t) => format!(
+                "GPU {:.1} MS (SHADOW {:.1} MAIN {:.1} POST {:.1})  {:.1} FPS",
+                t.total_ms(),
+                t.shadows_ms,
+                t.main_ms,
+                t.post_ms.unwrap_or(0.0),
+                1000.0 / self.frame_ms.max(1e-3)
+            ),
+            None => format!(
+                "WALL {:.1} MS ({:.1} FPS)",
+                self.frame_ms,
+                1000.0 / self.frame_ms.max(1e-3)
+            ),
+        };
+        let text = format!("{time}{sun}  {:.2}M TRIS", self.triangles as f64 / 1e6);
         lamina_gpu::overlay::render_text(&text)
     }
 
@@ -235,7 +249,12 @@ impl State {
             &self.film,
             Some(&overlay),
         )?;
+        self.renderer.finish_frame(&mut encoder);
         ctx.queue.submit([encoder.finish()]);
+        self.renderer.frame_submitted();
+        if let Some(t) = self.renderer.gpu_times() {
+            self.gpu = Some(t);
+        }
         self.window.pre_present_notify();
         ctx.queue.present(frame);
         self.frames += 1;
@@ -309,6 +328,7 @@ impl Viewer {
             cursor: None,
             last: Instant::now(),
             frame_ms: 0.0,
+            gpu: None,
             frames: 0,
             triangles,
         });
@@ -334,8 +354,17 @@ impl Viewer {
         crate::output_file::claim(path, self.args.force, &[]).context("--screenshot")?;
         lamina_io::save_image(path, &img)
             .with_context(|| format!("writing the screenshot '{}'", path.display()))?;
+        let gpu = s.gpu.map_or(String::new(), |t| {
+            format!(
+                "; GPU {:.2} ms: shadows {:.2}, main {:.2}, post {:.2}",
+                t.total_ms(),
+                t.shadows_ms,
+                t.main_ms,
+                t.post_ms.unwrap_or(0.0)
+            )
+        });
         eprintln!(
-            "wrote {} after {} frames ({:.1} ms per frame)",
+            "wrote {} after {} frames ({:.1} ms per frame, wall clock{gpu})",
             path.display(),
             s.frames,
             s.frame_ms

@@ -1,10 +1,14 @@
 //! Frame time of the GPU path for generated trees of 10k, 100k and 1M leaves (or the
-//! counts given) at 1920x1080: the sun's two-layer shadow/transmittance maps (2048²) and
-//! the camera pass, every frame (the sun may move); sky-visibility maps are baked once at
-//! load and not counted. Prints the adapter and one row per tree.
+//! counts given) at 1920x1080, as a window's frame draws it: the sun's two-layer
+//! shadow/transmittance maps (2048²), the camera pass and the tone-map pass into an
+//! offscreen sRGB target, every frame (the sun may move); sky-visibility maps are baked once
+//! at load and not counted. Prints the adapter, then one row per tree: GPU milliseconds per
+//! pass from timestamp queries (where the adapter has them; else `-`), the wall-clock frame
+//! time (submit to GPU finished) and its fps, and the geometry's GPU memory.
 //!
 //! `cargo run --release -p lamina-gpu --example frame_bench -- [leaves...]`
 
+use lamina_gpu::renderer::PassTimes;
 use lamina_gpu::{FrameView, GpuContext, RenderSettings, Renderer};
 use std::time::Instant;
 
@@ -21,10 +25,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (w, h) = (1920, 1080);
     let ctx = GpuContext::headless(&Default::default())?;
     println!("adapter: {}", ctx.adapter_name());
-    println!("{w}x{h}, shadow map 2048, frame = sun shadow passes + camera pass, GPU finished");
     println!(
-        "{:>9} {:>11} {:>9} {:>10} {:>10} {:>10}",
-        "leaves", "triangles", "load s", "frame ms", "min ms", "fps"
+        "{w}x{h}, shadow map 2048, frame = sun shadow passes + camera pass + tone map, GPU finished"
+    );
+    println!(
+        "{:>9} {:>11} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>9}",
+        "leaves",
+        "triangles",
+        "load s",
+        "shadow ms",
+        "main ms",
+        "post ms",
+        "GPU ms",
+        "wall ms",
+        "wall fps",
+        "geom MB"
     );
     for n in counts {
         let scene = lamina_bench::frame_tree_scene(n, (w, h))?;
@@ -43,26 +58,42 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             width: w,
             height: h,
         };
-        r.render_and_wait(&view)?;
+        r.render_and_wait(&view, Some(&scene.film))?;
         let load = t.elapsed().as_secs_f64();
         let frames = if n >= 500_000 { 3 } else { 5 };
-        let mut times = Vec::new();
+        let (mut wall, mut gpu) = (Vec::new(), Vec::<PassTimes>::new());
         for _ in 0..frames {
             let t = Instant::now();
-            r.render_and_wait(&view)?;
-            times.push(t.elapsed().as_secs_f64() * 1000.0);
+            let times = r.render_and_wait(&view, Some(&scene.film))?;
+            wall.push(t.elapsed().as_secs_f64() * 1000.0);
+            gpu.extend(times);
         }
-        let mean = times.iter().sum::<f64>() / times.len() as f64;
-        let min = times.iter().cloned().fold(f64::INFINITY, f64::min);
+        let mean = |v: &mut dyn Iterator<Item = f64>| {
+            let (s, k) = v.fold((0.0, 0), |(s, k), x| (s + x, k + 1));
+            (k > 0).then(|| s / k as f64)
+        };
+        let col = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{x:.2}"));
+        let wall_ms = mean(&mut wall.iter().copied()).unwrap_or(f64::NAN);
         println!(
-            "{:>9} {:>11} {:>9.1} {:>10.1} {:>10.1} {:>10.2}",
+            "{:>9} {:>11} {:>7.1} {:>9} {:>9} {:>9} {:>9} {:>9.1} {:>8.2} {:>9.1}",
             n,
             r.triangles(),
             load,
-            mean,
-            min,
-            1000.0 / mean
+            col(mean(&mut gpu.iter().map(|t| t.shadows_ms))),
+            col(mean(&mut gpu.iter().map(|t| t.main_ms))),
+            col(mean(&mut gpu.iter().filter_map(|t| t.post_ms))),
+            col(mean(&mut gpu.iter().map(|t| t.total_ms()))),
+            wall_ms,
+            1000.0 / wall_ms,
+            r.geometry_bytes() as f64 / 1e6
         );
+    }
+    if !ctx
+        .device
+        .features()
+        .contains(lamina_gpu::wgpu::Features::TIMESTAMP_QUERY)
+    {
+        println!("(this adapter has no timestamp queries: GPU columns are '-', wall clock only)");
     }
     Ok(())
 }

@@ -67,7 +67,8 @@ impl GpuContext {
         };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("lamina-gpu"),
-            required_features: wgpu::Features::empty(),
+            // Timestamp queries time the passes (GPU frame time) where the adapter has them.
+            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
             required_limits: limits,
             ..Default::default()
         }))

@@ -20,11 +20,14 @@
 //!   sun every frame, sky-visibility maps baked once at load, camera pass, tone map),
 //!   headless image readback and window frames.
 //! * [`metrics`]: mean absolute error and SSIM for comparing with the offline renderer.
-//! * [`overlay`]: a tiny bitmap font for the frame-time overlay.
+//! * [`overlay`]: a tiny bitmap font for the frame-time overlay (GPU time per pass from
+//!   timestamp queries where the adapter has them: [`renderer::PassTimes`]).
 //! * [`context`]: adapter/device creation and the error-scoped shader compile path.
 //!
-//! Known approximations: point lights, area lights (drawn as point lights at their
-//! centre) and every sun but the first are unshadowed; the sky is shadowed by
+//! Known approximations: point, quad and sphere lights and every sun but the first are
+//! unshadowed (quads shaded by their exact unshadowed irradiance, spheres as point lights,
+//! at most 32 besides the first sun; [`Renderer::warnings`] names the lights concerned); the
+//! sky is shadowed by
 //! sky-visibility maps from [`RenderSettings::sky_directions`] directions (16 by default,
 //! 0 turns it off), so its light is blocked or filtered only as seen along those
 //! directions; light between leaves is limited to transmittance through up to two leaves

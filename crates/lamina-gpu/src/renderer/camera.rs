@@ -114,6 +114,7 @@ impl CameraPass {
         pipelines: &ScenePipelines,
         geometry: &Geometry,
         materials: &[wgpu::BindGroup],
+        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         let t = self.targets.as_ref().expect("targets were just made");
         let bg = background;
@@ -141,7 +142,7 @@ impl CameraPass {
                 }),
                 stencil_ops: None,
             }),
-            timestamp_writes: None,
+            timestamp_writes: timestamps,
             occlusion_query_set: None,
             multiview_mask: None,
         });

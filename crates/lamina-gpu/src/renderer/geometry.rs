@@ -106,6 +106,16 @@ impl Geometry {
         })
     }
 
+    /// Bytes of the vertex, index and instance buffers.
+    pub fn bytes(&self) -> u64 {
+        self.instances.size()
+            + self
+                .meshes
+                .iter()
+                .map(|m| m.vertices.size() + m.indices.size())
+                .sum::<u64>()
+    }
+
     /// Draws every mesh into `pass` (whose pipeline and group 0 are set), binding each
     /// mesh's material from `materials` as group 1.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, materials: &[wgpu::BindGroup]) {

@@ -3,8 +3,12 @@
 //! lights, the sky's SH irradiance) and how scene lights become those.
 //!
 //! The first sun is the shadowed one (its direction may be overridden per frame); further
-//! suns become unshadowed directional lights. Area lights (quads, spheres) become point
-//! lights at their centre with the same power toward the scene.
+//! suns become unshadowed directional lights. A quad light is shaded by its exact
+//! unshadowed irradiance (the vector form factor of the polygon, Lambert 1760 / Arvo 1994:
+//! `E = L/2 Σ Θ_k Γ_k` over its edges), one-sided as on the CPU unless `two_sided`; a sphere
+//! light is a point light of intensity `L π R²`, which is exact outside the sphere when all
+//! of it is above the receiver's horizon. None of them casts shadows: [`Lighting::warnings`]
+//! says so, naming the lights, and names the lights past [`MAX_LIGHTS`], which are left out.
 
 use super::FrameView;
 use super::bounds::SceneBounds;
@@ -13,15 +17,17 @@ use crate::sky;
 use glam::{Mat4, Vec3};
 use lamina_scene::{Light, Scene, Sky};
 
-/// Most point and extra directional lights in the uniform block.
-const MAX_LIGHTS: usize = 8;
+/// Most lights besides the shadowed sun in the uniform block (`MAX_LIGHTS` in scene.wgsl).
+pub(super) const MAX_LIGHTS: usize = 32;
 
-/// One light in the uniform block (see `Light` in scene.wgsl).
+/// One light in the uniform block (see `Light` in scene.wgsl for the kinds).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct GpuLight {
     pos: [f32; 4],
     color: [f32; 4],
+    u: [f32; 4],
+    v: [f32; 4],
 }
 
 /// Per-frame uniforms (see `Globals` in scene.wgsl for the meaning and units).
@@ -50,6 +56,8 @@ pub(super) struct Lighting {
     sky_sh: [Vec3; 9],
     /// Radiance seen where no geometry is (the clear colour), linear RGB W m⁻² sr⁻¹.
     pub background: Vec3,
+    /// What the GPU path does differently from the offline renderer with these lights.
+    pub warnings: Vec<String>,
 }
 
 impl Lighting {
@@ -66,6 +74,7 @@ impl Lighting {
             lights: scene.lights.clone(),
             sky_sh,
             background,
+            warnings: light_warnings(&scene.lights),
         }
     }
 
@@ -132,37 +141,41 @@ impl Lighting {
 }
 
 /// A scene light as an unshadowed uniform-block light: `pos.w` 0 = directional (toward
-/// the light, irradiance W m⁻²), 1 = point (position m, intensity W sr⁻¹).
+/// the light, irradiance W m⁻²), 1 = point (position m, intensity W sr⁻¹, `u.x` the radius
+/// of a sphere light, inside which the distance is clamped), 2 = one-sided quad and 3 =
+/// two-sided quad (`pos` a corner, `u`, `v` its edges in m, emitting toward `u × v`,
+/// radiance W m⁻² sr⁻¹).
 fn gpu_light(l: &Light) -> GpuLight {
+    let v4 = |v: Vec3, w: f32| v.extend(w).to_array();
     match l {
         Light::Sun {
             direction,
             irradiance,
             ..
         } => GpuLight {
-            pos: [direction.x, direction.y, direction.z, 0.0],
-            color: irradiance.extend(0.0).to_array(),
+            pos: v4(*direction, 0.0),
+            color: v4(*irradiance, 0.0),
+            ..Default::default()
         },
         Light::Point {
             position,
             intensity,
         } => GpuLight {
-            pos: position.extend(1.0).to_array(),
-            color: intensity.extend(0.0).to_array(),
+            pos: v4(*position, 1.0),
+            color: v4(*intensity, 0.0),
+            ..Default::default()
         },
-        // A one-sided quad of radiance L and area A emits intensity L A cos toward
-        // its normal; as a point light we use L A (the on-axis value).
         Light::Quad {
             corner,
             edge_u,
             edge_v,
             radiance,
-            ..
+            two_sided,
         } => GpuLight {
-            pos: (*corner + 0.5 * (*edge_u + *edge_v)).extend(1.0).to_array(),
-            color: (*radiance * edge_u.cross(*edge_v).length())
-                .extend(0.0)
-                .to_array(),
+            pos: v4(*corner, if *two_sided { 3.0 } else { 2.0 }),
+            color: v4(*radiance, 0.0),
+            u: v4(*edge_u, 0.0),
+            v: v4(*edge_v, 0.0),
         },
         // A sphere of radius R and radiance L has intensity L pi R^2 in every
         // direction.
@@ -171,10 +184,57 @@ fn gpu_light(l: &Light) -> GpuLight {
             radius,
             radiance,
         } => GpuLight {
-            pos: center.extend(1.0).to_array(),
-            color: (*radiance * std::f32::consts::PI * radius * radius)
-                .extend(0.0)
-                .to_array(),
+            pos: v4(*center, 1.0),
+            color: v4(*radiance * std::f32::consts::PI * radius * radius, 0.0),
+            u: [*radius, 0.0, 0.0, 0.0],
+            ..Default::default()
         },
     }
+}
+
+/// A light's name in messages: its kind and 1-based place in the scene's list.
+fn light_name(i: usize, l: &Light) -> String {
+    let kind = match l {
+        Light::Sun { .. } => "sun",
+        Light::Point { .. } => "point",
+        Light::Quad { .. } => "quad",
+        Light::Sphere { .. } => "sphere",
+    };
+    format!("light {} ({kind})", i + 1)
+}
+
+/// The warnings for `lights` on the GPU path: which cast no shadows there (all but the
+/// first sun), and which are left out (past the first sun and [`MAX_LIGHTS`] others).
+fn light_warnings(lights: &[Light]) -> Vec<String> {
+    let first_sun = lights.iter().position(|l| matches!(l, Light::Sun { .. }));
+    let others: Vec<(usize, &Light)> = lights
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| Some(*i) != first_sun)
+        .collect();
+    let names = |ls: &[(usize, &Light)]| {
+        ls.iter()
+            .map(|(i, l)| light_name(*i, l))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let shaded = &others[..others.len().min(MAX_LIGHTS)];
+    let mut out = Vec::new();
+    if !shaded.is_empty() {
+        let one = shaded.len() == 1;
+        out.push(format!(
+            "{} cast{} no shadows on the GPU path (only the first sun does): what the \
+             offline renderer shows in {} shadow is lit here",
+            names(shaded),
+            if one { "s" } else { "" },
+            if one { "its" } else { "their" }
+        ));
+    }
+    if others.len() > MAX_LIGHTS {
+        out.push(format!(
+            "{} left out: the GPU path shades the first sun and {MAX_LIGHTS} other lights",
+            names(&others[MAX_LIGHTS..])
+        ));
+    }
+    out
 }

@@ -13,9 +13,10 @@
 //!    point and extra directional lights, and the SH sky ([`crate::sky`]) scaled by the
 //!    sky visibility baked at load. Output: linear radiance in an RGBA16F target.
 //!
-//! Area lights (quads, spheres) become point lights at their centre with the same power
-//! toward the scene (an approximation that holds away from the light). Only the first sun
-//! casts shadows. Determinism: the same scene and view give the same image on the same
+//! Quad lights are shaded by their exact unshadowed irradiance (one-sided unless
+//! `two_sided`), sphere lights as point lights (exact outside them), see [`lights`]. Only
+//! the first sun casts shadows; the others are named in [`Renderer::warnings`], as are the
+//! lights past the first sun and 32 others, which are left out. Determinism: the same scene and view give the same image on the same
 //! device and driver (no randomness, fixed draw order).
 //!
 //! The rooms, in the order [`Renderer::new`] fills them:
@@ -26,7 +27,8 @@
 //! * `sky_visibility`: the sky's two-layer maps per direction, baked once;
 //! * `camera`: the globals buffer, the camera pass and its HDR/depth targets;
 //! * `post`: tone map and overlay;
-//! * `lights`: scene lights and sky as the per-frame uniforms;
+//! * `lights`: scene lights and sky as the per-frame uniforms, and the light warnings;
+//! * `timing`: GPU time per pass (timestamp queries);
 //! * `bounds`, `projection`: bounding spheres and matrices; `layout`: formats and binding
 //!   shorthand; `readback`, `half`: reading frames back.
 
@@ -43,10 +45,12 @@ mod projection;
 mod readback;
 mod sky_visibility;
 mod sun;
+mod timing;
 
 pub use post::OVERLAY_SIZE;
 pub use projection::{camera_matrix, sphere_directions};
 pub use sky_visibility::MAX_SKY_DIRS;
+pub use timing::PassTimes;
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
@@ -62,6 +66,7 @@ use pipelines::ScenePipelines;
 use post::PostProcess;
 use sky_visibility::SkyVisibility;
 use sun::SunShadow;
+use timing::{Pass, Timer};
 
 /// The scene shader (light-view and camera passes).
 pub const SCENE_WGSL: &str = include_str!("../shaders/scene.wgsl");
@@ -123,6 +128,10 @@ pub struct Renderer {
     scene_camera: Camera,
     scene_film: Film,
     warnings: Vec<String>,
+    /// GPU time per pass, where the device has timestamp queries.
+    timer: Option<Timer>,
+    /// The offscreen tone-map target of [`Renderer::render_and_wait`] (size, view).
+    post_target: Option<((u32, u32), wgpu::TextureView)>,
 }
 
 impl Renderer {
@@ -148,6 +157,9 @@ impl Renderer {
             settings.sky_directions.clamp(1, MAX_SKY_DIRS as u32),
         );
         let camera = CameraPass::new(device, &pipelines, globals, &sun, &sky_visibility);
+        let lighting = Lighting::of(scene);
+        let mut warnings = warnings;
+        warnings.extend(lighting.warnings.iter().cloned());
         let renderer = Renderer {
             ctx: ctx.clone(),
             settings,
@@ -158,11 +170,13 @@ impl Renderer {
             sky_visibility,
             camera,
             post: PostProcess::new(device, post_module),
-            lighting: Lighting::of(scene),
+            lighting,
             bounds: SceneBounds::of(scene),
             scene_camera: scene.camera,
             scene_film: scene.film,
             warnings,
+            timer: Timer::new(device, &ctx.queue),
+            post_target: None,
         };
         renderer.bake_sky_visibility()?;
         Ok(renderer)
@@ -186,7 +200,9 @@ impl Renderer {
         )
     }
 
-    /// Messages about the upload (downscaled maps); empty when all went as asked.
+    /// Messages about what the GPU path does differently from the offline renderer
+    /// (downscaled maps, lights without shadows or left out), each naming the map or light;
+    /// empty when all went as asked.
     pub fn warnings(&self) -> &[String] {
         &self.warnings
     }
@@ -194,6 +210,11 @@ impl Renderer {
     /// Triangles drawn per camera pass (instances counted).
     pub fn triangles(&self) -> u64 {
         self.geometry.triangles
+    }
+
+    /// GPU memory of the scene's geometry (vertex, index and instance buffers), bytes.
+    pub fn geometry_bytes(&self) -> u64 {
+        self.geometry.bytes()
     }
 
     /// Scene bounding sphere (centre, radius in m).
@@ -231,15 +252,57 @@ impl Renderer {
         let has_sun = globals.sun_dir[3] > 0.5;
         let (pipelines, geometry) = (&self.pipelines, &self.geometry);
         let materials = &self.materials.groups;
-        self.sun
-            .encode(encoder, pipelines, geometry, materials, has_sun);
+        let mut timer = self.timer.as_mut();
+        if let Some(t) = timer.as_deref_mut() {
+            t.begin_frame();
+        }
+        self.sun.encode(
+            encoder,
+            pipelines,
+            geometry,
+            materials,
+            has_sun,
+            timer.as_deref_mut(),
+        );
         self.camera.encode(
             encoder,
             self.lighting.background,
             pipelines,
             geometry,
             materials,
+            timer.and_then(|t| t.writes(Pass::Main)),
         );
+    }
+
+    /// Whether this device times its passes (timestamp queries); without them
+    /// [`Renderer::gpu_times`] is always `None` and callers show wall-clock time.
+    pub fn has_gpu_timing(&self) -> bool {
+        self.timer.is_some()
+    }
+
+    /// Records, after a frame's last pass ([`Renderer::encode_scene`] and, if any,
+    /// [`Renderer::encode_post`]), the copy of its pass timestamps for
+    /// [`Renderer::gpu_times`]. Call [`Renderer::frame_submitted`] after submitting the
+    /// encoder.
+    pub fn finish_frame(&mut self, encoder: &mut wgpu::CommandEncoder) {
+        if let Some(t) = &mut self.timer {
+            t.resolve(encoder);
+        }
+    }
+
+    /// Tells the timer that the encoder of [`Renderer::finish_frame`] was submitted.
+    pub fn frame_submitted(&mut self) {
+        if let Some(t) = &mut self.timer {
+            t.submitted();
+        }
+    }
+
+    /// The GPU time per pass of the latest timed frame, without waiting for the GPU
+    /// (frames drawn while a read is pending are not timed); `None` before the first or on
+    /// a device without timestamp queries.
+    pub fn gpu_times(&mut self) -> Option<PassTimes> {
+        let device = &self.ctx.device;
+        self.timer.as_mut().and_then(|t| t.poll(device))
     }
 
     /// Renders the scene's own camera at the film size (supersampled, see
@@ -309,8 +372,9 @@ impl Renderer {
                 message: "no frame was rendered yet".into(),
             })?;
         self.post.write_inputs(&self.ctx, film, overlay);
+        let writes = self.timer.as_mut().and_then(|t| t.writes(Pass::Post));
         self.post
-            .encode(&self.ctx.device, encoder, &t.hdr_view, target);
+            .encode(&self.ctx.device, encoder, &t.hdr_view, target, writes);
         Ok(())
     }
 
@@ -343,15 +407,43 @@ impl Renderer {
     }
 
     /// Renders `view` without reading it back and waits for the GPU: one frame's work,
-    /// for timing.
-    pub fn render_and_wait(&mut self, view: &FrameView) -> Result<(), GpuError> {
+    /// for timing. With `post`, the frame also tone-maps into an offscreen sRGB target of
+    /// the view's size (what a window's frame does). Returns the frame's GPU time per pass
+    /// where the device has timestamp queries.
+    pub fn render_and_wait(
+        &mut self,
+        view: &FrameView,
+        post: Option<&Film>,
+    ) -> Result<Option<PassTimes>, GpuError> {
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         self.encode_scene(&mut encoder, view);
+        if let Some(film) = post {
+            let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+            let size = (view.width, view.height);
+            let stale = self.post_target.as_ref().is_none_or(|(s, _)| *s != size);
+            if stale {
+                let tex = layout::texture_2d(
+                    &self.ctx.device,
+                    "offscreen frame",
+                    (view.width, view.height, 1),
+                    format,
+                    wgpu::TextureUsages::RENDER_ATTACHMENT,
+                );
+                self.post_target = Some((size, tex.create_view(&Default::default())));
+            }
+            let (_, target) = self.post_target.take().expect("made above");
+            let r = self.encode_post(&mut encoder, &target, format, film, None);
+            self.post_target = Some((size, target));
+            r?;
+        }
+        self.finish_frame(&mut encoder);
         self.ctx.queue.submit([encoder.finish()]);
+        self.frame_submitted();
         self.ctx
             .device
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| GpuError::Readback(e.to_string()))?;
-        Ok(())
+        let device = &self.ctx.device;
+        Ok(self.timer.as_mut().and_then(|t| t.wait(device)))
     }
 }

@@ -11,7 +11,7 @@ use crate::error::GpuError;
 use lamina_scene::{Film, ToneMap};
 
 /// Overlay text texture size (pixels).
-pub const OVERLAY_SIZE: (u32, u32) = (512, 24);
+pub const OVERLAY_SIZE: (u32, u32) = (768, 24);
 
 /// Uniforms of the post pass (see `Post` in post.wgsl).
 #[repr(C)]
@@ -175,6 +175,7 @@ impl PostProcess {
         encoder: &mut wgpu::CommandEncoder,
         hdr: &wgpu::TextureView,
         target: &wgpu::TextureView,
+        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("post"),
@@ -197,7 +198,7 @@ impl PostProcess {
                 },
             })],
             depth_stencil_attachment: None,
-            timestamp_writes: None,
+            timestamp_writes: timestamps,
             occlusion_query_set: None,
             multiview_mask: None,
         });

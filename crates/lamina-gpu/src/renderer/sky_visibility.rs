@@ -144,8 +144,13 @@ impl SkyVisibility {
             } else {
                 &pipelines.shadow_peel
             };
-            let mut pass =
-                light_view_pass(encoder, "sky visibility", &views[2 + layer], &views[layer]);
+            let mut pass = light_view_pass(
+                encoder,
+                "sky visibility",
+                &views[2 + layer],
+                &views[layer],
+                None,
+            );
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bg, &[]);
             geometry.draw(&mut pass, materials);

@@ -6,6 +6,7 @@
 use super::geometry::Geometry;
 use super::layout::{DEPTH_FORMAT, SHADOW_COLOR_FORMAT, buffer_entry, texture_2d, view_entry};
 use super::pipelines::ScenePipelines;
+use super::timing::{Pass, Timer};
 
 /// The sun's light-view maps and the bind groups of its two passes.
 pub(super) struct SunShadow {
@@ -65,16 +66,18 @@ impl SunShadow {
         geometry: &Geometry,
         materials: &[wgpu::BindGroup],
         has_sun: bool,
+        mut timer: Option<&mut Timer>,
     ) {
-        for (layer, (pipeline, bg)) in [
-            (&pipelines.shadow_first, &self.first),
-            (&pipelines.shadow_peel, &self.peel),
+        for (layer, (pipeline, bg, slot)) in [
+            (&pipelines.shadow_first, &self.first, Pass::ShadowFirst),
+            (&pipelines.shadow_peel, &self.peel, Pass::ShadowPeel),
         ]
         .into_iter()
         .enumerate()
         {
             let (color, depth) = (&self.views[2 + layer], &self.views[layer]);
-            let mut pass = light_view_pass(encoder, "light view", color, depth);
+            let writes = timer.as_deref_mut().and_then(|t| t.writes(slot));
+            let mut pass = light_view_pass(encoder, "light view", color, depth, writes);
             if has_sun {
                 pass.set_pipeline(pipeline);
                 pass.set_bind_group(0, bg, &[]);
@@ -91,6 +94,7 @@ pub(super) fn light_view_pass<'e>(
     label: &str,
     color: &wgpu::TextureView,
     depth: &wgpu::TextureView,
+    timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
 ) -> wgpu::RenderPass<'e> {
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(label),
@@ -111,7 +115,7 @@ pub(super) fn light_view_pass<'e>(
             }),
             stencil_ops: None,
         }),
-        timestamp_writes: None,
+        timestamp_writes: timestamps,
         occlusion_query_set: None,
         multiview_mask: None,
     })

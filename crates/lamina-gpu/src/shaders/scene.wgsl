@@ -9,14 +9,19 @@
 // renderer's PNG output.
 
 const PI: f32 = 3.14159265;
-const MAX_LIGHTS: u32 = 8u;
+const MAX_LIGHTS: u32 = 32u;
 
-// One unshadowed light. `pos.w == 0`: directional, `pos.xyz` toward the light,
-// `color` = irradiance at normal incidence (W m^-2). `pos.w == 1`: point light at `pos.xyz`,
-// `color` = radiant intensity (W sr^-1).
+// One unshadowed light (Rust: `lights::GpuLight`). `pos.w == 0`: directional, `pos.xyz`
+// toward the light, `color` = irradiance at normal incidence (W m^-2). `pos.w == 1`: point
+// light at `pos.xyz`, `color` = radiant intensity (W sr^-1), `u.x` the radius of a sphere
+// light (distances clamped to it). `pos.w == 2` (one-sided) or `3` (two-sided): a quad with
+// corner `pos.xyz` and edges `u.xyz`, `v.xyz`, emitting toward `u x v`, `color` = radiance
+// (W m^-2 sr^-1).
 struct Light {
     pos: vec4<f32>,
     color: vec4<f32>,
+    u: vec4<f32>,
+    v: vec4<f32>,
 }
 
 // Per-frame constants (Rust: `gpu::Globals`).
@@ -36,7 +41,7 @@ struct Globals {
     shadow: vec4<f32>,
     // Sky irradiance as 9 SH coefficients (bands 0-2), E(n) = sum c_k Y_k(n), W m^-2.
     sky: array<vec4<f32>, 9>,
-    lights: array<Light, 8>,
+    lights: array<Light, 32>,
     // x: number of entries used in `lights`.
     counts: vec4<u32>,
 }
@@ -455,6 +460,37 @@ fn mapped_normal(
     return normalize(mapped);
 }
 
+// The irradiance vector of a quad light of unit radiance at `x` (Lambert's polygon form
+// factor in vector form, Arvo 1994: E = 1/2 sum_k theta_k Gamma_k over the edges, theta_k
+// the angle an edge subtends and Gamma_k the unit normal of the plane through it and x):
+// the irradiance on a surface of normal n is dot(n, E) while the quad is above its horizon.
+// Zero behind a one-sided quad. Points toward the quad.
+fn quad_irradiance(li: Light, x: vec3<f32>) -> vec3<f32> {
+    let nq = cross(li.u.xyz, li.v.xyz);
+    let c0 = li.pos.xyz - x;
+    if li.pos.w < 2.5 && dot(c0, nq) >= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    var p = array<vec3<f32>, 4>(
+        normalize(c0),
+        normalize(c0 + li.u.xyz),
+        normalize(c0 + li.u.xyz + li.v.xyz),
+        normalize(c0 + li.v.xyz),
+    );
+    var e = vec3<f32>(0.0);
+    for (var k = 0u; k < 4u; k++) {
+        let a = p[k];
+        let b = p[(k + 1u) % 4u];
+        let c = cross(a, b);
+        let len = length(c);
+        if len > 1e-7 {
+            e += acos(clamp(dot(a, b), -1.0, 1.0)) * c / len;
+        }
+    }
+    e *= 0.5;
+    return select(e, -e, dot(e, c0 + 0.5 * (li.u.xyz + li.v.xyz)) < 0.0);
+}
+
 // Radiance toward the camera (linear RGB, W m^-2 sr^-1).
 @fragment
 fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
@@ -508,10 +544,18 @@ fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) 
         let li = g.lights[i];
         if li.pos.w < 0.5 {
             col += bsdf_cos(s, normalize(li.pos.xyz)) * li.color.rgb;
-        } else {
+        } else if li.pos.w < 1.5 {
             let d = li.pos.xyz - in.world;
-            let r2 = max(dot(d, d), 1e-8);
-            col += bsdf_cos(s, d * inverseSqrt(r2)) * li.color.rgb / r2;
+            let r2 = max(dot(d, d), max(li.u.x * li.u.x, 1e-8));
+            col += bsdf_cos(s, normalize(d)) * li.color.rgb / r2;
+        } else {
+            // The quad's irradiance vector: its direction is where the light comes from on
+            // average, its length the irradiance at normal incidence.
+            let e = quad_irradiance(li, in.world);
+            let m = length(e);
+            if m > 1e-12 {
+                col += bsdf_cos(s, e / m) * li.color.rgb * m;
+            }
         }
     }
     // Sky: the diffuse lobes integrate the irradiance on each face with their white-sky

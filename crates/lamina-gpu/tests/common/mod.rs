@@ -60,7 +60,13 @@ pub fn compare(ctx: &GpuContext, scene: &Scene, spp: u32) -> Comparison {
     let t = std::time::Instant::now();
     let (gpu, warnings) =
         lamina_gpu::render_scene(ctx, scene, RenderSettings::default()).expect("GPU render");
-    assert!(warnings.is_empty(), "{warnings:?}");
+    // Only the expected note that lights other than the first sun cast no shadows.
+    assert!(
+        warnings
+            .iter()
+            .all(|w| w.contains("no shadows on the GPU path")),
+        "{warnings:?}"
+    );
     let gpu_s = t.elapsed().as_secs_f64();
     let t = std::time::Instant::now();
     let cpu = lamina_render::render(

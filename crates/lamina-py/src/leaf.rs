@@ -202,15 +202,11 @@ impl Leaf {
                     for (k, o) in chunk.chunks_mut(width).enumerate() {
                         let i = base + k;
                         let t = at(uv, i);
-                        let b = match cur {
-                            Some((u, b)) if u == t => b,
-                            _ => {
-                                let b = m.bsdf(t);
-                                cur = Some((t, b));
-                                b
-                            }
-                        };
-                        f(&b, i, o);
+                        // Borrowed, not copied: the texel BSDF is a few hundred bytes.
+                        if cur.as_ref().is_none_or(|(u, _)| *u != t) {
+                            cur = Some((t, m.bsdf(t)));
+                        }
+                        f(&cur.as_ref().expect("set above").1, i, o);
                     }
                 })
         })
@@ -338,7 +334,9 @@ impl Leaf {
         let p = Pairs::new(&wo, &wi, &uv)?;
         self.rows_array(py, p.n, 3, p.single, &p.uv, |b, i, o| {
             let f = b.eval(at(&p.wo, i), at(&p.wi, i));
-            o.copy_from_slice(&f.to_array().map(f64::from));
+            for (d, v) in o.iter_mut().zip(f.to_array()) {
+                *d = v as f64;
+            }
         })
     }
 
@@ -397,8 +395,12 @@ impl Leaf {
             let (wi, f, pdf) = b
                 .sample(at(&wo, i), at(&us, i))
                 .map_or((Vec3::ZERO, Vec3::ZERO, 0.0f32), |s| (s.wi, s.f, s.pdf));
-            o[..3].copy_from_slice(&wi.to_array().map(f64::from));
-            o[3..6].copy_from_slice(&f.to_array().map(f64::from));
+            for (d, v) in o
+                .iter_mut()
+                .zip(wi.to_array().into_iter().chain(f.to_array()))
+            {
+                *d = v as f64;
+            }
             o[6] = pdf as f64;
         })?;
         let np = py.import("numpy")?;

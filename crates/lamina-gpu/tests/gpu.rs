@@ -103,11 +103,7 @@ fn glossy_pbr_agrees_with_the_offline_renderer() {
             peak(&c.gpu),
             peak(&c.cpu)
         );
-        if let Some(dir) = std::env::var_os("LAMINA_TEST_IMAGES") {
-            let file = std::path::Path::new(&dir).join(format!("pbr-{name}.png"));
-            lamina_render::write_image(&file, &common::side_by_side(&c.gpu, &c.cpu), &scene.film)
-                .expect("write the comparison");
-        }
+        common::write_pair_if_asked(&format!("pbr-{name}.png"), &c, &scene.film);
         assert!(c.mae <= max_mae, "{name}: MAE {} > {max_mae}", c.mae);
         assert!(c.ssim >= min_ssim, "{name}: SSIM {} < {min_ssim}", c.ssim);
     }
@@ -237,15 +233,7 @@ fn quad_and_point_lights_agree_with_the_offline_renderer() {
             mean(&cmp.gpu),
             mean(&cmp.cpu)
         );
-        if let Some(dir) = std::env::var_os("LAMINA_TEST_IMAGES") {
-            let file = std::path::Path::new(&dir).join(format!("{name}-light.png"));
-            lamina_render::write_image(
-                &file,
-                &common::side_by_side(&cmp.gpu, &cmp.cpu),
-                &scene.film,
-            )
-            .expect("test image");
-        }
+        common::write_pair_if_asked(&format!("{name}-light.png"), &cmp, &scene.film);
         let ratio = mean(&cmp.gpu) / mean(&cmp.cpu);
         assert!(mean(&cmp.gpu) > 0.01, "{name}: the leaf is lit");
         assert!(

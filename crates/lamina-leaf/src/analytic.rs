@@ -190,14 +190,21 @@ pub fn single_scatter_mirrored(stack: &LayerStack, wo: Vec3, wi: Vec3) -> Vec3 {
         return Vec3::ZERO;
     }
     debug_assert!(wo.z * wi.z < 0.0, "transmission only");
-    let f = Vec3::new(1.0, 1.0, -1.0);
-    let (wi, wo) = if wi.z > 0.0 {
-        (wi, wo)
+    mirrored_paths(stack, wo, wi).mirror_average()
+}
+
+/// The paths through the unflipped `stack` for transmission, both directions mirrored in
+/// the leaf plane when the light is on the abaxial side, so that it enters layer 0: the
+/// mirror average is the same either way round, and so are the outer surfaces'
+/// transmissions.
+#[inline(always)]
+fn mirrored_paths(stack: &LayerStack, wo: Vec3, wi: Vec3) -> Paths {
+    let m = Vec3::new(1.0, 1.0, -1.0);
+    if wi.z > 0.0 {
+        Paths::new(stack, wo, wi)
     } else {
-        (wi * f, wo * f)
-    };
-    let p = Paths::new(stack, wo, wi);
-    0.5 * (p.term() + p.reversed().term())
+        Paths::new(stack, wo * m, wi * m)
+    }
 }
 
 /// What [`crate::LeafBsdf`] needs of the slab for one pair of directions (`wo.z`, `wi.z`
@@ -213,17 +220,8 @@ pub(crate) fn single_scatter_and_surface(
 ) -> (Vec3, [f32; 2]) {
     let transmit = wo.z * wi.z < 0.0;
     if transmit {
-        let f = Vec3::new(1.0, 1.0, -1.0);
-        let (wi, wo) = if wi.z > 0.0 {
-            (wi, wo)
-        } else {
-            (wi * f, wo * f)
-        };
-        // For a light on the abaxial side, mirroring both directions puts it on `+z` of the
-        // unflipped slab; the outer surfaces' transmissions are the same either way round.
-        let p = Paths::new(stack, wo, wi);
-        let ss = 0.5 * (p.term() + p.reversed().term());
-        (ss, [p.to[3], p.ti[0]])
+        let p = mirrored_paths(stack, wo, wi);
+        (p.mirror_average(), [p.to[3], p.ti[0]])
     } else {
         let (stack, wo, wi) = oriented(stack, wo, wi);
         let p = Paths::new(&stack, wo, wi);
@@ -462,6 +460,13 @@ impl Paths {
             att_o: r3(self.att_o),
             local: r3(self.local),
         }
+    }
+
+    /// `0.5 (f(slab) + f(slab flipped))`: the transmission through the slab and its
+    /// mirror image.
+    #[inline(always)]
+    fn mirror_average(&self) -> Vec3 {
+        0.5 * (self.term() + self.reversed().term())
     }
 
     /// The sum over layers: each layer's term times the Fresnel transmissions and

@@ -92,6 +92,15 @@ pub fn compare(ctx: &GpuContext, scene: &Scene, spp: u32) -> Comparison {
     }
 }
 
+/// With `LAMINA_TEST_IMAGES=DIR`, writes the comparison's pair (GPU left) to `DIR/file`.
+pub fn write_pair_if_asked(file: &str, c: &Comparison, film: &lamina_scene::Film) {
+    if let Some(dir) = std::env::var_os("LAMINA_TEST_IMAGES") {
+        let path = std::path::Path::new(&dir).join(file);
+        lamina_render::write_image(&path, &side_by_side(&c.gpu, &c.cpu), film)
+            .expect("write the comparison");
+    }
+}
+
 /// `a` and `b` side by side with a 4-pixel black gap.
 pub fn side_by_side(a: &Image, b: &Image) -> Image {
     let gap = 4;

@@ -22,6 +22,7 @@ mod measure;
 mod render;
 mod scene;
 mod spectra;
+mod worker;
 
 use pyo3::prelude::*;
 

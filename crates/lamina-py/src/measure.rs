@@ -7,6 +7,7 @@
 
 use crate::errors::render_error;
 use crate::scene::Scene;
+use crate::worker::{Event, run_detached};
 use lamina_render::sensors::{self, Estimate, MeasureOptions, Measurement, SensorOutput};
 use lamina_scene::radiometry::SensorKind;
 use numpy::ndarray::{Array1, Array2, Array3};
@@ -14,9 +15,8 @@ use numpy::{PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::mpsc;
-use std::time::Duration;
 
 /// Values and standard errors, `(rows, channels)` each.
 type Table<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
@@ -289,41 +289,15 @@ pub fn measure<'py>(
         }
         Ok(all)
     };
-    let (tx, rx) = mpsc::channel();
-    let (result, pending) = py.detach(move || {
-        let mut pending: Option<PyErr> = None;
-        let r = std::thread::scope(|s| {
-            s.spawn(move || {
-                let r = lamina_leaf::guard::catch_panic(work).unwrap_or_else(|m| {
-                    Err(format!(
-                        "the sensors failed instead of returning an error (a bug in lamina; \
-                         please report it): {m}"
-                    ))
-                });
-                let _ = tx.send(r);
-            });
-            loop {
-                match rx.recv_timeout(Duration::from_millis(50)) {
-                    Ok(r) => return r,
-                    Err(mpsc::RecvTimeoutError::Timeout) => {}
-                    Err(mpsc::RecvTimeoutError::Disconnected) => {
-                        return Err("the sensor thread ended without a result".into());
-                    }
-                }
-                if pending.is_none()
-                    && let Err(e) = Python::attach(|py| py.check_signals())
-                {
-                    cancel.store(true, Ordering::Relaxed);
-                    pending = Some(e);
-                }
-            }
-        });
-        (r, pending)
-    });
-    if let Some(e) = pending {
-        return Err(e);
-    }
-    let all = result.map_err(render_error)?;
+    let all = run_detached(
+        py,
+        "sensors",
+        &cancel,
+        mpsc::channel::<Event<(), _>>(),
+        work,
+        |_, ()| Ok(()),
+    )?
+    .map_err(render_error)?;
     let list = PyList::empty(py);
     for s in 0..all[0].len() {
         let runs = Runs {

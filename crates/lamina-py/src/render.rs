@@ -9,27 +9,19 @@
 
 use crate::errors::{guarded, render_error};
 use crate::scene::Scene;
+use crate::worker::{Event, run_detached};
 use lamina_render::{Progress, RenderOptions, RenderOutput, RenderStats};
 use numpy::PyArray3;
 use numpy::ndarray::Array3;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-/// How often the waiting thread looks at Python's signals.
-const POLL: Duration = Duration::from_millis(50);
-
-enum Msg {
-    Progress {
-        group: usize,
-        groups: usize,
-        p: Progress,
-    },
-    Done(Result<Rendered, String>),
-}
+/// The worker's messages: the band group in flight, how many there are, and the pass.
+type Msg = Event<(usize, usize, Progress), Rendered>;
 
 /// A finished render: `height x width x channels` values, row-major, top row first.
 struct Rendered {
@@ -109,11 +101,7 @@ fn run_render(
         let group = group.clone();
         opts.progress = Some(Arc::new(move |p: Progress| {
             let (g, n) = *group.lock().unwrap_or_else(|e| e.into_inner());
-            let _ = tx.send(Msg::Progress {
-                group: g,
-                groups: n,
-                p,
-            });
+            let _ = tx.send(Event::Message((g, n, p)));
         }));
     }
     let work = move || -> Result<Rendered, String> {
@@ -159,54 +147,14 @@ fn run_render(
             }
         }
     };
-    let (result, pending) = py.detach(move || {
-        let mut pending: Option<PyErr> = None;
-        let r = std::thread::scope(|s| {
-            let tx_done = tx.clone();
-            s.spawn(move || {
-                let r = lamina_leaf::guard::catch_panic(work).unwrap_or_else(|m| {
-                    Err(format!(
-                        "the render failed instead of returning an error (a bug in lamina; \
-                         please report it): {m}"
-                    ))
-                });
-                let _ = tx_done.send(Msg::Done(r));
-            });
-            drop(tx);
-            loop {
-                match rx.recv_timeout(POLL) {
-                    Ok(Msg::Done(r)) => return r,
-                    Ok(Msg::Progress { group, groups, p }) => {
-                        if let (Some(cb), None) = (&progress, &pending) {
-                            let r = Python::attach(|py| {
-                                cb.call1(py, (progress_dict(py, group, groups, &p)?,))
-                                    .map(drop)
-                            });
-                            if let Err(e) = r {
-                                cancel.store(true, Ordering::Relaxed);
-                                pending = Some(e);
-                            }
-                        }
-                    }
-                    Err(mpsc::RecvTimeoutError::Timeout) => {}
-                    Err(mpsc::RecvTimeoutError::Disconnected) => {
-                        return Err("the render thread ended without a result".into());
-                    }
-                }
-                if pending.is_none()
-                    && let Err(e) = Python::attach(|py| py.check_signals())
-                {
-                    cancel.store(true, Ordering::Relaxed);
-                    pending = Some(e);
-                }
-            }
-        });
-        (r, pending)
-    });
-    if let Some(e) = pending {
-        return Err(e);
-    }
-    result.map_err(render_error)
+    let on_progress =
+        move |py: Python<'_>, (group, groups, p): (usize, usize, Progress)| match &progress {
+            Some(cb) => cb
+                .call1(py, (progress_dict(py, group, groups, &p)?,))
+                .map(drop),
+            None => Ok(()),
+        };
+    run_detached(py, "render", &cancel, (tx, rx), work, on_progress)?.map_err(render_error)
 }
 
 /// The render as an `(H, W, C)` float32 array: its buffer moved (not copied) into NumPy.

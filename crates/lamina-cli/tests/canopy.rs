@@ -5,6 +5,11 @@ mod common;
 use common::{fails, lamina, ok, scratch};
 use std::path::Path;
 
+/// `lamina canopy rami ARGS` run in `cwd`.
+fn rami(args: &[&str], cwd: &Path) -> std::process::Output {
+    lamina(&[&["canopy", "rami"], args].concat(), cwd)
+}
+
 /// The rows of a lamina CSV (mark line and header dropped), split on commas.
 fn rows(path: &Path) -> (String, Vec<Vec<String>>) {
     let text = std::fs::read_to_string(path).unwrap();
@@ -27,10 +32,8 @@ fn value(rows: &[Vec<String>], measure: &str) -> f64 {
 fn a_rami_folder_renders_to_rami_files_whose_budget_closes() {
     let d = scratch("canopy", "rami");
     let dir = d.join("hom12");
-    let o = lamina(
+    let o = rami(
         &[
-            "canopy",
-            "rami",
             "--case",
             "HOM12",
             "--lad",
@@ -83,17 +86,7 @@ fn a_rami_folder_renders_to_rami_files_whose_budget_closes() {
     let png = image::open(dir.join("brf.png")).unwrap();
     assert_eq!((png.width(), png.height()), (960, 540));
     // The folder is lamina's: writing it again (results and all) is allowed.
-    let o = lamina(
-        &[
-            "canopy",
-            "rami",
-            "--case",
-            "HOM11",
-            "-o",
-            dir.to_str().unwrap(),
-        ],
-        &d,
-    );
+    let o = rami(&["--case", "HOM11", "-o", dir.to_str().unwrap()], &d);
     ok(&o);
     // A foreign file where a sensor writes is kept, and the render refused before work.
     std::fs::write(dir.join("brfpp.csv"), "my own data\n").unwrap();
@@ -109,22 +102,10 @@ fn a_rami_folder_renders_to_rami_files_whose_budget_closes() {
 fn bad_rami_arguments_are_named() {
     let d = scratch("canopy", "bad");
     let out = d.join("x");
-    let o = lamina(
-        &[
-            "canopy",
-            "rami",
-            "--case",
-            "HOM99",
-            "-o",
-            out.to_str().unwrap(),
-        ],
-        &d,
-    );
+    let o = rami(&["--case", "HOM99", "-o", out.to_str().unwrap()], &d);
     fails(&o, &["--case HOM99", "unknown RAMI case", "HOM11"]);
-    let o = lamina(
+    let o = rami(
         &[
-            "canopy",
-            "rami",
             "--case",
             "HOM11",
             "--band",
@@ -135,10 +116,8 @@ fn bad_rami_arguments_are_named() {
         &d,
     );
     fails(&o, &["--band blue", "red, nir, nr1"]);
-    let o = lamina(
+    let o = rami(
         &[
-            "canopy",
-            "rami",
             "--case",
             "HOM11",
             "--lad",
@@ -149,10 +128,8 @@ fn bad_rami_arguments_are_named() {
         &d,
     );
     fails(&o, &["--lad sph"]);
-    let o = lamina(
+    let o = rami(
         &[
-            "canopy",
-            "rami",
             "--case",
             "HOM11",
             "--sun-zenith",
@@ -170,10 +147,8 @@ fn bad_rami_arguments_are_named() {
 fn smaller_leaves_keep_the_lai_and_the_render_reads_their_scale() {
     let d = scratch("canopy", "radius");
     let dir = d.join("small");
-    let o = lamina(
+    let o = rami(
         &[
-            "canopy",
-            "rami",
             "--case",
             "HOM11",
             "--leaf-radius",
@@ -203,10 +178,8 @@ fn smaller_leaves_keep_the_lai_and_the_render_reads_their_scale() {
     let o = lamina(&["render", "scene.toml", "--threads", "2"], &dir);
     let msg = ok(&o);
     assert!(msg.contains("albedo"), "{msg}");
-    let o = lamina(
+    let o = rami(
         &[
-            "canopy",
-            "rami",
             "--case",
             "HOM11",
             "--leaf-radius",
@@ -223,10 +196,8 @@ fn smaller_leaves_keep_the_lai_and_the_render_reads_their_scale() {
 fn sensors_measure_every_band_of_a_band_film() {
     let d = scratch("canopy", "bands");
     let dir = d.join("nir");
-    ok(&lamina(
+    ok(&rami(
         &[
-            "canopy",
-            "rami",
             "--case",
             "HOM11",
             "--band",

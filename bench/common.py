@@ -255,6 +255,21 @@ def read_cards_csv(path):
     return cards
 
 
+def read_rows(path):
+    """The rows of a CSV lamina writes (its `# lamina` mark and comments skipped) as dicts
+    keyed by the header's names, values as strings."""
+    rows, header = [], None
+    with open(path) as f:
+        for line in f:
+            if line.startswith("#"):
+                continue
+            if header is None:
+                header = line.strip().split(",")
+                continue
+            rows.append(dict(zip(header, line.strip().split(","))))
+    return rows
+
+
 def write_cards_csv(cards, path):
     lines = ["# leaf cards: centre (m), adaxial normal, up (toward the tip), width and height (m)",
              "cx,cy,cz,nx,ny,nz,ux,uy,uz,width,height"]

@@ -19,7 +19,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
-from rami_sail import read_rows  # noqa: E402
+from common import read_rows  # noqa: E402
 
 
 def main():

@@ -37,22 +37,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
+from common import read_rows  # noqa: E402
 
 SOIL = {"red": 0.127, "nir": 0.159, "nr1": 1.0}
-
-
-def read_rows(path):
-    rows = []
-    with open(path) as f:
-        header = None
-        for line in f:
-            if line.startswith("#"):
-                continue
-            if header is None:
-                header = line.strip().split(",")
-                continue
-            rows.append(dict(zip(header, line.strip().split(","))))
-    return rows
 
 
 def disc_vertices(obj_path):

@@ -29,21 +29,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
+from common import read_rows  # noqa: E402
 
 BANDS = {"red": (0.0546, 0.0149, 0.127), "nir": (0.4957, 0.4409, 0.159)}
 CASES = {"HOM11": (1.0, 1.0), "HOM12": (2.0, 1.0), "HOM13": (3.0, 2.0), "HOM15": (5.0, 1.0)}
-
-
-def read_rows(path):
-    rows, header = [], None
-    for line in open(path):
-        if line.startswith("#"):
-            continue
-        if header is None:
-            header = line.strip().split(",")
-            continue
-        rows.append(dict(zip(header, line.strip().split(","))))
-    return rows
 
 
 def sail_brf(band, lai, h, r, sza, vza, raa):

@@ -8,6 +8,7 @@
 use crate::errors::render_error;
 use crate::scene::Scene;
 use crate::worker::{Event, run_detached};
+use lamina_render::sensors::absorbed::AbsorbedResult;
 use lamina_render::sensors::{self, Estimate, MeasureOptions, Measurement, SensorOutput};
 use lamina_scene::radiometry::SensorKind;
 use numpy::ndarray::{Array1, Array2, Array3};
@@ -75,7 +76,7 @@ impl Runs<'_> {
     }
 }
 
-fn absorbed(o: &SensorOutput) -> Option<&sensors::absorbed::AbsorbedResult> {
+fn absorbed(o: &SensorOutput) -> Option<&AbsorbedResult> {
     match &o.measurement {
         Measurement::Absorbed(a) => Some(a),
         _ => None,
@@ -163,25 +164,25 @@ fn sensor_dict<'py>(
         }
         (Measurement::Absorbed(r), SensorKind::Absorbed { .. }) => {
             d.set_item("type", "absorbed")?;
-            for (name, pick) in sensors::absorbed::AbsorbedResult::MEASURES {
+            for (name, pick) in AbsorbedResult::MEASURES {
                 d.set_item(name, runs.pair(py, &|o| absorbed(o).map(pick))?)?;
             }
-            let mats = PyDict::new(py);
-            for (k, (name, _)) in r.materials.iter().enumerate() {
-                mats.set_item(
-                    name,
-                    runs.pair(py, &|o| absorbed(o)?.materials.get(k).map(|m| m.1))?,
-                )?;
+            // Per material and per object: name -> {value, std}.
+            type List = fn(&AbsorbedResult) -> &[(String, Estimate)];
+            let lists: [(&str, List); 2] =
+                [("materials", |a| &a.materials), ("objects", |a| &a.objects)];
+            for (key, list) in lists {
+                let per = PyDict::new(py);
+                for (k, (name, _)) in list(r).iter().enumerate() {
+                    per.set_item(
+                        name,
+                        runs.pair(py, &|o| {
+                            absorbed(o).and_then(|a| list(a).get(k)).map(|m| m.1)
+                        })?,
+                    )?;
+                }
+                d.set_item(key, per)?;
             }
-            d.set_item("materials", mats)?;
-            let objs = PyDict::new(py);
-            for (k, (name, _)) in r.objects.iter().enumerate() {
-                objs.set_item(
-                    name,
-                    runs.pair(py, &|o| absorbed(o)?.objects.get(k).map(|m| m.1))?,
-                )?;
-            }
-            d.set_item("objects", objs)?;
         }
         (Measurement::Fisheye(r), SensorKind::Fisheye { .. }) => {
             d.set_item("type", "fisheye")?;

@@ -15,7 +15,10 @@ use std::time::Instant;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let counts: Vec<u32> = std::env::args()
         .skip(1)
-        .map(|s| s.parse())
+        .map(|s| {
+            s.parse()
+                .map_err(|e| format!("'{s}' is not a leaf count (a whole number): {e}"))
+        })
         .collect::<Result<_, _>>()?;
     let counts = if counts.is_empty() {
         vec![10_000, 100_000, 1_000_000]

@@ -22,7 +22,7 @@
 //! single-scattering BSDF `f^{(1)}`; it is reciprocal. [`crate::march`] estimates the same
 //! integral by the paper's ray march.
 
-use crate::layers::{LayerStack, henyey_greenstein, refracted_cos};
+use crate::layers::{LayerStack, border_t, henyey_greenstein, refracted_cos};
 use glam::{Vec3, Vec4};
 
 /// The geometry of the single-scattering paths for one pair of directions, oriented so that
@@ -238,25 +238,6 @@ fn oriented(stack: &LayerStack, wo: Vec3, wi: Vec3) -> (LayerStack, Vec3, Vec3) 
         let f = Vec3::new(1.0, 1.0, -1.0);
         (stack.flipped(), wo * f, wi * f)
     }
-}
-
-/// Fresnel transmission `1 - F` (unpolarised: the mean of `1 - r_s^2` and `1 - r_p^2`) of the smooth border between a medium of index `n_a`, where
-/// the ray's cosine to the normal is `c_a`, and one of index `n_b` with cosine `c_b` (Snell's
-/// law already applied, so no square root here). Written symmetric in the two sides, so the
-/// border gives the same bits seen from either (the mirror average relies on it); `1`
-/// exactly between equal indices.
-#[inline(always)]
-fn border_t(n_a: f32, c_a: f32, n_b: f32, c_b: f32) -> f32 {
-    if n_a == n_b {
-        return 1.0;
-    }
-    // `1 - r^2 = (1 - r)(1 + r)` for `r = (a - b) / (a + b)`, which does not cancel at
-    // grazing angles where `F` approaches 1.
-    let (a, b) = (n_a * c_a, n_b * c_b);
-    let (p, q) = (n_b * c_a, n_a * c_b);
-    let (s, t) = (a + b, p + q);
-    let (s2, t2) = (s * s, t * t);
-    2.0 * (a * b * t2 + p * q * s2) / (s2 * t2)
 }
 
 /// Below this, `(1 - e^{-x}) / x` comes from its series: above it, `1 - e^{-x}` from the

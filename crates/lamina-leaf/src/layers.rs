@@ -103,6 +103,40 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
     0.5 * (rs * rs + rp * rp)
 }
 
+/// Fresnel transmission `1 - F` (unpolarised: the mean of `1 - r_s^2` and `1 - r_p^2`) of
+/// the smooth border between a medium of index `n_a`, where the ray's cosine to the normal
+/// is `c_a`, and one of index `n_b` with cosine `c_b` (Snell's
+/// law already applied, so no square root here). Written symmetric in the two sides, so the
+/// border gives the same bits seen from either (the mirror average relies on it); `1`
+/// exactly between equal indices.
+#[inline(always)]
+pub fn border_t(n_a: f32, c_a: f32, n_b: f32, c_b: f32) -> f32 {
+    if n_a == n_b {
+        return 1.0;
+    }
+    // `1 - r^2 = (1 - r)(1 + r)` for `r = (a - b) / (a + b)`, which does not cancel at
+    // grazing angles where `F` approaches 1.
+    let (a, b) = (n_a * c_a, n_b * c_b);
+    let (p, q) = (n_b * c_a, n_a * c_b);
+    let (s, t) = (a + b, p + q);
+    let (s2, t2) = (s * s, t * t);
+    2.0 * (a * b * t2 + p * q * s2) / (s2 * t2)
+}
+
+/// Fresnel transmission `1 - F` of a smooth dielectric border for light arriving at cosine
+/// `cos_i` (`>= 0`) in a medium of index `n_i` onto one of index `n_t` (`eta = n_t / n_i`):
+/// [`fresnel_dielectric`]'s complement, computed by [`border_t`] so that it keeps its
+/// precision at grazing angles, where `F` approaches 1; 0 under total internal reflection.
+#[inline]
+pub fn fresnel_transmission(cos_i: f32, eta: f32) -> f32 {
+    let cos_i = cos_i.clamp(0.0, 1.0);
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 0.0;
+    }
+    border_t(1.0, cos_i, eta, (1.0 - sin2_t).sqrt())
+}
+
 /// Hemispherical average `∫ F(μ) 2μ dμ` of the Fresnel reflectance for diffuse light
 /// arriving from the medium of index `n_i` onto `n_t` (numerical, 256 midpoints).
 pub fn fresnel_diffuse(n_i: f32, n_t: f32) -> f32 {
@@ -141,6 +175,24 @@ mod tests {
             (r_in - (1.0 - (1.0 - r_out) / 2.25)).abs() < 2e-3,
             "{r_in} {r_out}"
         );
+    }
+
+    #[test]
+    fn transmission_is_the_complement_and_keeps_precision_at_grazing() {
+        for eta in [1.0 / 1.5, 1.0, 1.33, 1.5, 2.0] {
+            for k in 0..=100 {
+                let c = k as f32 / 100.0;
+                let sum = fresnel_transmission(c, eta) + fresnel_dielectric(c, eta);
+                assert!((sum - 1.0).abs() < 1e-6, "eta {eta} cos {c}: R + T = {sum}");
+            }
+        }
+        // Near grazing `1 - F` is proportional to the cosine: f32 `1 - F` has lost most of
+        // its digits there, the transmission has not.
+        let (t1, t2) = (
+            fresnel_transmission(1e-4, 1.5),
+            fresnel_transmission(2e-4, 1.5),
+        );
+        assert!(t1 > 0.0 && (t2 / t1 - 2.0).abs() < 1e-3, "{t1} {t2}");
     }
 
     #[test]

@@ -26,7 +26,7 @@ use crate::analytic::{single_scatter, single_scatter_and_surface, single_scatter
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::diffusion::Diffusion;
 use crate::frame::Frame;
-use crate::layers::{LayerStack, fresnel_dielectric, refracted_cos};
+use crate::layers::{LayerStack, fresnel_dielectric, fresnel_transmission, refracted_cos};
 use crate::march::{Pcg32, single_scatter_marched};
 use crate::params::LeafMode;
 use crate::sampling::{cosine_hemisphere, luminance};
@@ -126,7 +126,7 @@ impl LeafBsdf {
         } else {
             (1, self.stack.layers[2].ior)
         };
-        (1.0 - fresnel_dielectric(w.z.abs(), n)) * self.inv_t_out[side]
+        fresnel_transmission(w.z.abs(), n) * self.inv_t_out[side]
     }
 
     /// Optical depth of the whole blade along the direction `w` refracted into it.

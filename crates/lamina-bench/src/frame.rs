@@ -67,3 +67,24 @@ pub fn frame_tree_scene(leaves: u32, size: (u32, u32)) -> Result<Scene, lamina_p
         instances: Vec::new(),
     })
 }
+
+/// A forest for the GPU path's frame times and level-of-detail tests: `trees` instances
+/// of one generated tree (`PlantParams::tree(1, leaves)`, its branches and flat leaf cards
+/// in one prototype) on a square grid, each turned about `+y`, on a ground quad under a
+/// sun and a constant sky, the camera framing the first row and the depth behind it
+/// ([`crate::tree_scene`] with [`crate::Representation::Forest`]); film `size`, 1 spp.
+pub fn frame_forest_scene(
+    trees: u32,
+    leaves: u32,
+    size: (u32, u32),
+) -> Result<Scene, lamina_plant::PlantError> {
+    let plant = lamina_plant::generate_plant(&lamina_plant::PlantParams::tree(1, leaves))?;
+    Ok(crate::tree_scene(
+        plant,
+        crate::Representation::Forest,
+        trees,
+        size.0,
+        size.1,
+        1,
+    ))
+}

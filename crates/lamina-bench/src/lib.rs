@@ -11,7 +11,7 @@
 pub mod frame;
 pub mod rays;
 
-pub use frame::frame_tree_scene;
+pub use frame::{frame_forest_scene, frame_tree_scene};
 
 use glam::Vec3;
 use lamina_core::{Camera, ColorInput, Film, Integrator, Light, Material, Mesh, Scene, Sky};

@@ -68,7 +68,9 @@ impl GpuContext {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("lamina-gpu"),
             // Timestamp queries time the passes (GPU frame time) where the adapter has them.
-            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
+            // Indirect draws with a first instance draw the culling pass's lists.
+            required_features: adapter.features()
+                & (wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::INDIRECT_FIRST_INSTANCE),
             required_limits: limits,
             ..Default::default()
         }))

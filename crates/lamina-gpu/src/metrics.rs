@@ -1,4 +1,6 @@
-//! Image comparison for the GPU-versus-offline agreement: mean absolute error and SSIM.
+//! Image comparison for the GPU-versus-offline agreement: mean absolute error and SSIM;
+//! and for level of detail, what a canopy must keep as leaves drop out: its mean radiance
+//! and its coverage.
 //!
 //! Both compare the images **as displayed**: 8-bit sRGB after the film's exposure and tone
 //! map (`lamina_image::to_srgb8`), scaled to `[0, 1]`, so the numbers mean what a
@@ -15,6 +17,28 @@ pub fn mean_abs_error(a: &[u8], b: &[u8]) -> f64 {
     assert_eq!(a.len(), b.len(), "images must have the same size");
     let sum: u64 = a.iter().zip(b).map(|(&x, &y)| x.abs_diff(y) as u64).sum();
     sum as f64 / (255.0 * a.len().max(1) as f64)
+}
+
+/// Mean linear radiance per channel of `pixels` (W m⁻² sr⁻¹, Rec.709 RGB), in f64.
+pub fn mean_radiance(pixels: &[glam::Vec3]) -> [f64; 3] {
+    let mut s = [0.0f64; 3];
+    for p in pixels {
+        for (k, v) in s.iter_mut().enumerate() {
+            *v += p[k] as f64;
+        }
+    }
+    s.map(|v| v / pixels.len().max(1) as f64)
+}
+
+/// The share of `pixels` that differ from `background` (linear radiance, where nothing
+/// was drawn) by more than `tol` relative in any channel: the coverage of what was drawn
+/// when the background is a constant sky.
+pub fn coverage(pixels: &[glam::Vec3], background: glam::Vec3, tol: f32) -> f64 {
+    let hit = pixels
+        .iter()
+        .filter(|p| ((**p - background).abs() - tol * background.abs()).max_element() > 0.0)
+        .count();
+    hit as f64 / pixels.len().max(1) as f64
 }
 
 fn luma(rgb: &[u8]) -> Vec<f64> {

@@ -462,8 +462,10 @@ fn broken_shader_is_a_clear_error() {
         "{msg}"
     );
     // The real shaders compile on the same path.
-    ctx.compile_wgsl("scene.wgsl", lamina_gpu::renderer::SCENE_WGSL)
+    ctx.compile_wgsl("scene.wgsl", &lamina_gpu::renderer::scene_wgsl())
         .expect("scene shader");
+    ctx.compile_wgsl("cull.wgsl", &lamina_gpu::renderer::cull_wgsl())
+        .expect("culling shader");
 }
 
 /// Maps over the (forced) texture limit are downscaled, with a warning naming the

@@ -2,7 +2,7 @@
 //! sun's maps, the sky-visibility maps), the HDR and depth targets it draws into (made
 //! for the view's size, kept while the size holds), and the pass itself.
 
-use super::geometry::Geometry;
+use super::geometry::{DrawList, Geometry};
 use super::layout::{DEPTH_FORMAT, HDR_FORMAT, buffer_entry, texture_2d, view_entry};
 use super::lights::Globals;
 use super::pipelines::ScenePipelines;
@@ -148,6 +148,6 @@ impl CameraPass {
         });
         pass.set_pipeline(&pipelines.camera);
         pass.set_bind_group(0, &self.bind_group, &[]);
-        geometry.draw(&mut pass, materials);
+        geometry.draw(&mut pass, materials, DrawList::Camera);
     }
 }

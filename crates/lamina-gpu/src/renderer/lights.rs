@@ -34,7 +34,8 @@ struct GpuLight {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub(super) struct Globals {
-    view_proj: [[f32; 4]; 4],
+    /// World-to-clip of the camera.
+    pub view_proj: [[f32; 4]; 4],
     /// World-to-clip of the light view being rendered or sampled.
     pub light_view_proj: [[f32; 4]; 4],
     camera_pos: [f32; 4],

@@ -34,10 +34,12 @@
 
 mod bounds;
 mod camera;
+mod culling;
 mod geometry;
 mod half;
 mod layout;
 mod lights;
+mod lod;
 mod materials;
 mod pipelines;
 mod post;
@@ -56,6 +58,7 @@ use crate::context::GpuContext;
 use crate::error::GpuError;
 use bounds::SceneBounds;
 use camera::CameraPass;
+use culling::CullView;
 use geometry::Geometry;
 use glam::Vec3;
 use lamina_image::Image;
@@ -68,8 +71,19 @@ use sky_visibility::SkyVisibility;
 use sun::SunShadow;
 use timing::{Pass, Timer};
 
-/// The scene shader (light-view and camera passes).
+/// The scene shader (light-view and camera passes), without the level-of-detail
+/// functions it uses ([`scene_wgsl`] is the whole source).
 pub const SCENE_WGSL: &str = include_str!("../shaders/scene.wgsl");
+
+/// The scene shader as compiled: `lod.wgsl` with its constants, then [`SCENE_WGSL`].
+pub fn scene_wgsl() -> String {
+    format!("{}\n{SCENE_WGSL}", lod::wgsl_prelude())
+}
+
+/// The culling shader as compiled: `lod.wgsl` with its constants, then `cull.wgsl`.
+pub fn cull_wgsl() -> String {
+    format!("{}\n{}", lod::wgsl_prelude(), culling::CULL_WGSL)
+}
 /// The tone-map and overlay shader.
 pub const POST_WGSL: &str = include_str!("../shaders/post.wgsl");
 
@@ -85,6 +99,10 @@ pub struct RenderSettings {
     pub sky_directions: u32,
     /// Side of each sky-visibility map, in texels.
     pub sky_map_size: u32,
+    /// Level of detail for foliage ([`lod`]): the projected area of one leaf, in pixels
+    /// of the image (before supersampling), below which a plant's leaves thin out (the
+    /// survivors grow so that its leaf area is kept). 0 draws every leaf.
+    pub lod_pixels: f32,
 }
 
 impl Default for RenderSettings {
@@ -94,6 +112,7 @@ impl Default for RenderSettings {
             supersample: 2,
             sky_directions: 16,
             sky_map_size: 512,
+            lod_pixels: 1.0,
         }
     }
 }
@@ -143,11 +162,12 @@ impl Renderer {
         settings: RenderSettings,
     ) -> Result<Self, GpuError> {
         let device = &ctx.device;
-        let scene_module = ctx.compile_wgsl("scene.wgsl", SCENE_WGSL)?;
+        let scene_module = ctx.compile_wgsl("scene.wgsl", &scene_wgsl())?;
         let post_module = ctx.compile_wgsl("post.wgsl", POST_WGSL)?;
         let (materials, warnings) = Materials::upload(ctx, scene)?;
-        let geometry = Geometry::upload(device, scene)?;
-        let pipelines = ScenePipelines::new(ctx, &scene_module, &materials.layout)?;
+        let geometry = Geometry::upload(ctx, scene)?;
+        let pipelines =
+            ScenePipelines::new(ctx, &scene_module, &materials.layout, &geometry.layout)?;
         let globals = camera::globals_buffer(device);
         let shadow_size = settings.shadow_map_size.clamp(16, ctx.max_texture_dim);
         let sun = SunShadow::new(device, shadow_size, &pipelines, &globals);
@@ -160,6 +180,13 @@ impl Renderer {
         let lighting = Lighting::of(scene);
         let mut warnings = warnings;
         warnings.extend(lighting.warnings.iter().cloned());
+        if geometry.culling.is_none() && geometry.lod_elements > 0 {
+            warnings.push(format!(
+                "this GPU ({}) has no indirect draws with a first instance: every leaf is \
+                 drawn, without level of detail or culling",
+                ctx.adapter_name()
+            ));
+        }
         let renderer = Renderer {
             ctx: ctx.clone(),
             settings,
@@ -185,6 +212,27 @@ impl Renderer {
     /// Renders the sky-visibility maps (once: geometry and sky are static) for
     /// [`RenderSettings::sky_directions`] directions.
     fn bake_sky_visibility(&self) -> Result<(), GpuError> {
+        // Every instance (the maps serve every later view), leaves thinned out at the maps'
+        // own resolution (they are orthographic views of the whole scene).
+        if let Some(c) = &self.geometry.culling {
+            let (_, r) = self.bounds.casters;
+            let texels = self.sky_visibility.map_size() as f32;
+            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+            c.encode(
+                &self.ctx.queue,
+                &mut encoder,
+                &CullView {
+                    view_proj: glam::Mat4::IDENTITY,
+                    position: Vec3::ZERO,
+                    focal_px: 1.0,
+                    lod_pixels: self.settings.lod_pixels,
+                    frustum: false,
+                    ortho_px_per_m: Some(texels / (2.0 * r.max(1e-6))),
+                },
+                None,
+            );
+            self.ctx.queue.submit([encoder.finish()]);
+        }
         let base = self.globals(&FrameView {
             camera: self.scene_camera,
             sun_dir: None,
@@ -210,6 +258,21 @@ impl Renderer {
     /// Triangles drawn per camera pass (instances counted).
     pub fn triangles(&self) -> u64 {
         self.geometry.triangles
+    }
+
+    /// Leaves (instances counted) that level of detail may thin out.
+    pub fn lod_leaves(&self) -> u64 {
+        self.geometry.lod_elements
+    }
+
+    /// Triangles the last frame drew in the camera pass and in each light-view pass after
+    /// culling and level of detail (read back, waiting for the GPU: for tests and
+    /// benchmarks); `None` where the device draws everything ([`Renderer::triangles`]).
+    pub fn drawn_triangles(&self) -> Result<Option<[u64; 2]>, GpuError> {
+        match &self.geometry.culling {
+            Some(c) => c.drawn_triangles(&self.ctx).map(Some),
+            None => Ok(None),
+        }
     }
 
     /// GPU memory of the scene's geometry (vertex, index and instance buffers), bytes.
@@ -243,6 +306,17 @@ impl Renderer {
     /// Records the three scene passes for `view` into `encoder`, rendering into the
     /// internal HDR target (resized to the view).
     pub fn encode_scene(&mut self, encoder: &mut wgpu::CommandEncoder, view: &FrameView) {
+        self.encode_scene_lod(encoder, view, self.settings.lod_pixels);
+    }
+
+    /// [`Renderer::encode_scene`] with leaves thinned out below `lod_pixels` pixels of
+    /// `view`'s target.
+    fn encode_scene_lod(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &FrameView,
+        lod_pixels: f32,
+    ) {
         self.camera
             .ensure_targets(&self.ctx.device, view.width, view.height);
         let globals = self.globals(view);
@@ -250,12 +324,28 @@ impl Renderer {
             .queue
             .write_buffer(&self.camera.globals, 0, bytemuck::bytes_of(&globals));
         let has_sun = globals.sun_dir[3] > 0.5;
-        let (pipelines, geometry) = (&self.pipelines, &self.geometry);
-        let materials = &self.materials.groups;
         let mut timer = self.timer.as_mut();
         if let Some(t) = timer.as_deref_mut() {
             t.begin_frame();
         }
+        if let Some(c) = &self.geometry.culling {
+            let tan = (view.camera.fov_deg.to_radians() * 0.5).tan().max(1e-6);
+            c.encode(
+                &self.ctx.queue,
+                encoder,
+                &CullView {
+                    view_proj: glam::Mat4::from_cols_array_2d(&globals.view_proj),
+                    position: view.camera.position,
+                    focal_px: view.width as f32 / (2.0 * tan),
+                    lod_pixels,
+                    frustum: true,
+                    ortho_px_per_m: None,
+                },
+                timer.as_deref_mut().and_then(|t| t.compute_writes()),
+            );
+        }
+        let (pipelines, geometry) = (&self.pipelines, &self.geometry);
+        let materials = &self.materials.groups;
         self.sun.encode(
             encoder,
             pipelines,
@@ -272,6 +362,16 @@ impl Renderer {
             materials,
             timer.and_then(|t| t.writes(Pass::Main)),
         );
+    }
+
+    /// Sets [`RenderSettings::lod_pixels`] for the frames drawn from now on (0: every leaf).
+    pub fn set_lod_pixels(&mut self, lod_pixels: f32) {
+        self.settings.lod_pixels = lod_pixels.max(0.0);
+    }
+
+    /// The current [`RenderSettings::lod_pixels`].
+    pub fn lod_pixels(&self) -> f32 {
+        self.settings.lod_pixels
     }
 
     /// Whether this device times its passes (timestamp queries); without them
@@ -335,7 +435,9 @@ impl Renderer {
             ..*view
         };
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        self.encode_scene(&mut encoder, &big);
+        // LOD's leaf area is in pixels of the image: ss² pixels of the target.
+        let lod = self.settings.lod_pixels * (ss * ss) as f32;
+        self.encode_scene_lod(&mut encoder, &big, lod);
         let hdr = &self
             .camera
             .targets

@@ -1,6 +1,6 @@
 //! The scene shader's three render pipelines (sun/sky light view layer 1 and layer 2, the
 //! camera) and the layouts of their group 0 (group 1 is the material,
-//! [`super::materials`]).
+//! [`super::materials`]; group 2 the instances, [`super::geometry`]).
 
 use super::geometry::vertex_layouts;
 use super::layout::{
@@ -31,6 +31,7 @@ impl ScenePipelines {
         ctx: &GpuContext,
         module: &wgpu::ShaderModule,
         material: &wgpu::BindGroupLayout,
+        instances: &wgpu::BindGroupLayout,
     ) -> Result<Self, GpuError> {
         let device = &ctx.device;
         let shadow_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -39,7 +40,13 @@ impl ScenePipelines {
         });
         let camera_layout = camera_layout(device);
         let make = |label: &str, group0: &wgpu::BindGroupLayout, vs, fs, color| {
-            pipeline(device, module, [group0, material], (label, vs, fs), color)
+            pipeline(
+                device,
+                module,
+                [group0, material, instances],
+                (label, vs, fs),
+                color,
+            )
         };
         let (shadow_first, shadow_peel, camera) =
             ctx.validated("building the render pipelines", || {
@@ -94,13 +101,13 @@ fn camera_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
 fn pipeline(
     device: &wgpu::Device,
     module: &wgpu::ShaderModule,
-    [group0, group1]: [&wgpu::BindGroupLayout; 2],
+    [group0, group1, group2]: [&wgpu::BindGroupLayout; 3],
     (label, vs, fs): (&str, &str, &str),
     color: wgpu::TextureFormat,
 ) -> wgpu::RenderPipeline {
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(label),
-        bind_group_layouts: &[Some(group0), Some(group1)],
+        bind_group_layouts: &[Some(group0), Some(group1), Some(group2)],
         immediate_size: 0,
     });
     let buffers = vertex_layouts();

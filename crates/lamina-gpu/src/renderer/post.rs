@@ -11,7 +11,7 @@ use crate::error::GpuError;
 use lamina_scene::{Film, ToneMap};
 
 /// Overlay text texture size (pixels).
-pub const OVERLAY_SIZE: (u32, u32) = (768, 24);
+pub const OVERLAY_SIZE: (u32, u32) = (1024, 24);
 
 /// Uniforms of the post pass (see `Post` in post.wgsl).
 #[repr(C)]

@@ -61,6 +61,21 @@ pub(super) fn read_texture(
     Ok(out)
 }
 
+/// The contents of `buf` (which has `COPY_SRC`), waiting for the GPU.
+pub(super) fn read_buffer(ctx: &GpuContext, buf: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: buf.size(),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(buf, 0, &staging, 0, buf.size());
+    ctx.queue.submit([encoder.finish()]);
+    let data = map_and_wait(ctx, &staging)?;
+    Ok(data.to_vec())
+}
+
 /// Maps `buf` for reading and waits for the GPU.
 fn map_and_wait(ctx: &GpuContext, buf: &wgpu::Buffer) -> Result<wgpu::BufferView, GpuError> {
     let (tx, rx) = std::sync::mpsc::channel();

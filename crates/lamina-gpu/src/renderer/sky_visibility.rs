@@ -3,7 +3,7 @@
 //! transmittance maps as the sun's, so the camera pass can tell how much of the sky each
 //! surface sees and through how many leaves (see `sky_visibility` in scene.wgsl).
 
-use super::geometry::Geometry;
+use super::geometry::{DrawList, Geometry};
 use super::layout::{
     D2, D2_ARRAY, DEPTH_FORMAT, SHADOW_COLOR_FORMAT, buffer_entry, texture_2d, uniform_buffer,
     view_entry,
@@ -66,6 +66,11 @@ impl SkyVisibility {
             array_views,
             buffer,
         }
+    }
+
+    /// Side of each map, in texels.
+    pub fn map_size(&self) -> u32 {
+        self.textures[0].width()
     }
 
     /// Renders the maps for `n` directions (at most [`MAX_SKY_DIRS`]) around the casters'
@@ -153,7 +158,7 @@ impl SkyVisibility {
             );
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bg, &[]);
-            geometry.draw(&mut pass, materials);
+            geometry.draw(&mut pass, materials, DrawList::Shadow);
         }
     }
 }

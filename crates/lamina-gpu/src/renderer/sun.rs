@@ -3,7 +3,7 @@
 //! it (layer 2), seen from the sun (see the [`super`] docs). Also the light-view pass both
 //! the sun and the sky-visibility bake ([`super::sky_visibility`]) render into.
 
-use super::geometry::Geometry;
+use super::geometry::{DrawList, Geometry};
 use super::layout::{DEPTH_FORMAT, SHADOW_COLOR_FORMAT, buffer_entry, texture_2d, view_entry};
 use super::pipelines::ScenePipelines;
 use super::timing::{Pass, Timer};
@@ -81,7 +81,7 @@ impl SunShadow {
             if has_sun {
                 pass.set_pipeline(pipeline);
                 pass.set_bind_group(0, bg, &[]);
-                geometry.draw(&mut pass, materials);
+                geometry.draw(&mut pass, materials, DrawList::Shadow);
             }
         }
     }

@@ -1,10 +1,11 @@
 //! GPU time per pass, from timestamp queries written at the beginning and end of the
 //! passes (wgpu's `TIMESTAMP_QUERY`, requested by [`crate::GpuContext`] when the adapter has
-//! it): the sun's two light-view passes together (`shadows`), the camera pass (`main`) and
-//! the tone-map pass (`post`, when the frame has one).
+//! it): the culling and level-of-detail compute pass (`cull`, where the device runs it), the
+//! sun's two light-view passes together (`shadows`), the camera pass (`main`) and the
+//! tone-map pass (`post`, when the frame has one).
 //!
 //! A frame is *armed* when the previous frame's values have been read: its passes write the
-//! six timestamps, [`Timer::resolve`] copies them to a mappable buffer, and once the frame
+//! timestamps, [`Timer::resolve`] copies them to a mappable buffer, and once the frame
 //! is submitted [`Timer::submitted`] maps that buffer. [`Timer::poll`] reads the values when
 //! the GPU is done, without waiting (a window's frame loop), or [`Timer::wait`] blocks (the
 //! benchmark). Frames drawn while a read is pending are not timed, so timing never stalls a
@@ -16,6 +17,8 @@ use std::sync::atomic::{AtomicU8, Ordering};
 /// GPU time of one frame's passes, in milliseconds, from timestamp queries.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PassTimes {
+    /// The culling and level-of-detail compute pass, where the device runs it.
+    pub cull_ms: Option<f64>,
     /// The sun's two light-view passes (layer 1 and the peeled layer 2) together.
     pub shadows_ms: f64,
     /// The camera pass.
@@ -28,7 +31,7 @@ impl PassTimes {
     /// The sum of the passes' times (ms): the frame's GPU time, gaps between passes not
     /// counted.
     pub fn total_ms(&self) -> f64 {
-        self.shadows_ms + self.main_ms + self.post_ms.unwrap_or(0.0)
+        self.cull_ms.unwrap_or(0.0) + self.shadows_ms + self.main_ms + self.post_ms.unwrap_or(0.0)
     }
 }
 
@@ -42,8 +45,8 @@ pub(super) enum Pass {
     Post,
 }
 
-/// Timestamps per frame: shadows begin/end, main begin/end, post begin/end.
-const SLOTS: u32 = 6;
+/// Timestamps per frame: cull begin/end, shadows begin/end, main begin/end, post begin/end.
+const SLOTS: u32 = 8;
 /// Bytes of the resolved timestamps (`SLOTS` u64, a whole alignment unit).
 const BYTES: u64 = wgpu::QUERY_RESOLVE_BUFFER_ALIGNMENT;
 
@@ -65,6 +68,10 @@ pub(super) struct Timer {
     armed: bool,
     /// The armed frame has a post pass.
     post: bool,
+    /// The armed frame has a culling pass.
+    cull: bool,
+    /// The frame whose values are being read had one.
+    cull_pending: bool,
     /// The frame whose values are being read had one.
     post_pending: bool,
     last: Option<PassTimes>,
@@ -103,6 +110,8 @@ impl Timer {
             state: Arc::new(AtomicU8::new(IDLE)),
             armed: false,
             post: false,
+            cull: false,
+            cull_pending: false,
             post_pending: false,
             last: None,
         })
@@ -112,6 +121,20 @@ impl Timer {
     pub fn begin_frame(&mut self) {
         self.armed = self.state.load(Ordering::Acquire) == IDLE;
         self.post = false;
+        self.cull = false;
+    }
+
+    /// The timestamp writes of the culling pass in an armed frame.
+    pub fn compute_writes(&mut self) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        if !self.armed {
+            return None;
+        }
+        self.cull = true;
+        Some(wgpu::ComputePassTimestampWrites {
+            query_set: &self.set,
+            beginning_of_pass_write_index: Some(0),
+            end_of_pass_write_index: Some(1),
+        })
     }
 
     /// The timestamp writes of `pass` in an armed frame.
@@ -120,12 +143,12 @@ impl Timer {
             return None;
         }
         let (begin, end) = match pass {
-            Pass::ShadowFirst => (Some(0), None),
-            Pass::ShadowPeel => (None, Some(1)),
-            Pass::Main => (Some(2), Some(3)),
+            Pass::ShadowFirst => (Some(2), None),
+            Pass::ShadowPeel => (None, Some(3)),
+            Pass::Main => (Some(4), Some(5)),
             Pass::Post => {
                 self.post = true;
-                (Some(4), Some(5))
+                (Some(6), Some(7))
             }
         };
         Some(wgpu::RenderPassTimestampWrites {
@@ -141,10 +164,13 @@ impl Timer {
         if !self.armed {
             return;
         }
-        let n = if self.post { SLOTS } else { 4 };
-        encoder.resolve_query_set(&self.set, 0..n, &self.resolve, 0);
+        // Slots 0-1 are resolved only when the culling pass wrote them; the rest in order.
+        let first = if self.cull { 0 } else { 2 };
+        let n = if self.post { SLOTS } else { 6 };
+        encoder.resolve_query_set(&self.set, first..n, &self.resolve, 8 * first as u64);
         encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.read, 0, BYTES);
         self.post_pending = self.post;
+        self.cull_pending = self.cull;
         self.state.store(TO_MAP, Ordering::Release);
         self.armed = false;
     }
@@ -194,7 +220,8 @@ impl Timer {
                         })
                     });
                 self.read.unmap();
-                self.last = ticks.and_then(|t| self.times(&t, self.post_pending));
+                self.last =
+                    ticks.and_then(|t| self.times(&t, self.cull_pending, self.post_pending));
                 self.state.store(IDLE, Ordering::Release);
             }
             FAILED => {
@@ -211,11 +238,12 @@ impl Timer {
         (end > begin).then(|| (end - begin) as f64 * self.period_ns / 1e6)
     }
 
-    fn times(&self, t: &[u64; SLOTS as usize], post: bool) -> Option<PassTimes> {
+    fn times(&self, t: &[u64; SLOTS as usize], cull: bool, post: bool) -> Option<PassTimes> {
         Some(PassTimes {
-            shadows_ms: self.ms(t[0], t[1])?,
-            main_ms: self.ms(t[2], t[3])?,
-            post_ms: if post { self.ms(t[4], t[5]) } else { None },
+            cull_ms: if cull { self.ms(t[0], t[1]) } else { None },
+            shadows_ms: self.ms(t[2], t[3])?,
+            main_ms: self.ms(t[4], t[5])?,
+            post_ms: if post { self.ms(t[6], t[7]) } else { None },
         })
     }
 }

@@ -101,15 +101,31 @@ struct SkyVis {
 // 1; a flat 1x1 map otherwise.
 @group(1) @binding(7) var t_normal: texture_2d<f32>;
 
+// Instance transforms, object -> world: three linear columns and the translation (w
+// unused); one slot per instance, a world mesh's slot holding the identity.
+struct Instance {
+    m0: vec4<f32>,
+    m1: vec4<f32>,
+    m2: vec4<f32>,
+    m3: vec4<f32>,
+}
+@group(2) @binding(0) var<storage, read> instances: array<Instance>;
+// Per instance slot, written by the culling pass (cull.wgsl): x the fraction of its leaves
+// kept, y its own scale (when its instances are the leaves).
+@group(2) @binding(1) var<storage, read> inst_lod: array<vec2<f32>>;
+// The draw lists: a draw's instance k is the slot draw_list[first_instance + k].
+@group(2) @binding(2) var<storage, read> draw_list: array<u32>;
+
 struct VIn {
+    @builtin(instance_index) list_index: u32,
     @location(0) pos: vec3<f32>,
-    @location(1) normal: vec3<f32>,
+    // xyz: the unit normal (w = 0).
+    @location(1) normal: vec4<f32>,
     @location(2) uv: vec2<f32>,
-    // Instance transform object -> world: the three linear columns and the translation.
-    @location(3) m0: vec3<f32>,
-    @location(4) m1: vec3<f32>,
-    @location(5) m2: vec3<f32>,
-    @location(6) m3: vec3<f32>,
+    // Level of detail (renderer/lod.rs): xyz the offset from this vertex to its leaf's
+    // centre (object space, m), w the leaf's rank; rank -1: never scaled; -2: the whole
+    // mesh scaled by its instance's own scale about the centre.
+    @location(3) lod: vec4<f32>,
 }
 
 struct VOut {
@@ -123,12 +139,28 @@ struct VOut {
 
 fn transform(v: VIn, clip_from_world: mat4x4<f32>) -> VOut {
     var o: VOut;
-    let world = v.m0 * v.pos.x + v.m1 * v.pos.y + v.m2 * v.pos.z + v.m3;
+    let slot = draw_list[v.list_index];
+    let x = instances[slot];
+    let m0 = x.m0.xyz;
+    let m1 = x.m1.xyz;
+    let m2 = x.m2.xyz;
+    let m3 = x.m3.xyz;
+    // Stochastic simplification: a kept leaf grows about its centre (lod.wgsl).
+    let l = inst_lod[slot];
+    var s = 1.0;
+    if (v.lod.w >= 0.0) {
+        s = sqrt(lod_area_factor(v.lod.w, l.x));
+    } else if (v.lod.w < -1.5) {
+        s = l.y;
+    }
+    // centre + (pos - centre) s, with the offset centre - pos (exactly pos when s = 1).
+    let pos = v.pos + v.lod.xyz * (1.0 - s);
+    let world = m0 * pos.x + m1 * pos.y + m2 * pos.z + m3;
     // Normals transform with the cofactor matrix (det * inverse transpose).
-    let c0 = cross(v.m1, v.m2);
-    let c1 = cross(v.m2, v.m0);
-    let c2 = cross(v.m0, v.m1);
-    let det = dot(v.m0, c0);
+    let c0 = cross(m1, m2);
+    let c1 = cross(m2, m0);
+    let c2 = cross(m0, m1);
+    let det = dot(m0, c0);
     o.mirror = select(1.0, -1.0, det < 0.0);
     o.normal = (c0 * v.normal.x + c1 * v.normal.y + c2 * v.normal.z) * o.mirror;
     o.world = world;

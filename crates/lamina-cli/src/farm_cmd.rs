@@ -449,6 +449,7 @@ fn task(dir: &Path, index: u32) -> Result<()> {
         scene: render.scene.clone(),
         output: vec![plan.part_path(dir, &t)],
         gpu: false,
+        lod: None,
         force: false,
         part: Some((t.part, plan.parts)),
         no_sensors: true,

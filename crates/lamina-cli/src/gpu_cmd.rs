@@ -30,6 +30,18 @@ pub fn check_flags(flags: &crate::render_cmd::RenderFlags) -> Result<()> {
     Ok(())
 }
 
+/// Parses `--lod PIXELS`: the projected leaf area (pixels of the image) below which the
+/// GPU path thins a plant's leaves out; 0 draws every leaf.
+pub fn parse_lod(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(v) if v.is_finite() && (0.0..=1e4).contains(&v) => Ok(v),
+        Ok(v) => Err(format!(
+            "{v} is not a leaf area in pixels from 0 (every leaf) to 10000"
+        )),
+        Err(e) => Err(format!("'{s}' is not a number: {e}")),
+    }
+}
+
 /// Largest supersampled target side, in pixels (the texture limit every Vulkan device
 /// offers is at least 8192).
 const MAX_TARGET_SIDE: u32 = 8192;
@@ -52,6 +64,7 @@ pub fn render_gpu(
     label: &str,
     outputs: &crate::render_cmd::Outputs,
     spp: Option<u32>,
+    lod: Option<f32>,
 ) -> Result<()> {
     let t = Instant::now();
     let ss = supersample_for(spp, scene.film.width, scene.film.height);
@@ -72,6 +85,7 @@ pub fn render_gpu(
     let ctx = GpuContext::headless(&ContextOptions::default())?;
     let settings = RenderSettings {
         supersample: ss,
+        lod_pixels: lod.unwrap_or(RenderSettings::default().lod_pixels),
         ..RenderSettings::default()
     };
     let (image, warnings) = lamina_gpu::render_scene(&ctx, scene, settings)

@@ -45,6 +45,11 @@ pub struct RenderArgs {
     /// GPU) instead of the offline path tracer. Same film size, exposure and tone map.
     #[arg(long)]
     pub gpu: bool,
+    /// With --gpu: level of detail for foliage. A plant whose leaves look smaller than
+    /// this many pixels of the image drops a random share of them and enlarges the rest,
+    /// keeping its leaf area (stochastic simplification); 0 draws every leaf. Default 1.
+    #[arg(long, value_name = "PIXELS", allow_negative_numbers = true, value_parser = crate::gpu_cmd::parse_lod)]
+    pub lod: Option<f32>,
     /// Replace an output file that lamina did not write (without it, such a file is kept
     /// and the render refused; lamina's own earlier outputs are always replaced).
     #[arg(long)]
@@ -325,6 +330,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
     } else {
         args.output.clone()
     };
+    if args.lod.is_some() && !args.gpu {
+        bail!(
+            "--lod is the GPU path's level of detail; the offline renderer always traces every \
+             leaf (add --gpu, or drop --lod)"
+        );
+    }
     if args.gpu {
         crate::gpu_cmd::check_flags(&args.flags)?;
     }
@@ -411,7 +422,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         return Ok(());
     }
     if args.gpu {
-        return crate::gpu_cmd::render_gpu(&scene, &label, &outputs, args.flags.spp);
+        return crate::gpu_cmd::render_gpu(&scene, &label, &outputs, args.flags.spp, args.lod);
     }
     if !args.flags.quiet && !std::io::stderr().is_terminal() {
         eprintln!(

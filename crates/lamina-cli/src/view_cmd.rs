@@ -3,8 +3,9 @@
 //! Controls: left-drag or A/D/W/S orbits the camera around the scene camera's target;
 //! mouse wheel or +/- zooms; right-drag or the arrow keys move the sun (azimuth and
 //! elevation, also below the horizon and across leaf planes: the shading blends smoothly
-//! from front- to back-lit, so nothing pops); Space starts/stops the sun orbiting; R resets;
-//! Esc or Q quits. The overlay shows the frame time.
+//! from front- to back-lit, so nothing pops); Space starts/stops the sun orbiting; L turns
+//! level of detail (`--lod`) on and off; R resets; Esc or Q quits. The overlay shows the
+//! frame time per pass and whether level of detail is on.
 //!
 //! `--frames N --screenshot out.png` renders N frames, saves the last one (overlay
 //! included) and exits: how tests and scripts use it (e.g. under `xvfb-run -a`).
@@ -51,6 +52,12 @@ pub struct ViewArgs {
     /// Side of the sun's shadow and transmittance maps (texels).
     #[arg(long, default_value_t = 2048, value_parser = clap::value_parser!(u32).range(64..=16384))]
     pub shadow_map: u32,
+    /// Level of detail for foliage: a plant whose leaves look smaller than this many
+    /// pixels drops a random share of them and enlarges the rest, keeping its leaf area
+    /// (stochastic simplification, no popping); 0 draws every leaf. The window's default
+    /// (4) favours frame rate; `render --gpu` images default to 1.
+    #[arg(long, value_name = "PIXELS", default_value_t = 4.0, allow_negative_numbers = true, value_parser = crate::gpu_cmd::parse_lod)]
+    pub lod: f32,
 }
 
 /// Loads a scene file or makes a built-in one (see [`ViewArgs::scene`]).
@@ -190,8 +197,9 @@ impl State {
         // between frames otherwise, labelled so.
         let time = match self.gpu {
             Some(t) => format!(
-                "GPU {:.1} MS (SHADOW {:.1} MAIN {:.1} POST {:.1})  {:.1} FPS",
+                "GPU {:.1} MS ({}SHADOW {:.1} MAIN {:.1} POST {:.1})  {:.1} FPS",
                 t.total_ms(),
+                t.cull_ms.map_or(String::new(), |c| format!("CULL {c:.1} ")),
                 t.shadows_ms,
                 t.main_ms,
                 t.post_ms.unwrap_or(0.0),
@@ -203,7 +211,14 @@ impl State {
                 1000.0 / self.frame_ms.max(1e-3)
             ),
         };
-        let text = format!("{time}{sun}  {:.2}M TRIS", self.triangles as f64 / 1e6);
+        let lod = match self.renderer.lod_pixels() {
+            0.0 => "LOD OFF".to_string(),
+            px => format!("LOD {px} PX"),
+        };
+        let text = format!(
+            "{time}{sun}  {:.2}M TRIS  {lod}",
+            self.triangles as f64 / 1e6
+        );
         lamina_gpu::overlay::render_text(&text)
     }
 
@@ -296,6 +311,7 @@ impl Viewer {
             RenderSettings {
                 shadow_map_size: self.args.shadow_map,
                 supersample: 1,
+                lod_pixels: self.args.lod,
                 ..Default::default()
             },
         )?;
@@ -356,8 +372,10 @@ impl Viewer {
             .with_context(|| format!("writing the screenshot '{}'", path.display()))?;
         let gpu = s.gpu.map_or(String::new(), |t| {
             format!(
-                "; GPU {:.2} ms: shadows {:.2}, main {:.2}, post {:.2}",
+                "; GPU {:.2} ms: {}shadows {:.2}, main {:.2}, post {:.2}",
                 t.total_ms(),
+                t.cull_ms
+                    .map_or(String::new(), |c| format!("culling and LOD {c:.2}, ")),
                 t.shadows_ms,
                 t.main_ms,
                 t.post_ms.unwrap_or(0.0)
@@ -461,6 +479,20 @@ impl ApplicationHandler for Viewer {
                     Key::Character("+") | Key::Character("=") => s.orbit.dist *= 0.9,
                     Key::Character("-") => s.orbit.dist /= 0.9,
                     Key::Character("r") => (s.orbit, s.sun) = s.home,
+                    Key::Character("l") => {
+                        // Level of detail on (the --lod setting, or 1 px) and off.
+                        let on = if self.args.lod > 0.0 {
+                            self.args.lod
+                        } else {
+                            1.0
+                        };
+                        let next = if s.renderer.lod_pixels() > 0.0 {
+                            0.0
+                        } else {
+                            on
+                        };
+                        s.renderer.set_lod_pixels(next);
+                    }
                     _ => {}
                 }
             }

@@ -188,32 +188,59 @@ fn ctrl_c_closes_the_view_without_a_screenshot() {
     assert!(!d.join("shot.png").exists(), "{log}");
 }
 
+/// Runs `lamina ARGS examples/leaf_cards.toml -o DIR/x.png`, which must fail without
+/// writing the image; returns its stderr.
+fn refused(dir: &Path, args: &[&str]) -> String {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/leaf_cards.toml");
+    let out = dir.join("x.png");
+    let o = lamina()
+        .args(args)
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .expect("run lamina");
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(!o.status.success(), "{args:?}: {stderr}");
+    assert!(!out.exists(), "{args:?}");
+    stderr
+}
+
 #[test]
 fn render_gpu_refuses_flags_that_do_not_apply() {
     let d = tmp_dir("flags");
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/leaf_cards.toml");
     for (flag, value, words) in [
         ("--seed", "3", "no random numbers"),
         ("--threads", "2", "CPU threads"),
         ("--time-limit", "1", "progressive"),
     ] {
-        let out = d.join("x.png");
-        let o = lamina()
-            .args(["render", "--gpu", flag, value])
-            .arg(&scene)
-            .arg("-o")
-            .arg(&out)
-            .output()
-            .expect("run lamina");
-        let stderr = String::from_utf8_lossy(&o.stderr);
-        assert!(!o.status.success(), "{flag}: {stderr}");
+        let stderr = refused(&d, &["render", "--gpu", flag, value]);
         assert!(
             stderr.contains(flag)
                 && stderr.contains("does not apply to --gpu")
                 && stderr.contains(words),
             "{flag}: {stderr}"
         );
-        assert!(!out.exists());
+    }
+}
+
+/// `--lod` is the GPU path's: refused without `--gpu`, and out-of-range values are named.
+#[test]
+fn lod_is_checked() {
+    let d = tmp_dir("lod");
+    for (args, words) in [
+        (&["render", "--lod", "2"][..], "always traces every leaf"),
+        (
+            &["render", "--gpu", "--lod", "-1"][..],
+            "-1 is not a leaf area",
+        ),
+        (
+            &["render", "--gpu", "--lod", "many"][..],
+            "'many' is not a number",
+        ),
+    ] {
+        let stderr = refused(&d, args);
+        assert!(stderr.contains(words), "{args:?}: {stderr}");
     }
 }
 

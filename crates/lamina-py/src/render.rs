@@ -236,14 +236,22 @@ pub fn render<'py>(
 /// Renders `scene` with the real-time GPU approximation (wgpu; Vulkan, or Mesa's lavapipe
 /// without a GPU): an `(height, width, 3)` float32 array of linear Rec.709 radiance, like
 /// `render`. Raises `lamina.RenderError` when no adapter exists or for a spectral film.
-/// With `warnings=True` returns `(image, list of what the approximation changed)`.
+/// With `warnings=True` returns `(image, list of what the approximation changed)`. `lod`:
+/// level of detail for foliage, the leaf area in pixels below which a plant's leaves thin
+/// out (their area kept); 0 draws every leaf.
 #[pyfunction]
-#[pyo3(signature = (scene, *, warnings=false))]
+#[pyo3(signature = (scene, *, warnings=false, lod=1.0))]
 pub fn render_gpu<'py>(
     py: Python<'py>,
     scene: PyRef<'py, Scene>,
     warnings: bool,
+    lod: f64,
 ) -> PyResult<Bound<'py, PyAny>> {
+    if !(0.0..=1e4).contains(&lod) {
+        return Err(render_error(format!(
+            "lod={lod}: the leaf area in pixels must be from 0 (every leaf) to 10000"
+        )));
+    }
     if scene.spectral.is_some() {
         return Err(render_error(
             "render_gpu renders RGB only: this scene's film has spectral bands",
@@ -255,8 +263,11 @@ pub fn render_gpu<'py>(
         guarded(render_error, || {
             let ctx = lamina_gpu::GpuContext::headless(&lamina_gpu::ContextOptions::default())
                 .map_err(|e| render_error(format!("no GPU adapter: {e}")))?;
-            lamina_gpu::render_scene(&ctx, &s, lamina_gpu::RenderSettings::default())
-                .map_err(render_error)
+            let settings = lamina_gpu::RenderSettings {
+                lod_pixels: lod as f32,
+                ..Default::default()
+            };
+            lamina_gpu::render_scene(&ctx, &s, settings).map_err(render_error)
         })
     })?;
     let img = to_array(py, Rendered::rgb(&image, Vec::new()))?.into_any();

@@ -173,6 +173,11 @@ def test_render_gpu(small_dict):
     # It agrees with the path tracer in the mean (the GPU path is an approximation).
     cpu = lamina.render(s, spp=64)
     assert abs(img.mean() - cpu.mean()) / cpu.mean() < 0.35
+    # Level of detail: every leaf, or thinned out; a leaf area out of range is an error.
+    full = lamina.render_gpu(s, lod=0)
+    assert full.shape == img.shape and abs(full.mean() - img.mean()) < 0.02 * img.mean()
+    with pytest.raises(lamina.RenderError, match="lod=-1"):
+        lamina.render_gpu(s, lod=-1)
 
 
 def test_read_exr_errors(tmp_path):

@@ -156,9 +156,11 @@ def render(
 ) -> Any:
     """The native render; use ``lamina.render``."""
 
-def render_gpu(scene: Scene, *, warnings: bool = False) -> Any:
+def render_gpu(scene: Scene, *, warnings: bool = False, lod: float = 1.0) -> Any:
     """The real-time GPU approximation: ``(H, W, 3)`` float32 linear radiance, or
-    ``(image, warnings)``. Raises ``RenderError`` without a Vulkan adapter."""
+    ``(image, warnings)``. ``lod``: the leaf area in pixels below which a plant's leaves
+    thin out, their area kept (stochastic simplification); 0 draws every leaf. Raises
+    ``RenderError`` without a Vulkan adapter, or for a ``lod`` outside 0-10000."""
 
 def measure(
     scene: Scene,

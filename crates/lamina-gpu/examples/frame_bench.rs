@@ -1,8 +1,15 @@
-//! Frame time of the GPU path for generated trees of 10k, 100k and 1M leaves (or the
-//! counts given) at 1920x1080, as a window's frame draws it: the sun's two-layer
+//! Frame time of the GPU path at 1920x1080 for 10k, 100k, 1M and 10M leaves (or the counts
+//! given), each without level of detail and with it (stochastic simplification below 1 and
+//! 4 px² per leaf: `lamina render --gpu`'s and `lamina view`'s defaults), as a window's
+//! frame draws it: the culling/LOD compute pass, the sun's two-layer
 //! shadow/transmittance maps (2048²), the camera pass and the tone-map pass into an
 //! offscreen sRGB target, every frame (the sun may move); sky-visibility maps are baked once
-//! at load and not counted. Prints the adapter, then one row per tree: GPU milliseconds per
+//! at load and not counted.
+//!
+//! Up to 1M leaves the scene is one generated tree (`lamina_bench::frame_tree_scene`); from
+//! 5M on it is a forest of 100k-leaf trees, one prototype placed `n / 100k` times
+//! (`lamina_bench::frame_forest_scene`). Prints the adapter, then one row per scene and LOD
+//! setting: triangles drawn by the camera pass after culling and LOD, GPU milliseconds per
 //! pass from timestamp queries (where the adapter has them; else `-`), the wall-clock frame
 //! time (submit to GPU finished) and its fps, and the geometry's GPU memory.
 //!
@@ -11,6 +18,9 @@
 use lamina_gpu::renderer::PassTimes;
 use lamina_gpu::{FrameView, GpuContext, RenderSettings, Renderer};
 use std::time::Instant;
+
+/// Leaves per tree of the forests.
+const FOREST_TREE: u32 = 100_000;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let counts: Vec<u32> = std::env::args()
@@ -21,7 +31,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
         .collect::<Result<_, _>>()?;
     let counts = if counts.is_empty() {
-        vec![10_000, 100_000, 1_000_000]
+        vec![10_000, 100_000, 1_000_000, 10_000_000]
     } else {
         counts
     };
@@ -29,13 +39,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ctx = GpuContext::headless(&Default::default())?;
     println!("adapter: {}", ctx.adapter_name());
     println!(
-        "{w}x{h}, shadow map 2048, frame = sun shadow passes + camera pass + tone map, GPU finished"
+        "{w}x{h}, shadow map 2048, frame = culling/LOD + sun shadow passes + camera pass + tone \
+         map, GPU finished; LOD = leaves thinned out below 1 or 4 px² (off = every leaf)"
     );
     println!(
-        "{:>9} {:>11} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>9}",
+        "{:>9} {:>6} {:>4} {:>11} {:>7} {:>8} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>9}",
         "leaves",
-        "triangles",
+        "trees",
+        "LOD",
+        "tris drawn",
         "load s",
+        "cull ms",
         "shadow ms",
         "main ms",
         "post ms",
@@ -45,13 +59,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "geom MB"
     );
     for n in counts {
-        let scene = lamina_bench::frame_tree_scene(n, (w, h))?;
+        let (scene, trees) = if n >= 5_000_000 {
+            let trees = n.div_ceil(FOREST_TREE);
+            let s = lamina_bench::frame_forest_scene(trees, FOREST_TREE, (w, h))?;
+            (s, trees)
+        } else {
+            (lamina_bench::frame_tree_scene(n, (w, h))?, 1)
+        };
         let t = Instant::now();
+        // Load with LOD (the sky-visibility maps are baked with it), then time both.
         let mut r = Renderer::new(
             &ctx,
             &scene,
             RenderSettings {
                 supersample: 1,
+                lod_pixels: 1.0,
                 ..Default::default()
             },
         )?;
@@ -63,33 +85,50 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         r.render_and_wait(&view, Some(&scene.film))?;
         let load = t.elapsed().as_secs_f64();
-        let frames = if n >= 500_000 { 3 } else { 5 };
-        let (mut wall, mut gpu) = (Vec::new(), Vec::<PassTimes>::new());
-        for _ in 0..frames {
-            let t = Instant::now();
-            let times = r.render_and_wait(&view, Some(&scene.film))?;
-            wall.push(t.elapsed().as_secs_f64() * 1000.0);
-            gpu.extend(times);
+        for lod in [0.0, 1.0, 4.0] {
+            r.set_lod_pixels(lod);
+            // One frame to settle (and to count what it draws), then the timed ones.
+            r.render_and_wait(&view, Some(&scene.film))?;
+            let drawn = r.drawn_triangles()?.map_or(r.triangles(), |d| d[0]);
+            let frames = match n {
+                5_000_000.. => 1,
+                500_000.. => 3,
+                _ => 5,
+            };
+            let (mut wall, mut gpu) = (Vec::new(), Vec::<PassTimes>::new());
+            for _ in 0..frames {
+                let t = Instant::now();
+                let times = r.render_and_wait(&view, Some(&scene.film))?;
+                wall.push(t.elapsed().as_secs_f64() * 1000.0);
+                gpu.extend(times);
+            }
+            let mean = |v: &mut dyn Iterator<Item = f64>| {
+                let (s, k) = v.fold((0.0, 0), |(s, k), x| (s + x, k + 1));
+                (k > 0).then(|| s / k as f64)
+            };
+            let col = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{x:.2}"));
+            let wall_ms = mean(&mut wall.iter().copied()).unwrap_or(f64::NAN);
+            println!(
+                "{:>9} {:>6} {:>4} {:>11} {:>7.1} {:>8} {:>9} {:>9} {:>9} {:>9} {:>9.1} {:>8.2} {:>9.1}",
+                n,
+                trees,
+                if lod > 0.0 {
+                    format!("{lod}")
+                } else {
+                    "off".into()
+                },
+                drawn,
+                load,
+                col(mean(&mut gpu.iter().filter_map(|t| t.cull_ms))),
+                col(mean(&mut gpu.iter().map(|t| t.shadows_ms))),
+                col(mean(&mut gpu.iter().map(|t| t.main_ms))),
+                col(mean(&mut gpu.iter().filter_map(|t| t.post_ms))),
+                col(mean(&mut gpu.iter().map(|t| t.total_ms()))),
+                wall_ms,
+                1000.0 / wall_ms,
+                r.geometry_bytes() as f64 / 1e6
+            );
         }
-        let mean = |v: &mut dyn Iterator<Item = f64>| {
-            let (s, k) = v.fold((0.0, 0), |(s, k), x| (s + x, k + 1));
-            (k > 0).then(|| s / k as f64)
-        };
-        let col = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{x:.2}"));
-        let wall_ms = mean(&mut wall.iter().copied()).unwrap_or(f64::NAN);
-        println!(
-            "{:>9} {:>11} {:>7.1} {:>9} {:>9} {:>9} {:>9} {:>9.1} {:>8.2} {:>9.1}",
-            n,
-            r.triangles(),
-            load,
-            col(mean(&mut gpu.iter().map(|t| t.shadows_ms))),
-            col(mean(&mut gpu.iter().map(|t| t.main_ms))),
-            col(mean(&mut gpu.iter().filter_map(|t| t.post_ms))),
-            col(mean(&mut gpu.iter().map(|t| t.total_ms()))),
-            wall_ms,
-            1000.0 / wall_ms,
-            r.geometry_bytes() as f64 / 1e6
-        );
     }
     if !ctx
         .device

@@ -35,56 +35,88 @@ fn sky(scene: &Scene) -> Vec3 {
     }
 }
 
-/// The forest at full detail and with LOD (1 px² of the image: 4 of the 2x supersampled
-/// target), against
-/// each other and against the offline renderer (64 spp).
-///
-/// Measured on lavapipe (llvmpipe, Mesa 22.3.6, LLVM 15), 2026-12-02: see the bounds
-/// below, each with its measured value.
-#[test]
-fn forest_lod_keeps_brightness_colour_coverage_and_agreement() {
-    let Some(ctx) = context() else {
-        return;
-    };
-    let scene = forest();
+/// A scene rendered at full detail and with LOD 1 px² (of the image: 4 of the 2x
+/// supersampled target), and what LOD kept.
+struct LodPair {
+    full: lamina_image::Image,
+    lod: lamina_image::Image,
+    /// Camera-pass triangles at full detail and with LOD.
+    tris: [u64; 2],
+    /// Leaves (or leaf instances) LOD may thin out.
+    leaves: u64,
+}
+
+/// Renders `scene` both ways and checks what LOD must keep: mean radiance per channel
+/// within 2 %, leaf coverage (the scene without its world meshes, against the sky) within
+/// 3 %, the displayed image within MAE 0.02 and SSIM 0.85.
+fn lod_pair(ctx: &GpuContext, scene: &Scene, name: &str) -> LodPair {
     let bare = Scene {
         meshes: Vec::new(),
         ..scene.clone()
     };
-    let mut full = Renderer::new(&ctx, &scene, settings(0.0)).expect("full detail");
-    let mut lod = Renderer::new(&ctx, &scene, settings(1.0)).expect("with LOD");
-    assert!(lod.lod_leaves() >= 9 * 3000, "{}", lod.lod_leaves());
+    let mut full = Renderer::new(ctx, scene, settings(0.0)).expect("full detail");
+    let mut lod = Renderer::new(ctx, scene, settings(1.0)).expect("with LOD");
     let a = full.render_image().expect("full");
     let b = lod.render_image().expect("lod");
     let [full_tris, _] = full.drawn_triangles().unwrap().expect("culling runs");
     let [lod_tris, lod_shadow] = lod.drawn_triangles().unwrap().expect("culling runs");
     let (ma, mb) = (mean_radiance(&a.pixels), mean_radiance(&b.pixels));
     let cov = |r: f32| {
-        let (img, _) = lamina_gpu::render_scene(&ctx, &bare, settings(r)).expect("bare");
-        coverage(&img.pixels, sky(&scene), 0.01)
+        let (img, _) = lamina_gpu::render_scene(ctx, &bare, settings(r)).expect("bare");
+        coverage(&img.pixels, sky(scene), 0.01)
     };
     let (ca, cb) = (cov(0.0), cov(1.0));
     let (sa, sb) = (to_srgb8(&a, &scene.film), to_srgb8(&b, &scene.film));
-    let (mae, s) = (mean_abs_error(&sa, &sb), ssim(&sa, &sb, 160, 90));
+    let (w, h) = (a.width as usize, a.height as usize);
+    let (mae, s) = (mean_abs_error(&sa, &sb), ssim(&sa, &sb, w, h));
     eprintln!(
-        "triangles: full {full_tris}, LOD {lod_tris} (shadow {lod_shadow}); mean radiance full \
-         {ma:.4?}, LOD {mb:.4?}; coverage full {ca:.4}, LOD {cb:.4}; LOD vs full: MAE {mae:.4}, \
-         SSIM {s:.4}"
+        "{name}: triangles full {full_tris}, LOD {lod_tris} (shadow {lod_shadow}); mean radiance \
+         full {ma:.4?}, LOD {mb:.4?}; coverage full {ca:.4}, LOD {cb:.4}; LOD vs full: MAE \
+         {mae:.4}, SSIM {s:.4}"
     );
-    // LOD must thin the leaves out (the branches stay): each leaf card is two
-    // triangles; measured: 74 % of the leaves' triangles left out.
-    let leaf_tris = 2 * lod.lod_leaves();
-    let dropped = (full_tris - lod_tris) as f64 / leaf_tris as f64;
-    eprintln!("leaf triangles left out: {:.1} %", 100.0 * dropped);
-    assert!(dropped > 0.5, "{lod_tris} of {full_tris}");
-    // What it keeps: mean radiance per channel (measured within 0.3 %), coverage
-    // (measured 0.8 % more), the displayed image (MAE 0.0106, SSIM 0.905).
+    if let Some(dir) = std::env::var_os("LAMINA_TEST_IMAGES") {
+        let path = std::path::Path::new(&dir).join(format!("{}.png", name.replace(' ', "_")));
+        lamina_render::write_image(&path, &common::side_by_side(&a, &b), &scene.film)
+            .expect("write");
+    }
     for k in 0..3 {
         let rel = (mb[k] / ma[k] - 1.0).abs();
-        assert!(rel < 0.02, "channel {k}: {} vs {}", mb[k], ma[k]);
+        assert!(rel < 0.02, "{name} channel {k}: {} vs {}", mb[k], ma[k]);
     }
-    assert!((cb / ca - 1.0).abs() < 0.03, "coverage {cb} vs {ca}");
-    assert!(mae < 0.02 && s > 0.85, "MAE {mae}, SSIM {s}");
+    assert!(
+        (cb / ca - 1.0).abs() < 0.03,
+        "{name}: coverage {cb} vs {ca}"
+    );
+    assert!(mae < 0.02 && s > 0.85, "{name}: MAE {mae}, SSIM {s}");
+    LodPair {
+        leaves: lod.lod_leaves(),
+        full: a,
+        lod: b,
+        tris: [full_tris, lod_tris],
+    }
+}
+
+/// The forest of leaf cards (leaves thinned out inside each tree's mesh) at full detail
+/// and with LOD, against each other ([`lod_pair`]'s bounds) and against the offline
+/// renderer (64 spp).
+///
+/// Measured on lavapipe (llvmpipe, Mesa 22.3.6, LLVM 15), 2026-12-02: 73.5 % of the leaf
+/// triangles left out; mean radiance +0.5, +0.3, +0.4 %; coverage -0.04 %; LOD vs full MAE
+/// 0.0093, SSIM 0.924; against offline MAE 0.0199 (full) and 0.0204 (LOD).
+#[test]
+fn forest_lod_keeps_brightness_colour_coverage_and_agreement() {
+    let Some(ctx) = context() else {
+        return;
+    };
+    let scene = forest();
+    let p = lod_pair(&ctx, &scene, "card forest");
+    assert!(p.leaves >= 9 * 3000, "{}", p.leaves);
+    let (a, b) = (&p.full, &p.lod);
+    let (sa, sb) = (to_srgb8(a, &scene.film), to_srgb8(b, &scene.film));
+    // LOD must thin the leaves out (the branches stay): each leaf card is two triangles.
+    let dropped = (p.tris[0] - p.tris[1]) as f64 / (2 * p.leaves) as f64;
+    eprintln!("leaf triangles left out: {:.1} %", 100.0 * dropped);
+    assert!(dropped > 0.5, "{:?}", p.tris);
     // Against the offline renderer (every leaf, 64 spp): LOD costs little agreement.
     let cpu = lamina_render::render(
         &scene,
@@ -105,7 +137,7 @@ fn forest_lod_keeps_brightness_colour_coverage_and_agreement() {
     );
     if let Some(dir) = std::env::var_os("LAMINA_TEST_IMAGES") {
         let path = std::path::Path::new(&dir).join("forest_lod.png");
-        let row = common::side_by_side(&common::side_by_side(&a, &b), &cpu);
+        let row = common::side_by_side(&common::side_by_side(a, b), &cpu);
         lamina_render::write_image(&path, &row, &scene.film).expect("write");
     }
     assert!(mae_lod < 0.05 && ssim_lod > 0.6, "LOD vs offline");
@@ -114,6 +146,35 @@ fn forest_lod_keeps_brightness_colour_coverage_and_agreement() {
         "LOD adds {} of MAE",
         mae_lod - mae_full
     );
+}
+
+/// A forest of curved leaves placed one instance per leaf (as scene files place an
+/// instanced plant's leaves): level of detail thins the leaf instances out and enlarges the
+/// rest about their centres, with [`lod_pair`]'s bounds.
+///
+/// Measured on lavapipe (llvmpipe, Mesa 22.3.6, LLVM 15), 2026-12-02: 72.8 % of the
+/// triangles left out; mean radiance +0.4, +0.4, +0.2 %; coverage +1.2 %; LOD vs full MAE
+/// 0.0097, SSIM 0.908.
+#[test]
+fn leaf_instances_thin_out_with_the_same_look() {
+    let Some(ctx) = context() else {
+        return;
+    };
+    let plant =
+        lamina_plant::generate_plant(&lamina_plant::PlantParams::tree(1, 3000)).expect("tree");
+    let scene = lamina_bench::tree_scene(
+        plant,
+        lamina_bench::Representation::ForestCurved,
+        9,
+        160,
+        90,
+        1,
+    );
+    let p = lod_pair(&ctx, &scene, "curved-leaf forest");
+    assert!(p.leaves >= 9 * 2900, "{}", p.leaves);
+    let dropped = (p.tris[0] - p.tris[1]) as f64 / p.tris[0] as f64;
+    eprintln!("triangles left out: {:.1} %", 100.0 * dropped);
+    assert!(dropped > 0.3, "{:?}", p.tris);
 }
 
 /// A dolly toward the forest in small steps: the mean change from one frame to the next

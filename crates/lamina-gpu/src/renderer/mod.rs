@@ -1,6 +1,9 @@
-//! The renderer: uploads a [`Scene`] once, then draws frames. Per frame, three passes
-//! (plus the optional tone-map pass for windows and screenshots):
+//! The renderer: uploads a [`Scene`] once, then draws frames. Per frame, a compute pass and
+//! three render passes (plus the optional tone-map pass for windows and screenshots):
 //!
+//! 0. **Culling and level of detail** ([`culling`], [`lod`]): each instance's share of
+//!    leaves kept, the camera's frustum-culled draw list and the light views' full one,
+//!    and the indirect draws of every mesh.
 //! 1. **Light view, layer 1** (`fs_shadow_first`): the sun's orthographic view of every
 //!    alpha-tested surface: depth `d1` of the nearest and its diffuse transmittance `c1`.
 //! 2. **Light view, layer 2** (`fs_shadow_peel`): depth peeling: the nearest surface behind
@@ -16,12 +19,14 @@
 //! Quad lights are shaded by their exact unshadowed irradiance (one-sided unless
 //! `two_sided`), sphere lights as point lights (exact outside them), see [`lights`]. Only
 //! the first sun casts shadows; the others are named in [`Renderer::warnings`], as are the
-//! lights past the first sun and 32 others, which are left out. Determinism: the same scene and view give the same image on the same
-//! device and driver (no randomness, fixed draw order).
+//! lights past the first sun and 32 others, which are left out. Determinism: the same scene
+//! and view give the same image on the same device and driver (no randomness; the draw
+//! lists keep instance order within each LOD bucket).
 //!
 //! The rooms, in the order [`Renderer::new`] fills them:
 //! * `materials`: baked materials uploaded as group 1 of every pass;
-//! * `geometry`: vertex, index and instance buffers; the draw calls;
+//! * `geometry`: vertex, index and instance buffers; the draw calls; with `lod` (leaves in
+//!   rank order at load) and `culling` (the per-frame compute pass and its draw lists);
 //! * `pipelines`: the scene shader's three pipelines and their group-0 layouts;
 //! * `sun`: the sun's two-layer maps, redrawn every frame;
 //! * `sky_visibility`: the sky's two-layer maps per direction, baked once;
@@ -365,6 +370,8 @@ impl Renderer {
     }
 
     /// Sets [`RenderSettings::lod_pixels`] for the frames drawn from now on (0: every leaf).
+    /// The sky-visibility maps keep the setting they were baked with at load (their
+    /// leaves thinned out at the maps' own resolution, which keeps their coverage).
     pub fn set_lod_pixels(&mut self, lod_pixels: f32) {
         self.settings.lod_pixels = lod_pixels.max(0.0);
     }

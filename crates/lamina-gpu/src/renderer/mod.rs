@@ -1,7 +1,7 @@
 //! The renderer: uploads a [`Scene`] once, then draws frames. Per frame, a compute pass and
 //! three render passes (plus the optional tone-map pass for windows and screenshots):
 //!
-//! 0. **Culling and level of detail** ([`culling`], [`lod`]): each instance's share of
+//! 0. **Culling and level of detail** (`culling.rs`, `lod.rs`): each instance's share of
 //!    leaves kept, the camera's frustum-culled draw list and the light views' full one,
 //!    and the indirect draws of every mesh.
 //! 1. **Light view, layer 1** (`fs_shadow_first`): the sun's orthographic view of every
@@ -104,7 +104,7 @@ pub struct RenderSettings {
     pub sky_directions: u32,
     /// Side of each sky-visibility map, in texels.
     pub sky_map_size: u32,
-    /// Level of detail for foliage ([`lod`]): the projected area of one leaf, in pixels
+    /// Level of detail for foliage (`renderer/lod.rs`): the projected area of one leaf, in pixels
     /// of the image (before supersampling), below which a plant's leaves thin out (the
     /// survivors grow so that its leaf area is kept). 0 draws every leaf.
     pub lod_pixels: f32,

@@ -48,7 +48,7 @@ use crate::params::{LeafMode, LeafParams};
 use crate::sampling::luminance;
 use crate::specular;
 use crate::texture::Texture;
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Mat3, Vec2, Vec3, Vec4};
 use std::path::Path;
 
 /// Incidence cosines of the albedo integration (midpoints); the energy table has these
@@ -251,6 +251,13 @@ pub struct LeafMaterial {
     /// The pigment leaf this RGB material was made from, if any (band renders rebuild the
     /// leaf per wavelength from it).
     pigment: Option<Box<crate::PigmentLeaf>>,
+    /// Value ranges of the thickness and extinction maps (`(0.5, 0.5)` without one).
+    ranges: [(f32, f32); 2],
+    /// For a material in other channels than its maps' ([`LeafMaterial::variant`]): the
+    /// linear map from the maps' RGB colours to this material's channels, and the RGB
+    /// physical albedos of the material the maps belong to (what the colours of missing
+    /// maps are derived with, in RGB, before the map).
+    channels: Option<(Mat3, [Vec3; 3])>,
 }
 
 /// Cosines of the incidence angles of the energy table and of the albedo integration
@@ -554,11 +561,8 @@ impl LeafMaterial {
             .alpha
             .as_ref()
             .is_some_and(|t| t.texels().iter().any(|v| v.w < 1.0));
-        let pre = Precomputed::new(
-            &params,
-            map_range(&maps.thickness),
-            map_range(&maps.extinction),
-        );
+        let ranges = [map_range(&maps.thickness), map_range(&maps.extinction)];
+        let pre = Precomputed::new(&params, ranges[0], ranges[1]);
         let packed = PackedMaps::new(&maps);
         Ok(LeafMaterial {
             maps,
@@ -567,6 +571,87 @@ impl LeafMaterial {
             pre: Box::new(pre),
             packed,
             pigment: None,
+            ranges,
+            channels: None,
+        })
+    }
+
+    /// [`Self::new`] for maps that share their data maps (alpha, thickness, extinction,
+    /// bump: clones of the same images) with `like`'s, as a pigment leaf's per-wavelength
+    /// materials do: the interleaved grid and the map ranges are `like`'s, not copied or
+    /// scanned again. Results are those of [`Self::new`], bit for bit.
+    pub fn new_like(
+        maps: LeafMaps,
+        params: LeafParams,
+        like: &LeafMaterial,
+    ) -> Result<Self, LeafError> {
+        params.validate()?;
+        let same = |a: &Option<Texture>, b: &Option<Texture>| match (a, b) {
+            (None, None) => true,
+            (Some(a), Some(b)) => a.is_same_image(b),
+            _ => false,
+        };
+        let ranges = [
+            if same(&maps.thickness, &like.maps.thickness) {
+                like.ranges[0]
+            } else {
+                map_range(&maps.thickness)
+            },
+            if same(&maps.extinction, &like.maps.extinction) {
+                like.ranges[1]
+            } else {
+                map_range(&maps.extinction)
+            },
+        ];
+        let alpha_from_channel = if same(&maps.alpha, &like.maps.alpha) {
+            like.alpha_from_channel
+        } else {
+            maps.alpha
+                .as_ref()
+                .is_some_and(|t| t.texels().iter().any(|v| v.w < 1.0))
+        };
+        let pre = Precomputed::new(&params, ranges[0], ranges[1]);
+        let packed = match &like.packed {
+            Some(p) => PackedMaps::new_like(&maps, p, &like.maps),
+            None => PackedMaps::new(&maps),
+        };
+        Ok(LeafMaterial {
+            maps,
+            params,
+            alpha_from_channel,
+            pre: Box::new(pre),
+            packed,
+            pigment: None,
+            ranges,
+            channels: None,
+        })
+    }
+
+    /// This leaf in other channels (three spectral bands, say): the same maps, shared, not
+    /// copied; `params` in the new channels (for an RGB leaf in bands, its layer
+    /// coefficients through the band basis); and the colour maps' RGB taken through
+    /// `matrix` (row `i`: the weights of R, G, B in channel `i`) after the colours of
+    /// missing maps are derived in RGB as for this material (a leaf without colour maps:
+    /// this material's physical albedos through `matrix`). `matrix` must map `[0, 1]³`
+    /// into itself (non-negative rows summing to at most 1), as
+    /// [`crate::spectrum::bands::BandBasis::reflectance_matrix`] does. The normalisation
+    /// (white-sky albedos, energy bound) is computed for the new channels.
+    pub fn variant(&self, params: LeafParams, matrix: Mat3) -> Result<Self, LeafError> {
+        params.validate()?;
+        let pre = Precomputed::new(&params, self.ranges[0], self.ranges[1]);
+        let channels = match self.channels {
+            Some((m, rgb)) => (matrix * m, rgb),
+            None => (matrix, self.pre.a_layered),
+        };
+        Ok(LeafMaterial {
+            maps: self.maps.clone(),
+            params,
+            alpha_from_channel: self.alpha_from_channel,
+            pre: Box::new(pre),
+            packed: self.packed.clone(),
+            pigment: None,
+            ranges: self.ranges,
+            channels: Some(channels),
         })
     }
 
@@ -632,6 +717,22 @@ impl LeafMaterial {
         let a = &self.pre.a_layered;
         let clamp = |v: Vec3| v.clamp(Vec3::ZERO, Vec3::ONE);
         let front = v.front.map(clamp);
+        if let Some((m, rgb)) = &self.channels {
+            // The colours the RGB material has (its maps, or its model's albedos where it
+            // has none), then into these channels.
+            let back = match (v.back, front) {
+                (Some(c), _) => clamp(c),
+                (None, Some(f)) => derive_back(f),
+                (None, None) => rgb[1],
+            };
+            let trans = match (v.translucency, front) {
+                (Some(c), _) => clamp(c),
+                (None, Some(f)) => clamp(f * rgb[2] / rgb[0]),
+                (None, None) => rgb[2],
+            };
+            let into = |c: Vec3| (*m * c).clamp(Vec3::ZERO, Vec3::ONE);
+            return [into(front.unwrap_or(rgb[0])), into(back), into(trans)];
+        }
         let back = match (v.back, front) {
             (Some(c), _) => clamp(c),
             (None, Some(f)) => derive_back(f),
@@ -1156,6 +1257,140 @@ mod tests {
                 let old = old_energy_scale(&m.pre, f, b, t);
                 assert_eq!(new, old, "{name}: {f} {b} {t}");
             }
+        }
+    }
+
+    /// A variant with the identity map and the same parameters is the material itself, bit
+    /// for bit, whatever maps are missing: the colours of missing maps are derived as the
+    /// RGB material does.
+    #[test]
+    fn identity_variant_is_the_material() {
+        for (name, m) in materials() {
+            let v = m.variant(m.params, Mat3::IDENTITY).unwrap();
+            for uv in uvs() {
+                assert_eq!(v.bsdf(uv), m.bsdf(uv), "{name} at {uv}");
+                assert_eq!(v.map_colours(uv), m.map_colours(uv), "{name} at {uv}");
+            }
+        }
+    }
+
+    /// A variant in other channels equals the material built from maps converted texel by
+    /// texel (what band renders did before variants), where every colour map is present; it
+    /// shares the maps instead of copying them; variants of variants compose their maps.
+    #[test]
+    fn variant_equals_converted_maps() {
+        let m3 = Mat3::from_cols(
+            Vec3::new(0.6, 0.1, 0.0),
+            Vec3::new(0.3, 0.7, 0.2),
+            Vec3::new(0.1, 0.2, 0.8),
+        );
+        let convert = |t: &Texture, m: Mat3| {
+            let texels = t
+                .texels()
+                .iter()
+                .map(|v| (m * v.truncate().clamp(Vec3::ZERO, Vec3::ONE)).extend(v.w))
+                .collect();
+            Texture::from_texels(t.width(), t.height(), texels, t.wrap)
+        };
+        for (name, m) in materials() {
+            if m.maps.front.is_none() || m.maps.back.is_none() || m.maps.translucency.is_none() {
+                continue;
+            }
+            // Colours inside [0, 1] (where clamping the filtered value and filtering clamped
+            // texels agree).
+            let mut inside = m.maps.clone();
+            for t in [
+                &mut inside.front,
+                &mut inside.back,
+                &mut inside.translucency,
+            ]
+            .into_iter()
+            .flatten()
+            {
+                *t = convert(t, Mat3::IDENTITY);
+            }
+            let m = LeafMaterial::new(inside, m.params).unwrap();
+            let mut params = m.params;
+            for l in [&mut params.upper, &mut params.mesophyll, &mut params.lower] {
+                l.absorption = m3 * l.absorption;
+            }
+            let v = m.variant(params, m3).unwrap();
+            let mut maps = m.maps.clone();
+            for t in [&mut maps.front, &mut maps.back, &mut maps.translucency]
+                .into_iter()
+                .flatten()
+            {
+                *t = convert(t, m3);
+            }
+            let reference = LeafMaterial::new(maps, params).unwrap();
+            assert!(
+                v.maps
+                    .front
+                    .as_ref()
+                    .unwrap()
+                    .is_same_image(m.maps.front.as_ref().unwrap()),
+                "{name}: shared"
+            );
+            for uv in uvs()
+                .into_iter()
+                .filter(|uv| uv.is_finite() && uv.abs().max_element() < 4.0)
+            {
+                let (a, b) = (v.map_colours(uv), reference.map_colours(uv));
+                for k in 0..3 {
+                    assert!(
+                        (a[k] - b[k]).abs().max_element() < 1e-5,
+                        "{name} {uv}: {a:?} {b:?}"
+                    );
+                }
+                let d = bsdf_difference(&v.bsdf(uv), &reference.bsdf(uv));
+                assert!(d < 1e-4, "{name} {uv}: {d}");
+            }
+            // A variant of the variant: the maps through both matrices.
+            let vv = v.variant(params, m3).unwrap();
+            let uv = Vec2::new(0.3, 0.6);
+            let want = (m3
+                * (m3
+                    * m.maps
+                        .front
+                        .as_ref()
+                        .unwrap()
+                        .rgb(uv)
+                        .clamp(Vec3::ZERO, Vec3::ONE)))
+            .clamp(Vec3::ZERO, Vec3::ONE);
+            assert!(
+                (vv.map_colours(uv)[0] - want).abs().max_element() < 1e-5,
+                "{name}"
+            );
+        }
+    }
+
+    /// A material made `new_like` another whose data maps it shares is the material `new`
+    /// makes, bit for bit, and holds the other's grid instead of its own.
+    #[test]
+    fn new_like_shares_the_grid_and_changes_nothing() {
+        for (name, m) in materials() {
+            let mut maps = m.maps.clone();
+            maps.front = Some(Texture::constant(Vec4::new(0.1, 0.4, 0.05, 1.0)));
+            maps.back = Some(Texture::constant(Vec4::new(0.2, 0.3, 0.1, 1.0)));
+            maps.translucency = None;
+            let params = LeafParams {
+                specular: 0.3,
+                ..m.params
+            };
+            let like = LeafMaterial::new_like(maps.clone(), params, &m).unwrap();
+            let fresh = LeafMaterial::new(maps, params).unwrap();
+            if let (Some(a), Some(b)) = (&like.packed, &m.packed) {
+                assert!(
+                    std::sync::Arc::ptr_eq(&a.texels_arc(), &b.texels_arc()),
+                    "{name}"
+                );
+            }
+            assert_eq!(like.packed.is_some(), fresh.packed.is_some(), "{name}");
+            for uv in uvs() {
+                assert_eq!(like.bsdf(uv), fresh.bsdf(uv), "{name} at {uv}");
+            }
+            assert_eq!(like.alpha_from_channel, fresh.alpha_from_channel);
+            assert_eq!(like.ranges, fresh.ranges);
         }
     }
 }

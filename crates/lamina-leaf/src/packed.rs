@@ -167,6 +167,43 @@ impl PackedMaps {
         })
     }
 
+    /// The grid of `maps` taken from `like`, the grid of `like_maps`, without copying it,
+    /// where every map `maps` packs is the very image `like_maps` packed in its place
+    /// ([`Texture::is_same_image`]; the colour maps may differ where they are constants, as
+    /// in a pigment leaf's per-wavelength materials); otherwise [`Self::new`].
+    pub fn new_like(maps: &LeafMaps, like: &PackedMaps, like_maps: &LeafMaps) -> Option<Self> {
+        let all = |m: &LeafMaps| {
+            [
+                m.front.clone(),
+                m.back.clone(),
+                m.translucency.clone(),
+                m.thickness.clone(),
+                m.extinction.clone(),
+                m.bump.clone(),
+            ]
+        };
+        let (mine, theirs) = (all(maps), all(like_maps));
+        let sources = mine.clone().map(|m| Source::of(&m));
+        let shared = (0..6).all(|k| match (&mine[k], &theirs[k], sources[k]) {
+            (_, _, s) if s != Source::Grid => true,
+            (Some(a), Some(b), _) => like.sources[k] == Source::Grid && a.is_same_image(b),
+            _ => false,
+        });
+        if !shared {
+            return Self::new(maps);
+        }
+        Some(PackedMaps {
+            sources,
+            ..like.clone()
+        })
+    }
+
+    /// The shared records (tests: which grid a material holds).
+    #[cfg(test)]
+    pub(crate) fn texels_arc(&self) -> Arc<[Record]> {
+        self.texels.clone()
+    }
+
     /// The filtered values at `uv`, bit-identical to [`MapValues::read`].
     #[inline]
     pub fn read(&self, uv: Vec2, with_bump: bool) -> MapValues {

@@ -174,12 +174,29 @@ impl PigmentLeaf {
     /// The leaf at three wavelengths `nm` (one per channel of the material): the renderer's
     /// material, built in a few tens of milliseconds.
     pub fn material(&self, nm: [f32; 3]) -> Result<LeafMaterial, LeafError> {
+        LeafMaterial::new(self.maps_at(nm)?, self.params_at(nm))
+    }
+
+    /// [`Self::material`], sharing the data maps' interleaved grid with `like` (a material
+    /// of this leaf, e.g. [`Self::rgb_material`]'s) instead of building its own: what renders
+    /// that hold this leaf at many wavelengths at once use. Bit-identical to
+    /// [`Self::material`].
+    pub fn material_like(
+        &self,
+        nm: [f32; 3],
+        like: &LeafMaterial,
+    ) -> Result<LeafMaterial, LeafError> {
+        LeafMaterial::new_like(self.maps_at(nm)?, self.params_at(nm), like)
+    }
+
+    /// The data maps with the calibrated colours at `nm` as constant colour maps.
+    fn maps_at(&self, nm: [f32; 3]) -> Result<LeafMaps, LeafError> {
         let [cr, cb, ct] = self.colours_at(nm)?;
         let mut maps = self.maps.clone();
         maps.front = Some(Texture::constant(cr.extend(1.0)));
         maps.back = Some(Texture::constant(cb.extend(1.0)));
         maps.translucency = Some(Texture::constant(ct.extend(1.0)));
-        LeafMaterial::new(maps, self.params_at(nm))
+        Ok(maps)
     }
 
     /// The leaf for an RGB render: colours are the linear Rec.709 colours (under D65) of the

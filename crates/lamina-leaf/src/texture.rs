@@ -483,6 +483,13 @@ impl Texture {
     pub fn texels(&self) -> &[Vec4] {
         &self.texels
     }
+
+    /// Whether `other` is this very image (the same shared texels, size and wrap mode): a
+    /// clone of it, not merely equal values.
+    pub fn is_same_image(&self, other: &Texture) -> bool {
+        Arc::ptr_eq(&self.texels, &other.texels)
+            && (self.width, self.height, self.wrap) == (other.width, other.height, other.wrap)
+    }
 }
 
 #[cfg(test)]

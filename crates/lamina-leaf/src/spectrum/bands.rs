@@ -11,10 +11,13 @@
 //!   stays in `[0, 1]`. Beyond 830 nm the basis holds its 830 nm value: an RGB material says
 //!   nothing about the infrared, and this is the neutral guess. Pigment leaves (PROSPECT) are
 //!   spectral by themselves and do not go through it.
-//! * **Emission** (lights, skies) is the same basis times the shape of the ground-level solar
-//!   spectrum (ASTM G173 global, [`super::solar_global`]), normalised so that an RGB white of
-//!   1 has `∫ E(λ) ȳ(λ) dλ = 1`: the convention of lamina's RGB radiance (`Y = ∫ L ȳ dλ`).
-//!   A band's value is then the band-mean spectral radiance in W m⁻² sr⁻¹ nm⁻¹.
+//! * **Emission** (lights, skies) is the same basis times the shape of an illuminant
+//!   ([`Illuminant`]), normalised so that an RGB white of 1 has `∫ E(λ) ȳ(λ) dλ = 1`: the
+//!   convention of lamina's RGB radiance (`Y = ∫ L ȳ dλ`). Band renders use the shape of the
+//!   ground-level solar spectrum (ASTM G173 global, [`super::solar_global`]): an RGB sun
+//!   then has the sun's infrared. `spectral = "visible"` renders use D65, Rec.709's white, so
+//!   that RGB white light stays exactly white through the CIE observer (an RGB scene keeps
+//!   its look). A band's value is the band-mean spectral radiance in W m⁻² sr⁻¹ nm⁻¹.
 //!
 //! Band values are means over the band, integrated at 1 nm: plain means over `[lo, hi]` for
 //! a band given by its edges, and means weighted by the relative spectral response for a
@@ -23,7 +26,7 @@
 
 use super::upsample::RgbSpectrum;
 use super::{LAMBDA_MAX_NM, LAMBDA_MIN_NM, cie_xyz_bar, solar_global};
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 use std::sync::OnceLock;
 
 /// A named wavelength band `[lo_nm, hi_nm]`, flat or weighted by a response curve.
@@ -248,22 +251,48 @@ fn basis(nm: f32) -> Vec3 {
     v / v.element_sum().max(1e-6)
 }
 
-/// The solar shape's normalisation: `∫ S ȳ dλ` over 360-830 nm.
-fn emission_norm() -> f32 {
-    static NORM: OnceLock<f32> = OnceLock::new();
-    *NORM.get_or_init(|| {
-        (360..830)
-            .map(|k| {
-                let nm = k as f32 + 0.5;
-                solar_global(nm) * cie_xyz_bar(nm).y
-            })
-            .sum()
-    })
+/// The spectral shape RGB emission takes in bands (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Illuminant {
+    /// ASTM G173-03 global solar irradiance: what band renders use (an RGB sun gets the
+    /// sun's near and short-wave infrared).
+    #[default]
+    Solar,
+    /// CIE D65 (zero outside 360-830 nm): what visible renders use, so that RGB white
+    /// emission is Rec.709 white through the CIE observer.
+    D65,
 }
 
-/// The band means of the three basis spectra, for reflectance and for emission: `(refl,
-/// emit)` where `refl.dot(rgb)` is the band value of reflectance `rgb`.
-fn band_means(b: &Band) -> (Vec3, Vec3) {
+impl Illuminant {
+    /// The shape at `nm` (arbitrary scale).
+    #[inline]
+    fn at(self, nm: f32) -> f32 {
+        match self {
+            Illuminant::Solar => solar_global(nm),
+            Illuminant::D65 => super::d65(nm),
+        }
+    }
+
+    /// `∫ S ȳ dλ` over 360-830 nm (1 nm midpoints): the shape's normalisation.
+    fn norm(self) -> f32 {
+        static NORM: OnceLock<[f32; 2]> = OnceLock::new();
+        let n = NORM.get_or_init(|| {
+            [Illuminant::Solar, Illuminant::D65].map(|s| {
+                (360..830)
+                    .map(|k| {
+                        let nm = k as f32 + 0.5;
+                        s.at(nm) * cie_xyz_bar(nm).y
+                    })
+                    .sum()
+            })
+        });
+        n[self as usize]
+    }
+}
+
+/// The band means of the three basis spectra, for reflectance and for emission of shape
+/// `illuminant`: `(refl, emit)` where `refl.dot(rgb)` is the band value of reflectance `rgb`.
+fn band_means(b: &Band, illuminant: Illuminant) -> (Vec3, Vec3) {
     let lo = b.lo_nm.max(LAMBDA_MIN_NM);
     let hi = b.hi_nm.min(LAMBDA_MAX_NM).max(lo + 1e-3);
     let n = ((hi - lo).ceil() as usize).max(1);
@@ -274,12 +303,12 @@ fn band_means(b: &Band) -> (Vec3, Vec3) {
         let w = b.weight(nm);
         let bs = basis(nm) * w;
         r += bs;
-        e += bs * solar_global(nm);
+        e += bs * illuminant.at(nm);
         sw += w;
     }
     // (A flat band's weights are 1, so `sw` is `n` exactly: the plain mean.)
     let sw = sw.max(f32::MIN_POSITIVE);
-    (r / sw, e / (sw * emission_norm()))
+    (r / sw, e / (sw * illuminant.norm()))
 }
 
 /// How RGB values become the values of three bands (one per channel of a band render).
@@ -292,9 +321,15 @@ pub struct BandBasis {
 }
 
 impl BandBasis {
-    /// The basis for `bands` (channel `i` of a band render is band `i`).
+    /// The basis for `bands` (channel `i` of a band render is band `i`), emission of the
+    /// solar shape.
     pub fn new(bands: [&Band; 3]) -> Self {
-        let m = bands.map(band_means);
+        Self::with_illuminant(bands, Illuminant::Solar)
+    }
+
+    /// The basis for `bands` with RGB emission of the shape `illuminant`.
+    pub fn with_illuminant(bands: [&Band; 3], illuminant: Illuminant) -> Self {
+        let m = bands.map(|b| band_means(b, illuminant));
         BandBasis {
             refl: m.map(|x| x.0),
             emit: m.map(|x| x.1),
@@ -309,6 +344,13 @@ impl BandBasis {
             self.refl[1].dot(rgb),
             self.refl[2].dot(rgb),
         )
+    }
+
+    /// The linear map of [`Self::reflectance`]: row `i` holds the weights of R, G, B in
+    /// band `i` (every entry in `[0, 1]`, rows summing to 1, so `[0, 1]³` maps into itself).
+    #[inline]
+    pub fn reflectance_matrix(&self) -> Mat3 {
+        Mat3::from_cols(self.refl[0], self.refl[1], self.refl[2]).transpose()
     }
 
     /// The three band values (band-mean spectral radiance or irradiance, per nm) of an RGB

@@ -16,8 +16,10 @@
 //! `scripts/spectral/make_tables.py`).
 
 pub mod bands;
+pub mod difference;
 pub mod tables;
 pub mod upsample;
+pub mod visible;
 
 use glam::Vec3;
 

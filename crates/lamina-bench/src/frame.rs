@@ -50,6 +50,7 @@ pub fn frame_tree_scene(leaves: u32, size: (u32, u32)) -> Result<Scene, lamina_p
             filter: PixelFilter::Box,
             exposure: 0.0,
             tonemap: ToneMap::Aces,
+            spectral: lamina_core::SpectralMode::Rgb,
         },
         integrator: Integrator::Path {
             max_depth: 8,

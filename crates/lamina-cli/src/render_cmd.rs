@@ -242,8 +242,16 @@ pub fn render_scene(
 /// One line: time, samples per second, rays per second.
 pub fn print_summary(label: &str, s: &RenderStats, width: u32, height: u32) {
     let secs = s.elapsed.as_secs_f64().max(1e-9);
+    let setup = if s.spectral_setup.is_zero() {
+        String::new()
+    } else {
+        format!(
+            " ({:.2} s of it making the spectral channels' materials and lights)",
+            s.spectral_setup.as_secs_f64()
+        )
+    };
     eprintln!(
-        "{label}: {width}x{height}, {} spp in {:.2} s: {:.2} M samples/s, {:.2} M rays/s{}",
+        "{label}: {width}x{height}, {} spp in {:.2} s{setup}: {:.2} M samples/s, {:.2} M rays/s{}",
         s.spp_done,
         secs,
         s.samples as f64 / secs / 1e6,
@@ -422,6 +430,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
         return Ok(());
     }
     if args.gpu {
+        if scene.film.spectral == lamina_scene::SpectralMode::Visible {
+            bail!(
+                "--gpu renders RGB only: the scene's [film] asks for spectral = \"visible\" \
+                 (drop --gpu, or render with --set film.spectral=rgb)"
+            );
+        }
         return crate::gpu_cmd::render_gpu(&scene, &label, &outputs, args.flags.spp, args.lod);
     }
     if !args.flags.quiet && !std::io::stderr().is_terminal() {

@@ -80,7 +80,14 @@ pub fn load_view_scene(spec: &str, size: (u32, u32)) -> Result<Scene> {
             .map_err(|_| anyhow!("'tree:{n}': the leaf count must be a whole number"))?;
         return Ok(lamina_bench::frame_tree_scene(n, size)?);
     }
-    Ok(lamina_scene::load_scene(std::path::Path::new(spec))?)
+    let (scene, bands) = lamina_scene::load_scene_with_output(std::path::Path::new(spec))?;
+    if bands.is_some() || scene.film.spectral == lamina_scene::SpectralMode::Visible {
+        eprintln!(
+            "note: '{spec}' asks for a spectral render ([film] bands or spectral = \"visible\"); \
+             the real-time view is RGB (lamina render makes the spectral image)"
+        );
+    }
+    Ok(scene)
 }
 
 /// Camera orbiting a target, `+y` up.

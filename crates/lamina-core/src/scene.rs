@@ -97,6 +97,21 @@ pub struct Film {
     pub exposure: f32,
     /// Tone map applied to the PNG.
     pub tonemap: ToneMap,
+    /// What the image's channels are: linear Rec.709 from an RGB render, or from a render
+    /// over visible wavelengths seen through the CIE 1931 observer.
+    pub spectral: SpectralMode,
+}
+
+/// How the offline renderer makes an RGB image (`[film] spectral`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SpectralMode {
+    /// Every value is linear Rec.709 RGB and light is carried in those three channels.
+    #[default]
+    Rgb,
+    /// Light is carried at wavelengths over 360-830 nm (several per path, hero-wavelength
+    /// sampling; RGB values upsampled, pigment leaves and physical skies from their
+    /// spectra) and the image is what the CIE 1931 observer sees of it, in linear Rec.709.
+    Visible,
 }
 
 impl Film {
@@ -113,6 +128,7 @@ impl Film {
             },
             exposure: 0.0,
             tonemap: ToneMap::Aces,
+            spectral: SpectralMode::Rgb,
         }
     }
 }
@@ -227,6 +243,16 @@ pub enum ColorInput {
         /// Per-channel factor.
         factor: Vec3,
     },
+    /// A colour map's linear RGB taken through a matrix: the same map in other channels
+    /// (spectral bands: row `i` holds the weights of R, G, B in channel `i`), shared rather
+    /// than converted texel by texel. Made by renderers for their band copies of a scene;
+    /// loaders never make it.
+    Mapped {
+        /// The map (linear RGB).
+        map: Texture,
+        /// Channel `i` = `matrix.row(i) · rgb`.
+        matrix: glam::Mat3,
+    },
 }
 
 impl ColorInput {
@@ -236,6 +262,7 @@ impl ColorInput {
         match self {
             ColorInput::Constant(c) => *c,
             ColorInput::Texture { map, factor } => map.rgb(uv) * *factor,
+            ColorInput::Mapped { map, matrix } => *matrix * map.rgb(uv),
         }
     }
 }

@@ -215,6 +215,7 @@ mod tests {
                 filter: PixelFilter::Box,
                 exposure: 0.0,
                 tonemap: ToneMap::Clamp,
+                spectral: lamina_core::SpectralMode::Rgb,
             },
             integrator: Integrator::Path {
                 max_depth: 3,

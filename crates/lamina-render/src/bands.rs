@@ -14,19 +14,40 @@
 use crate::RenderError;
 use glam::{Vec3, Vec4};
 use lamina_core::{ColorInput, Light, Material, Scene, Sky};
-use lamina_leaf::spectrum::bands::{Band, BandBasis};
+use lamina_leaf::spectrum::bands::{Band, BandBasis, Illuminant};
 use lamina_leaf::{LeafMaterial, Texture};
 use std::sync::Arc;
 
-/// `scene` with its values in `bands` (channel `i` = band `i`).
-pub fn band_scene(scene: &Scene, bands: [&Band; 3]) -> Result<Scene, RenderError> {
-    let basis = BandBasis::new(bands);
+/// What a scene is in three bands: its materials, lights and sky in scene order (channel
+/// `i` = band `i`); the geometry is the scene's own.
+#[derive(Clone, Debug)]
+pub struct BandValues {
+    /// The scene's materials in the bands.
+    pub materials: Vec<Material>,
+    /// The scene's lights in the bands (a physical sky's sun, its last light, remade).
+    pub lights: Vec<Light>,
+    /// The sky in the bands.
+    pub sky: Option<Sky>,
+}
+
+/// The values of `scene` in `bands`, RGB emission taking the shape of `illuminant`. Maps
+/// are shared with the scene, not copied: colour maps go through the band basis as they
+/// are read ([`ColorInput::Mapped`], [`LeafMaterial::variant`]); a pigment leaf's
+/// per-band materials share its data maps ([`lamina_leaf::PigmentLeaf::material_like`]).
+pub fn band_values(
+    scene: &Scene,
+    bands: [&Band; 3],
+    illuminant: Illuminant,
+) -> Result<BandValues, RenderError> {
+    let basis = BandBasis::with_illuminant(bands, illuminant);
     let centres = bands.map(|b| b.center());
-    let mut s = scene.clone();
-    for m in &mut s.materials {
-        *m = band_material(m, &basis, centres)?;
-    }
-    for l in &mut s.lights {
+    let materials = scene
+        .materials
+        .iter()
+        .map(|m| band_material(m, &basis, centres))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut lights = scene.lights.clone();
+    for l in &mut lights {
         match l {
             Light::Sun { irradiance, .. } => *irradiance = basis.emission(*irradiance),
             Light::Point { intensity, .. } => *intensity = basis.emission(*intensity),
@@ -35,7 +56,8 @@ pub fn band_scene(scene: &Scene, bands: [&Band; 3]) -> Result<Scene, RenderError
             }
         }
     }
-    if let Some(sky) = &mut s.sky {
+    let mut sky = scene.sky.clone();
+    if let Some(sky) = &mut sky {
         match sky {
             Sky::Constant(c) => *c = basis.emission(*c),
             // A physical sky is remade in the bands, with its sun (the scene's last light).
@@ -46,7 +68,7 @@ pub fn band_scene(scene: &Scene, bands: [&Band; 3]) -> Result<Scene, RenderError
             } => {
                 *map = spectral.band_map(bands);
                 if let Some(e) = spectral.band_sun(bands)
-                    && let Some(Light::Sun { irradiance, .. }) = s.lights.last_mut()
+                    && let Some(Light::Sun { irradiance, .. }) = lights.last_mut()
                 {
                     *irradiance = e;
                 }
@@ -54,6 +76,21 @@ pub fn band_scene(scene: &Scene, bands: [&Band; 3]) -> Result<Scene, RenderError
             Sky::Image { map, .. } => *map = map_texture(map, |c| basis.emission(c)),
         }
     }
+    Ok(BandValues {
+        materials,
+        lights,
+        sky,
+    })
+}
+
+/// `scene` with its values in `bands` (channel `i` = band `i`), RGB emission of the solar
+/// shape ([`band_values`]).
+pub fn band_scene(scene: &Scene, bands: [&Band; 3]) -> Result<Scene, RenderError> {
+    let v = band_values(scene, bands, Illuminant::Solar)?;
+    let mut s = scene.clone();
+    s.materials = v.materials;
+    s.lights = v.lights;
+    s.sky = v.sky;
     Ok(s)
 }
 
@@ -86,10 +123,14 @@ fn map_texture(t: &Texture, f: impl Fn(Vec3) -> Vec3) -> Texture {
 fn band_color(c: &ColorInput, basis: &BandBasis) -> ColorInput {
     match c {
         ColorInput::Constant(v) => ColorInput::Constant(basis.reflectance(*v)),
-        // The factor multiplies the map per channel: apply the basis to the product.
-        ColorInput::Texture { map, factor } => ColorInput::Texture {
-            map: map_texture(map, |t| basis.reflectance(t * *factor)),
-            factor: Vec3::ONE,
+        // The factor multiplies the map per channel: the basis applies to the product.
+        ColorInput::Texture { map, factor } => ColorInput::Mapped {
+            map: map.clone(),
+            matrix: basis.reflectance_matrix() * glam::Mat3::from_diagonal(*factor),
+        },
+        ColorInput::Mapped { map, matrix } => ColorInput::Mapped {
+            map: map.clone(),
+            matrix: basis.reflectance_matrix() * *matrix,
         },
     }
 }
@@ -131,7 +172,9 @@ fn band_material(
         }
         Material::Leaf { name, leaf } => {
             let banded = match leaf.pigment_leaf() {
-                Some(p) => p.material(centres).map_err(|e| leaf_error(name, e))?,
+                Some(p) => p
+                    .material_like(centres, leaf)
+                    .map_err(|e| leaf_error(name, e))?,
                 None => band_rgb_leaf(leaf, basis).map_err(|e| leaf_error(name, e))?,
             };
             Material::Leaf {
@@ -142,24 +185,27 @@ fn band_material(
     })
 }
 
-/// An RGB leaf in bands: its colour maps and layer coefficients through the basis.
+/// An RGB leaf in bands: its colours (maps, or the RGB model's own albedos) through the
+/// basis as they are read, and its layer coefficients through it too, so that the layers'
+/// angular shapes and map responses are the bands': scattering linearly, absorption in the
+/// transmittance of the layer, `e^{-σ_a(λ) d} = Σ_c B_c(λ) e^{-σ_a,c d}` (`d` the layer's
+/// nominal thickness) — what an absorption coefficient means to the eye is how much light
+/// crosses the layer, and a linear mix of coefficients would let the strongly absorbed
+/// channels darken the others (a green leaf would turn dark in the green).
 fn band_rgb_leaf(
     leaf: &LeafMaterial,
     basis: &BandBasis,
 ) -> Result<LeafMaterial, lamina_leaf::LeafError> {
-    let mut maps = leaf.maps().clone();
-    for t in [&mut maps.front, &mut maps.back, &mut maps.translucency]
-        .into_iter()
-        .flatten()
-    {
-        *t = map_texture(t, |c| basis.reflectance(c));
-    }
     let mut params = *leaf.params();
+    let thickness = params.thickness_mm;
     for layer in [&mut params.upper, &mut params.mesophyll, &mut params.lower] {
-        layer.absorption = basis.reflectance(layer.absorption).max(Vec3::ZERO);
+        let d = (thickness * layer.fraction).max(1e-6);
+        let t = (-layer.absorption * d).exp();
+        let tb = basis.reflectance(t).clamp(Vec3::splat(1e-30), Vec3::ONE);
+        layer.absorption = (-tb.ln() / d).max(Vec3::ZERO);
         layer.scattering = basis.reflectance(layer.scattering).max(Vec3::ZERO);
     }
-    LeafMaterial::new(maps, params)
+    leaf.variant(params, basis.reflectance_matrix())
 }
 
 #[cfg(test)]

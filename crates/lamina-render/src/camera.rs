@@ -108,6 +108,7 @@ mod tests {
             filter: PixelFilter::Box,
             exposure: 0.0,
             tonemap: ToneMap::Clamp,
+            spectral: lamina_core::SpectralMode::Rgb,
         };
         let m = CameraModel::new(&cam, &film).unwrap();
         let (_, d) = m.generate_ray(Vec2::new(100.0, 50.0), Vec2::ZERO);

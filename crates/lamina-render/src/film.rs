@@ -55,46 +55,98 @@ impl FilterSampler {
     }
 }
 
-/// Per-pixel radiance sums in double precision (so thousands of samples add exactly enough).
+/// Per-pixel radiance sums in double precision (so thousands of samples add exactly
+/// enough), `channels` per pixel: 3 for RGB, one per band for a band render.
 #[derive(Clone, Debug)]
 pub struct Accumulator {
     /// Width in pixels.
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    sums: Vec<DVec3>,
+    /// Values per pixel.
+    pub channels: usize,
+    /// Row-major, `channels` per pixel.
+    sums: Vec<f64>,
 }
 
 impl Accumulator {
-    /// All-zero sums for a `width x height` image.
-    pub fn new(width: u32, height: u32) -> Self {
+    /// All-zero sums for a `width x height` image of `channels` values per pixel.
+    pub fn new(width: u32, height: u32, channels: usize) -> Self {
         Accumulator {
             width,
             height,
-            sums: vec![DVec3::ZERO; width as usize * height as usize],
+            channels,
+            sums: vec![0.0; width as usize * height as usize * channels],
         }
     }
 
-    /// Adds a tile's sums (row-major within the tile) at `(x0, y0)`.
-    pub fn add_tile(&mut self, x0: u32, y0: u32, w: u32, sums: &[DVec3]) {
-        for (i, s) in sums.iter().enumerate() {
+    /// Adds a tile's sums (row-major within the tile, `channels` per pixel) at `(x0, y0)`.
+    pub fn add_tile(&mut self, x0: u32, y0: u32, w: u32, sums: &[f64]) {
+        let c = self.channels;
+        for (i, s) in sums.chunks_exact(c).enumerate() {
             let (x, y) = (x0 + i as u32 % w, y0 + i as u32 / w);
-            self.sums[(y * self.width + x) as usize] += *s;
+            let at = (y * self.width + x) as usize * c;
+            for (d, v) in self.sums[at..at + c].iter_mut().zip(s) {
+                *d += *v;
+            }
         }
     }
 
-    /// The per-pixel sums, row-major.
-    pub fn into_sums(self) -> Vec<DVec3> {
+    /// The per-pixel sums of an RGB image, row-major.
+    pub fn into_rgb_sums(self) -> Vec<DVec3> {
+        debug_assert_eq!(self.channels, 3);
         self.sums
+            .chunks_exact(3)
+            .map(|s| DVec3::new(s[0], s[1], s[2]))
+            .collect()
     }
 
-    /// The mean of `spp` samples per pixel (zero when `spp == 0`): each sum times the f64
-    /// reciprocal of `spp`, rounded to f32. `lamina_farm::part::mean_f32` repeats this
-    /// formula so that merged parts give the same bits.
-    pub fn mean(&self, spp: u32) -> Vec<Vec3> {
-        let inv = if spp == 0 { 0.0 } else { 1.0 / spp as f64 };
-        self.sums.iter().map(|s| (*s * inv).as_vec3()).collect()
+    /// The per-pixel sums, one row-major plane per channel.
+    pub fn into_planes(self) -> Vec<Vec<f64>> {
+        (0..self.channels)
+            .map(|k| {
+                self.sums
+                    .iter()
+                    .skip(k)
+                    .step_by(self.channels)
+                    .copied()
+                    .collect()
+            })
+            .collect()
     }
+
+    /// The mean of `spp` samples per pixel of an RGB image (zero when `spp == 0`): each
+    /// sum times the f64 reciprocal of `spp`, rounded to f32. `lamina_farm::part::mean_f32`
+    /// repeats this formula so that merged parts give the same bits.
+    pub fn mean_rgb(&self, spp: u32) -> Vec<Vec3> {
+        debug_assert_eq!(self.channels, 3);
+        let inv = inverse(spp);
+        self.sums
+            .chunks_exact(3)
+            .map(|s| (DVec3::new(s[0], s[1], s[2]) * inv).as_vec3())
+            .collect()
+    }
+
+    /// The mean of `spp` samples per pixel, one row-major plane per channel, by the same
+    /// formula as [`Self::mean_rgb`].
+    pub fn mean_planes(&self, spp: u32) -> Vec<Vec<f32>> {
+        let inv = inverse(spp);
+        (0..self.channels)
+            .map(|k| {
+                self.sums
+                    .iter()
+                    .skip(k)
+                    .step_by(self.channels)
+                    .map(|s| (s * inv) as f32)
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// `1 / spp` in f64, 0 for no samples.
+fn inverse(spp: u32) -> f64 {
+    if spp == 0 { 0.0 } else { 1.0 / spp as f64 }
 }
 
 #[cfg(test)]

@@ -41,6 +41,7 @@ pub mod render;
 pub mod sampler;
 pub mod sensors;
 pub mod shading;
+pub mod spectral;
 
 mod error;
 
@@ -50,6 +51,7 @@ pub use output::write_image;
 pub use render::{
     Crop, Image, Progress, RenderOptions, RenderOutput, RenderStats, SampleRange, render,
 };
+pub use spectral::{BandRender, render_bands};
 
 #[cfg(test)]
 mod tests;

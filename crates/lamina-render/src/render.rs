@@ -29,8 +29,8 @@ use crate::error::RenderError;
 use crate::film::Accumulator;
 use crate::integrators::{SceneContext, paper, path};
 use crate::sampler::{PixelSampler, fold_seed};
-use glam::{DVec3, Vec2, Vec3};
-use lamina_core::{Integrator, Scene};
+use glam::{Vec2, Vec3};
+use lamina_core::{Integrator, Scene, SpectralMode};
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -197,6 +197,10 @@ pub struct RenderStats {
     pub accel_memory: AccelMemory,
     /// Primitives stored in the BVHs (each prototype's once).
     pub primitives: usize,
+    /// Wall-clock time spent making the scene's values in other channels before the first
+    /// pass (wavelength bins or bands: materials, lights, skies; part of `elapsed`); zero
+    /// for RGB.
+    pub spectral_setup: Duration,
     /// Instances in the top-level BVH.
     pub instances: usize,
 }
@@ -238,130 +242,239 @@ fn pass_schedule(spp: u32) -> Vec<(u32, u32)> {
 
 /// Renders `scene` with `opts`. Errors for invalid scenes (bad camera, out-of-range
 /// indices, non-finite lights) and invalid options (zero samples or threads).
+///
+/// A film with `spectral = "visible"` ([`lamina_core::SpectralMode::Visible`]) is rendered
+/// over visible wavelengths and returned in linear Rec.709 ([`crate::spectral`]).
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, RenderError> {
     let start = Instant::now();
-    let film = scene.film;
-    let spp_total = opts.spp.unwrap_or(film.spp);
-    if spp_total == 0 {
-        return Err(RenderError::InvalidOptions(
-            "samples per pixel must be at least 1".into(),
-        ));
-    }
-    if film.width == 0 || film.height == 0 || film.width as u64 * film.height as u64 > MAX_PIXELS {
-        return Err(RenderError::InvalidScene(format!(
-            "film size {}x{} must be positive and at most {MAX_PIXELS} pixels",
-            film.width, film.height
-        )));
-    }
-    let threads = match opts.threads {
-        Some(0) => {
-            return Err(RenderError::InvalidOptions(
-                "thread count must be at least 1".into(),
-            ));
+    let job = Job::new(scene, opts)?;
+    let (acc, stats) = match scene.film.spectral {
+        SpectralMode::Rgb => {
+            let ctx = SceneContext::new(scene)?;
+            job.run(&ctx, &RgbEstimator::new(&ctx), opts, start)
         }
-        Some(n) => n,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        SpectralMode::Visible => crate::spectral::render_visible(scene, &job, opts, start)?,
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|source| RenderError::ThreadPool { threads, source })?;
-    let range = opts.samples.unwrap_or(SampleRange {
-        start: 0,
-        end: spp_total,
-    });
-    if range.is_empty() || range.end > spp_total {
-        return Err(RenderError::InvalidOptions(format!(
-            "sample range {}..{} must be non-empty and within 0..{spp_total}",
-            range.start, range.end
-        )));
-    }
-    let crop = opts.crop.unwrap_or(Crop::full(film.width, film.height));
-    if crop.pixels() == 0 || crop.x1 > film.width || crop.y1 > film.height {
-        return Err(RenderError::InvalidOptions(format!(
-            "crop {},{},{},{} must be a non-empty rectangle inside the {}x{} image",
-            crop.x0, crop.y0, crop.x1, crop.y1, film.width, film.height
-        )));
-    }
-    let ctx = SceneContext::new(scene)?;
-    let seed = fold_seed(opts.seed);
-    let deadline = opts.time_limit.map(|d| start + d);
-    let cancelled = || {
-        opts.cancel
-            .as_ref()
-            .is_some_and(|c| c.load(Ordering::Relaxed))
-    };
-
-    let mut tiles = Vec::new();
-    for y0 in (crop.y0..crop.y1).step_by(TILE as usize) {
-        for x0 in (crop.x0..crop.x1).step_by(TILE as usize) {
-            tiles.push(Tile {
-                x0,
-                y0,
-                w: TILE.min(crop.x1 - x0),
-                h: TILE.min(crop.y1 - y0),
-            });
-        }
-    }
-    // The full render's passes, clipped to the range: a part adds its samples in the same
-    // groups as the whole render would.
-    let passes: Vec<(u32, u32)> = pass_schedule(spp_total)
-        .into_iter()
-        .map(|(a, b)| (a.max(range.start), b.min(range.end)))
-        .filter(|(a, b)| a < b)
-        .collect();
-    let mut acc = Accumulator::new(crop.width(), crop.height());
-    let (mut spp_done, mut rays, mut stopped_early) = (0u32, 0u64, false);
-    let mut passes_done = 0u32;
-    for (pi, &(s0, s1)) in passes.iter().enumerate() {
-        let first = pi == 0;
-        let stop = || cancelled() || (!first && deadline.is_some_and(|d| Instant::now() >= d));
-        if stop() {
-            stopped_early = true;
-            break;
-        }
-        let results: Vec<Option<(Vec<DVec3>, u64)>> = pool.install(|| {
-            tiles
-                .par_iter()
-                .map(|t| {
-                    if stop() {
-                        None
-                    } else {
-                        Some(render_tile(&ctx, t, s0, s1, seed))
-                    }
-                })
-                .collect()
-        });
-        rays += results.iter().flatten().map(|r| r.1).sum::<u64>();
-        if results.iter().any(Option::is_none) {
-            stopped_early = true;
-            break;
-        }
-        for (t, r) in tiles.iter().zip(&results) {
-            if let Some((sums, _)) = r {
-                acc.add_tile(t.x0 - crop.x0, t.y0 - crop.y0, t.w, sums);
-            }
-        }
-        spp_done = s1 - range.start;
-        passes_done = pi as u32 + 1;
-        if let Some(cb) = &opts.progress {
-            cb(Progress {
-                passes_done: pi as u32 + 1,
-                passes_total: passes.len() as u32,
-                spp_done,
-                spp_total: range.len(),
-                elapsed: start.elapsed(),
-            });
-        }
-    }
     Ok(RenderOutput {
         image: Image {
-            width: crop.width(),
-            height: crop.height(),
-            pixels: acc.mean(spp_done),
+            width: stats.crop.width(),
+            height: stats.crop.height(),
+            pixels: acc.mean_rgb(stats.spp_done),
         },
-        sums: opts.keep_sums.then(|| acc.into_sums()),
-        stats: RenderStats {
+        sums: opts.keep_sums.then(|| acc.into_rgb_sums()),
+        stats,
+    })
+}
+
+/// What a render does with one camera sample: `channels()` values from a camera ray
+/// (linear RGB, or one per band).
+pub(crate) trait Estimator: Sync {
+    /// Values per sample.
+    fn channels(&self) -> usize;
+    /// The sample's values along the camera ray `ray` into `out` (`channels()` long,
+    /// zeroed), drawing its random numbers from `sampler` and counting its rays in `rays`.
+    fn estimate(
+        &self,
+        ctx: &SceneContext,
+        ray: Ray,
+        sampler: &mut PixelSampler,
+        rays: &mut u64,
+        out: &mut [f32],
+    );
+}
+
+/// The RGB render: the scene's integrator, linear Rec.709.
+struct RgbEstimator {
+    integrator: Integrator,
+    ambient: Vec3,
+}
+
+impl RgbEstimator {
+    fn new(ctx: &SceneContext) -> Self {
+        let integrator = ctx.scene.integrator;
+        let ambient = match integrator {
+            Integrator::Paper { ambient } => ambient.unwrap_or(ctx.lights.sky_mean),
+            Integrator::Path { .. } => Vec3::ZERO,
+        };
+        RgbEstimator {
+            integrator,
+            ambient,
+        }
+    }
+}
+
+impl Estimator for RgbEstimator {
+    fn channels(&self) -> usize {
+        3
+    }
+
+    #[inline]
+    fn estimate(
+        &self,
+        ctx: &SceneContext,
+        ray: Ray,
+        sampler: &mut PixelSampler,
+        rays: &mut u64,
+        out: &mut [f32],
+    ) {
+        let l = match self.integrator {
+            Integrator::Path {
+                max_depth,
+                rr_depth,
+            } => path::radiance(ctx, ray, sampler, max_depth, rr_depth, rays),
+            Integrator::Paper { .. } => paper::radiance(ctx, ray, sampler, self.ambient, rays),
+        };
+        out.copy_from_slice(&l.to_array());
+    }
+}
+
+/// A render's checked settings: samples, threads, pixels, passes and tiles.
+pub(crate) struct Job {
+    pub(crate) pool: rayon::ThreadPool,
+    range: SampleRange,
+    crop: Crop,
+    tiles: Vec<Tile>,
+    passes: Vec<(u32, u32)>,
+}
+
+impl Job {
+    /// Checks `opts` against `scene`'s film and plans the passes and tiles.
+    pub(crate) fn new(scene: &Scene, opts: &RenderOptions) -> Result<Job, RenderError> {
+        let film = scene.film;
+        let spp_total = opts.spp.unwrap_or(film.spp);
+        if spp_total == 0 {
+            return Err(RenderError::InvalidOptions(
+                "samples per pixel must be at least 1".into(),
+            ));
+        }
+        if film.width == 0
+            || film.height == 0
+            || film.width as u64 * film.height as u64 > MAX_PIXELS
+        {
+            return Err(RenderError::InvalidScene(format!(
+                "film size {}x{} must be positive and at most {MAX_PIXELS} pixels",
+                film.width, film.height
+            )));
+        }
+        let threads = match opts.threads {
+            Some(0) => {
+                return Err(RenderError::InvalidOptions(
+                    "thread count must be at least 1".into(),
+                ));
+            }
+            Some(n) => n,
+            None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|source| RenderError::ThreadPool { threads, source })?;
+        let range = opts.samples.unwrap_or(SampleRange {
+            start: 0,
+            end: spp_total,
+        });
+        if range.is_empty() || range.end > spp_total {
+            return Err(RenderError::InvalidOptions(format!(
+                "sample range {}..{} must be non-empty and within 0..{spp_total}",
+                range.start, range.end
+            )));
+        }
+        let crop = opts.crop.unwrap_or(Crop::full(film.width, film.height));
+        if crop.pixels() == 0 || crop.x1 > film.width || crop.y1 > film.height {
+            return Err(RenderError::InvalidOptions(format!(
+                "crop {},{},{},{} must be a non-empty rectangle inside the {}x{} image",
+                crop.x0, crop.y0, crop.x1, crop.y1, film.width, film.height
+            )));
+        }
+        let mut tiles = Vec::new();
+        for y0 in (crop.y0..crop.y1).step_by(TILE as usize) {
+            for x0 in (crop.x0..crop.x1).step_by(TILE as usize) {
+                tiles.push(Tile {
+                    x0,
+                    y0,
+                    w: TILE.min(crop.x1 - x0),
+                    h: TILE.min(crop.y1 - y0),
+                });
+            }
+        }
+        // The full render's passes, clipped to the range: a part adds its samples in the
+        // same groups as the whole render would.
+        let passes: Vec<(u32, u32)> = pass_schedule(spp_total)
+            .into_iter()
+            .map(|(a, b)| (a.max(range.start), b.min(range.end)))
+            .filter(|(a, b)| a < b)
+            .collect();
+        Ok(Job {
+            pool,
+            range,
+            crop,
+            tiles,
+            passes,
+        })
+    }
+
+    /// Renders the passes with `est` on the prepared `ctx`: the per-pixel sums of the
+    /// completed passes and the counters (`start`: when the call began).
+    pub(crate) fn run<E: Estimator>(
+        &self,
+        ctx: &SceneContext,
+        est: &E,
+        opts: &RenderOptions,
+        start: Instant,
+    ) -> (Accumulator, RenderStats) {
+        let (range, crop) = (self.range, self.crop);
+        let seed = fold_seed(opts.seed);
+        let deadline = opts.time_limit.map(|d| start + d);
+        let cancelled = || {
+            opts.cancel
+                .as_ref()
+                .is_some_and(|c| c.load(Ordering::Relaxed))
+        };
+        let mut acc = Accumulator::new(crop.width(), crop.height(), est.channels());
+        let (mut spp_done, mut rays, mut stopped_early) = (0u32, 0u64, false);
+        let mut passes_done = 0u32;
+        for (pi, &(s0, s1)) in self.passes.iter().enumerate() {
+            let first = pi == 0;
+            let stop = || cancelled() || (!first && deadline.is_some_and(|d| Instant::now() >= d));
+            if stop() {
+                stopped_early = true;
+                break;
+            }
+            let results: Vec<Option<(Vec<f64>, u64)>> = self.pool.install(|| {
+                self.tiles
+                    .par_iter()
+                    .map(|t| {
+                        if stop() {
+                            None
+                        } else {
+                            Some(render_tile(ctx, est, t, s0, s1, seed))
+                        }
+                    })
+                    .collect()
+            });
+            rays += results.iter().flatten().map(|r| r.1).sum::<u64>();
+            if results.iter().any(Option::is_none) {
+                stopped_early = true;
+                break;
+            }
+            for (t, r) in self.tiles.iter().zip(&results) {
+                if let Some((sums, _)) = r {
+                    acc.add_tile(t.x0 - crop.x0, t.y0 - crop.y0, t.w, sums);
+                }
+            }
+            spp_done = s1 - range.start;
+            passes_done = pi as u32 + 1;
+            if let Some(cb) = &opts.progress {
+                cb(Progress {
+                    passes_done: pi as u32 + 1,
+                    passes_total: self.passes.len() as u32,
+                    spp_done,
+                    spp_total: range.len(),
+                    elapsed: start.elapsed(),
+                });
+            }
+        }
+        let stats = RenderStats {
             elapsed: start.elapsed(),
             spp_done,
             sample_range: SampleRange {
@@ -370,7 +483,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
             },
             crop,
             passes_done,
-            passes_total: passes.len() as u32,
+            passes_total: self.passes.len() as u32,
             samples: spp_done as u64 * crop.pixels(),
             rays,
             stopped_early,
@@ -378,24 +491,31 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
             accel_memory: ctx.accel.memory(),
             primitives: ctx.accel.primitive_count(),
             instances: ctx.accel.instance_count(),
-        },
-    })
+            spectral_setup: Duration::ZERO,
+        };
+        (acc, stats)
+    }
 }
 
-/// Samples `[s0, s1)` of every pixel of `tile`: per-pixel sums (row-major, f64 so that
-/// splitting a pixel's samples into parts changes only the order of f64 additions) and
-/// rays traced.
-fn render_tile(ctx: &SceneContext, tile: &Tile, s0: u32, s1: u32, seed: u32) -> (Vec<DVec3>, u64) {
-    let mut sums = Vec::with_capacity((tile.w * tile.h) as usize);
+/// Samples `[s0, s1)` of every pixel of `tile`: per-pixel sums (row-major, `channels` per
+/// pixel, f64 so that splitting a pixel's samples into parts changes only the order of f64
+/// additions) and rays traced.
+fn render_tile<E: Estimator>(
+    ctx: &SceneContext,
+    est: &E,
+    tile: &Tile,
+    s0: u32,
+    s1: u32,
+    seed: u32,
+) -> (Vec<f64>, u64) {
+    let c = est.channels();
+    let mut sums = vec![0.0f64; (tile.w * tile.h) as usize * c];
+    let mut vals = vec![0.0f32; c];
     let mut rays = 0u64;
-    let integrator = ctx.scene.integrator;
-    let ambient = match integrator {
-        Integrator::Paper { ambient } => ambient.unwrap_or(ctx.lights.sky_mean),
-        Integrator::Path { .. } => Vec3::ZERO,
-    };
+    let mut at = 0usize;
     for y in tile.y0..tile.y0 + tile.h {
         for x in tile.x0..tile.x0 + tile.w {
-            let mut sum = DVec3::ZERO;
+            let sum = &mut sums[at..at + c];
             for i in s0..s1 {
                 let mut sampler = PixelSampler::new(seed, x, y, i);
                 let film_u = sampler.next_2d();
@@ -407,21 +527,16 @@ fn render_tile(ctx: &SceneContext, tile: &Tile, s0: u32, s1: u32, seed: u32) -> 
                     dir,
                     tmax: f32::INFINITY,
                 };
-                let l = match integrator {
-                    Integrator::Path {
-                        max_depth,
-                        rr_depth,
-                    } => path::radiance(ctx, ray, &mut sampler, max_depth, rr_depth, &mut rays),
-                    Integrator::Paper { .. } => {
-                        paper::radiance(ctx, ray, &mut sampler, ambient, &mut rays)
-                    }
-                };
+                vals.fill(0.0);
+                est.estimate(ctx, ray, &mut sampler, &mut rays, &mut vals);
                 // A NaN or infinite sample (a numerical accident) counts as black.
-                if l.is_finite() {
-                    sum += l.as_dvec3();
+                if vals.iter().all(|v| v.is_finite()) {
+                    for (s, v) in sum.iter_mut().zip(&vals) {
+                        *s += *v as f64;
+                    }
                 }
             }
-            sums.push(sum);
+            at += c;
         }
     }
     (sums, rays)

@@ -168,6 +168,8 @@ pub(super) fn fill_transparent(maps: &mut [Vec<Texel>; 3]) {
 pub(super) fn colour_size(c: &ColorInput) -> (u32, u32) {
     match c {
         ColorInput::Constant(_) => (1, 1),
-        ColorInput::Texture { map, .. } => (map.width(), map.height()),
+        ColorInput::Texture { map, .. } | ColorInput::Mapped { map, .. } => {
+            (map.width(), map.height())
+        }
     }
 }

@@ -115,6 +115,7 @@ pub fn canopy_scene(n: u32, width: u32, height: u32, spp: u32) -> Scene {
             },
             exposure: -3.0,
             tonemap: ToneMap::Aces,
+            spectral: lamina_core::SpectralMode::Rgb,
         },
         integrator: Integrator::Path {
             max_depth: 8,

@@ -3,12 +3,13 @@
 
 pub mod paper;
 pub mod path;
+pub mod spectral;
 
 use crate::accel::{Accel, FLAG_EMITTER, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
 use crate::camera::CameraModel;
 use crate::error::RenderError;
 use crate::film::FilterSampler;
-use crate::lights::{AnyLight, LightSample, LightSet};
+use crate::lights::{LightSample, LightSet};
 use glam::Vec3;
 use lamina_core::Scene;
 
@@ -26,6 +27,9 @@ pub struct SceneContext<'a> {
     pub filter: FilterSampler,
     /// Wall-clock time [`Accel::build`] took.
     pub accel_build: std::time::Duration,
+    /// The scene in other channels (wavelength bins or bands) for spectral renders
+    /// ([`spectral`]); empty for RGB.
+    pub sets: Vec<spectral::ChannelSet>,
 }
 
 impl<'a> SceneContext<'a> {
@@ -42,7 +46,34 @@ impl<'a> SceneContext<'a> {
             lights: LightSet::new(scene)?,
             filter: FilterSampler::new(scene.film.filter),
             accel_build,
+            sets: Vec::new(),
         })
+    }
+
+    /// Adds the scene in other channels for a spectral render: each set must hold the
+    /// scene's lights in order, with a sky map of the same size as the scene's (the
+    /// integrator reads the sets' skies at the scene sky's texels).
+    pub(crate) fn with_sets(
+        mut self,
+        sets: Vec<spectral::ChannelSet>,
+    ) -> Result<Self, RenderError> {
+        let sky_size = |l: &LightSet| match l.lights.last() {
+            Some(crate::lights::AnyLight::Sky(s)) => s.size(),
+            _ => None,
+        };
+        for (k, set) in sets.iter().enumerate() {
+            if set.lights.lights.len() != self.lights.lights.len()
+                || set.materials.len() != self.scene.materials.len()
+                || sky_size(&set.lights) != sky_size(&self.lights)
+            {
+                return Err(RenderError::InvalidScene(format!(
+                    "spectral channel set {k} does not match the scene's materials, lights or \
+                     sky map (a bug: please report it)"
+                )));
+            }
+        }
+        self.sets = sets;
+        Ok(self)
     }
 
     /// Whether light sample `ls` reaches `p` (on primitive `prim`, geometric normal `n`)
@@ -75,20 +106,22 @@ impl<'a> SceneContext<'a> {
     /// solid-angle density with which next-event estimation from `ray.origin` samples it.
     #[inline]
     pub(crate) fn emitter(&self, kind: HitKind, ray: &Ray, t: f32) -> Option<(Vec3, f32)> {
-        let light = match kind {
-            HitKind::Sphere { light } => light,
+        let light = self.emitter_light(kind)?;
+        Some(match self.lights.lights.get(light) {
+            Some(l) => l.hit(ray.origin, ray.dir, t),
+            None => (Vec3::ZERO, 0.0),
+        })
+    }
+
+    /// The index of the light `kind` is, if it is an emitter (quad or sphere light).
+    #[inline]
+    pub(crate) fn emitter_light(&self, kind: HitKind) -> Option<usize> {
+        match kind {
+            HitKind::Sphere { light } => Some(light as usize),
             HitKind::Triangle { prim, .. } => {
                 let flags = self.accel.flags(prim);
-                if flags & FLAG_EMITTER == 0 {
-                    return None;
-                }
-                flags & ID_MASK
+                (flags & FLAG_EMITTER != 0).then_some((flags & ID_MASK) as usize)
             }
-        };
-        Some(match self.lights.lights.get(light as usize) {
-            Some(AnyLight::Quad(q)) => q.hit(ray.dir, t),
-            Some(AnyLight::Sphere(s)) => s.hit(ray.origin, ray.dir, t),
-            _ => (Vec3::ZERO, 0.0),
-        })
+        }
     }
 }

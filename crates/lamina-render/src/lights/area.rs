@@ -45,6 +45,12 @@ impl QuadLight {
         })
     }
 
+    /// Emitted radiance (W m⁻² sr⁻¹).
+    #[inline]
+    pub fn radiance(&self) -> Vec3 {
+        self.radiance
+    }
+
     /// A point on the quad seen from `p`.
     #[inline]
     pub fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
@@ -66,6 +72,7 @@ impl QuadLight {
             pdf: d2 / (cos_l.abs() * self.area),
             dist,
             delta: false,
+            texel: super::NO_TEXEL,
         })
     }
 
@@ -124,6 +131,7 @@ impl SphereLight {
                 pdf: 1.0 / (2.0 * PI * h),
                 dist,
                 delta: false,
+                texel: super::NO_TEXEL,
             });
         }
         let n = uniform_sphere(u);
@@ -145,6 +153,7 @@ impl SphereLight {
             pdf: d2 / (cos * 4.0 * PI * self.radius * self.radius),
             dist,
             delta: false,
+            texel: super::NO_TEXEL,
         })
     }
 

@@ -18,7 +18,7 @@ pub use sun::SunLight;
 
 use crate::error::RenderError;
 use glam::{Vec2, Vec3};
-use lamina_core::{Light, Scene};
+use lamina_core::{Light, Scene, Sky};
 
 /// One light sample seen from a shaded point.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,7 +35,14 @@ pub struct LightSample {
     pub dist: f32,
     /// Whether the light is a delta distribution (not reachable by BSDF sampling).
     pub delta: bool,
+    /// For a sample of a sky map: the index of its texel (row-major), so that the same sky
+    /// in other channels reads its radiance there without converting `wi` again;
+    /// [`NO_TEXEL`] otherwise.
+    pub texel: u32,
 }
+
+/// [`LightSample::texel`] of samples that are not of a sky map.
+pub const NO_TEXEL: u32 = u32::MAX;
 
 /// Any light of a scene.
 #[derive(Clone, Debug)]
@@ -75,9 +82,59 @@ impl AnyLight {
     /// with which [`AnyLight::sample`] picks `dir` (zero for non-infinite lights).
     #[inline]
     pub fn escaped(&self, dir: Vec3) -> (Vec3, f32) {
+        let (le, pdf, _) = self.escaped_texel(dir);
+        (le, pdf)
+    }
+
+    /// [`AnyLight::escaped`], and for a sky map the texel `dir` falls in ([`NO_TEXEL`]
+    /// otherwise): what [`AnyLight::escaped_radiance`] of the same sky in other channels
+    /// reads.
+    #[inline]
+    pub fn escaped_texel(&self, dir: Vec3) -> (Vec3, f32, u32) {
         match self {
-            AnyLight::Sun(l) => l.escaped(dir),
-            AnyLight::Sky(l) => (l.le(dir), l.pdf(dir)),
+            AnyLight::Sun(l) => {
+                let (le, pdf) = l.escaped(dir);
+                (le, pdf, NO_TEXEL)
+            }
+            AnyLight::Sky(l) => l.le_pdf(dir),
+            _ => (Vec3::ZERO, 0.0, NO_TEXEL),
+        }
+    }
+
+    /// Radiance along `dir` escaping the scene, as [`AnyLight::escaped`], without the
+    /// density: what a light of the same geometry in other channels needs. `texel` is the
+    /// sky texel of `dir` from [`AnyLight::escaped_texel`] of a sky of the same size.
+    #[inline]
+    pub fn escaped_radiance(&self, dir: Vec3, texel: u32) -> Vec3 {
+        match self {
+            AnyLight::Sun(l) => l.escaped(dir).0,
+            AnyLight::Sky(l) => l.le_texel(dir, texel),
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// The `li` this light gives for `ls`, a sample of a light of the same geometry (the
+    /// same light in other channels): its radiance (or, for delta lights, the irradiance
+    /// `I / d²` or `E`) along `ls.wi`, whether or not its own sampling would have drawn it.
+    #[inline]
+    pub fn li_along(&self, ls: &LightSample) -> Vec3 {
+        match self {
+            AnyLight::Sun(l) => l.li(),
+            AnyLight::Point(l) => l.intensity / (ls.dist * ls.dist),
+            AnyLight::Quad(l) => l.radiance(),
+            AnyLight::Sphere(l) => l.radiance,
+            AnyLight::Sky(l) => l.le_texel(ls.wi, ls.texel),
+        }
+    }
+
+    /// Radiance toward a ray from `origin` along `dir` that hits this emitter at distance
+    /// `t`, and the density with which next-event estimation from `origin` samples that
+    /// point; `(0, 0)` for lights that are not geometry.
+    #[inline]
+    pub fn hit(&self, origin: Vec3, dir: Vec3, t: f32) -> (Vec3, f32) {
+        match self {
+            AnyLight::Quad(q) => q.hit(dir, t),
+            AnyLight::Sphere(s) => s.hit(origin, dir, t),
             _ => (Vec3::ZERO, 0.0),
         }
     }
@@ -96,8 +153,13 @@ impl LightSet {
     /// Prepares the lights of `scene`. An error for non-finite values or a zero sun
     /// direction.
     pub fn new(scene: &Scene) -> Result<Self, RenderError> {
-        let mut lights = Vec::with_capacity(scene.lights.len() + 1);
-        for (i, l) in scene.lights.iter().enumerate() {
+        Self::from_parts(&scene.lights, scene.sky.as_ref())
+    }
+
+    /// [`Self::new`] from a scene's lights and sky.
+    pub fn from_parts(scene_lights: &[Light], sky: Option<&Sky>) -> Result<Self, RenderError> {
+        let mut lights = Vec::with_capacity(scene_lights.len() + 1);
+        for (i, l) in scene_lights.iter().enumerate() {
             let bad = |what: &str| RenderError::InvalidScene(format!("light {i}: {what}"));
             lights.push(match l {
                 Light::Sun {
@@ -151,7 +213,7 @@ impl LightSet {
             });
         }
         let mut sky_mean = Vec3::ZERO;
-        if let Some(sky) = &scene.sky {
+        if let Some(sky) = sky {
             let s = SkyLight::new(sky)?;
             sky_mean = s.mean();
             lights.push(AnyLight::Sky(s));

@@ -28,6 +28,7 @@ impl PointLight {
             pdf: 1.0,
             dist,
             delta: true,
+            texel: super::NO_TEXEL,
         })
     }
 }

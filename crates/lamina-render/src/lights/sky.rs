@@ -13,7 +13,7 @@
 //! `mean(rgb) · sin θ_row` per texel and the estimator has no mismatch between what is
 //! sampled and what is evaluated.
 
-use super::LightSample;
+use super::{LightSample, NO_TEXEL};
 use crate::distribution::Distribution2D;
 use crate::error::RenderError;
 use glam::{Vec2, Vec3};
@@ -113,13 +113,38 @@ impl EnvMap {
     /// Solid-angle density of [`EnvMap::sample`] at direction `d`.
     #[inline]
     pub fn pdf(&self, d: Vec3) -> f32 {
-        let uv = self.dir_to_uv(d);
+        self.pdf_uv(self.dir_to_uv(d))
+    }
+
+    #[inline]
+    fn pdf_uv(&self, uv: Vec2) -> f32 {
         let sin_t = (PI * uv.y).sin();
         if sin_t <= 0.0 {
             return 0.0;
         }
         let (x, y) = self.cell(uv);
         self.dist.pdf_cell(x, y) / (2.0 * PI * PI * sin_t)
+    }
+
+    /// [`EnvMap::le`] and [`EnvMap::pdf`] of `d` together, and the index of its texel (for
+    /// [`EnvMap::le_at`] of maps of the same size), the direction converted once.
+    #[inline]
+    pub fn le_pdf(&self, d: Vec3) -> (Vec3, f32, usize) {
+        let uv = self.dir_to_uv(d);
+        let (x, y) = self.cell(uv);
+        let i = y * self.width + x;
+        (self.texels[i], self.pdf_uv(uv), i)
+    }
+
+    /// The radiance of texel `i` (row-major), as [`EnvMap::le`] of a direction in it.
+    #[inline]
+    pub fn le_at(&self, i: usize) -> Vec3 {
+        self.texels[i]
+    }
+
+    /// Width and height in texels.
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
     }
 
     /// A direction drawn proportionally to radiance (times `sin θ` per row).
@@ -130,12 +155,14 @@ impl EnvMap {
         if !(pdf_uv > 0.0 && sin_t > 0.0) {
             return None;
         }
+        let i = y * self.width + x;
         Some(LightSample {
             wi: self.uv_to_dir(uv),
-            li: self.texels[y * self.width + x],
+            li: self.texels[i],
             pdf: pdf_uv / (2.0 * PI * PI * sin_t),
             dist: f32::INFINITY,
             delta: false,
+            texel: i as u32,
         })
     }
 
@@ -204,6 +231,38 @@ impl SkyLight {
         }
     }
 
+    /// Radiance from `d`, the density of [`SkyLight::sample`] there, and `d`'s texel
+    /// ([`NO_TEXEL`] for a constant sky), the direction converted once.
+    #[inline]
+    pub fn le_pdf(&self, d: Vec3) -> (Vec3, f32, u32) {
+        match self {
+            SkyLight::Constant(c) => (*c, UNIFORM_SPHERE_PDF, NO_TEXEL),
+            SkyLight::Image(m) => {
+                let (le, pdf, i) = m.le_pdf(d);
+                (le, pdf, i as u32)
+            }
+        }
+    }
+
+    /// Radiance from `d`, whose texel in a map of this one's size is `texel` (or
+    /// [`NO_TEXEL`]: then from `d` itself).
+    #[inline]
+    pub fn le_texel(&self, d: Vec3, texel: u32) -> Vec3 {
+        match self {
+            SkyLight::Constant(c) => *c,
+            SkyLight::Image(m) if texel != NO_TEXEL => m.le_at(texel as usize),
+            SkyLight::Image(m) => m.le(d),
+        }
+    }
+
+    /// The map's size in texels (`None` for a constant sky).
+    pub fn size(&self) -> Option<(usize, usize)> {
+        match self {
+            SkyLight::Constant(_) => None,
+            SkyLight::Image(m) => Some(m.size()),
+        }
+    }
+
     /// Solid-angle density of [`SkyLight::sample`] at `d`.
     #[inline]
     pub fn pdf(&self, d: Vec3) -> f32 {
@@ -223,6 +282,7 @@ impl SkyLight {
                 pdf: UNIFORM_SPHERE_PDF,
                 dist: f32::INFINITY,
                 delta: false,
+                texel: NO_TEXEL,
             }),
             SkyLight::Image(m) => m.sample(u),
         }

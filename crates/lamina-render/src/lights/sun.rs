@@ -61,6 +61,17 @@ impl SunLight {
         self.h <= 0.0
     }
 
+    /// What [`Self::sample`] returns as `li`: the irradiance of a delta sun, the disc's
+    /// radiance otherwise.
+    #[inline]
+    pub fn li(&self) -> Vec3 {
+        if self.is_delta() {
+            self.irradiance
+        } else {
+            self.radiance
+        }
+    }
+
     /// A direction toward the sun.
     #[inline]
     pub fn sample(&self, u: Vec2) -> LightSample {
@@ -71,6 +82,7 @@ impl SunLight {
                 pdf: 1.0,
                 dist: f32::INFINITY,
                 delta: true,
+                texel: super::NO_TEXEL,
             };
         }
         LightSample {
@@ -79,6 +91,7 @@ impl SunLight {
             pdf: 1.0 / (2.0 * PI * self.h),
             dist: f32::INFINITY,
             delta: false,
+            texel: super::NO_TEXEL,
         }
     }
 

@@ -82,7 +82,7 @@ fn lambertian_card_matches_analytic_sun_value() {
 /// (b) Furnace: white surfaces (opaque R = 1, and R + T = 1 cards) in a constant sky of
 /// radiance 1: every pixel converges to 1 (no energy created or lost).
 /// The furnace scene of [`furnace_is_energy_conserving`].
-fn furnace_scene() -> Scene {
+pub(super) fn furnace_scene() -> Scene {
     let mut tilted = card(0.6, 0.0, 1);
     for p in &mut tilted.positions {
         *p = Vec3::new(p.x, p.y * 0.6, p.z + p.y * 0.8 + 0.3);

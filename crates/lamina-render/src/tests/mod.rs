@@ -25,3 +25,4 @@ mod parts;
 mod render_loop;
 pub(crate) mod scenes;
 mod shading_normals;
+mod spectral;

@@ -41,6 +41,7 @@ pub(crate) fn film(w: u32, h: u32, spp: u32) -> Film {
         filter: PixelFilter::Box,
         exposure: 0.0,
         tonemap: ToneMap::Clamp,
+        spectral: lamina_core::SpectralMode::Rgb,
     }
 }
 

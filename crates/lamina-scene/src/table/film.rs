@@ -9,13 +9,14 @@
 //! | `filter_sigma` | pixels, (0, 8] | `0.5` | Gaussian standard deviation |
 //! | `exposure` | stops, [-30, 30] | `0` | the PNG shows radiance × 2^exposure |
 //! | `tonemap` | `clamp`, `aces`, `reinhard` | `aces` | tone map of the PNG; the EXR is never tone-mapped |
+//! | `spectral` | `rgb`, `visible` | `rgb` | how light is carried: `rgb` in the three Rec.709 channels; `visible` at wavelengths over 360-830 nm (48 bins of 9.8 nm, six per path by hero-wavelength sampling; RGB values upsampled, RGB light of D65 shape; pigment leaves and physical skies from their spectra) seen through the CIE 1931 observer, the image still linear Rec.709; path integrator only; not with `bands` |
 //! | `bands` | array of tables, 1-64 | none | render spectral bands instead of RGB: each `{ name, center, width }` or `{ name, min, max }` (nm, inside 360-2500), or `{ name, response = "file.csv" }`: a relative spectral response curve (two columns, nm and response, linear between samples, zero outside; a header line and `#` comments allowed), the band value then weighted by it (its centre, where pigment leaves are evaluated, is the response-weighted mean wavelength); names unique, letters, digits, `_ - .`; the EXR gets one channel per band (band-mean spectral radiance, W m⁻² sr⁻¹ nm⁻¹), the PNG a false-colour composite |
 //! | `false_color` | three band names | the first three bands | the bands the PNG shows as red, green, blue |
 
 use crate::dict::{Dict, Keys, Kind, S, Table};
 use crate::error::SceneError;
 use crate::loader::Loader;
-use crate::scene::{Film, PixelFilter, ToneMap};
+use crate::scene::{Film, PixelFilter, SpectralMode, ToneMap};
 
 /// The keys of the table above.
 pub(crate) const KEYS: Keys = Keys::plain(&[
@@ -27,6 +28,7 @@ pub(crate) const KEYS: Keys = Keys::plain(&[
     ("filter_sigma", Kind::Num),
     ("exposure", Kind::Num),
     ("tonemap", Kind::Str),
+    ("spectral", Kind::Str),
     ("bands", Kind::Array),
     ("false_color", Kind::Array),
 ]);
@@ -105,6 +107,31 @@ pub(crate) fn read(ld: &Loader, t: Option<&S<Table>>) -> Result<Film, SceneError
                 ));
             }
         };
+    }
+    if let Some(v) = d.string("spectral")? {
+        film.spectral = match *v.get_ref() {
+            "rgb" => SpectralMode::Rgb,
+            "visible" => SpectralMode::Visible,
+            other => {
+                return Err(d.err(
+                    v.span(),
+                    "spectral",
+                    format!(
+                        "unknown mode '{other}' (rgb, visible; for other wavelengths give `bands`)"
+                    ),
+                ));
+            }
+        };
+        if film.spectral == SpectralMode::Visible
+            && let Some(b) = d.get("bands")
+        {
+            return Err(d.err(
+                b.span(),
+                "bands",
+                "`spectral = \"visible\"` renders an RGB image over the visible; `bands` renders \
+                 the bands you name: give one or the other",
+            ));
+        }
     }
     read_bands(ld, &d)?;
     d.finish()?;

@@ -376,7 +376,8 @@ fn a_scene_renders_in_bands_to_a_named_channel_exr_and_a_false_colour_png() {
         &["render", "scene.toml", "-o", "b.exr", "-o", "b.png"],
         &d,
     ));
-    assert!(e.contains("4 bands in 2 render(s)"), "{e}");
+    // One render for all four bands.
+    assert!(e.contains("[red, green, blue, nir]: 16x12, 4 spp"), "{e}");
     let meta = exr::meta::MetaData::read_from_file(d.join("b.exr"), false).unwrap();
     let names: Vec<String> = meta.headers[0]
         .channels
@@ -392,6 +393,54 @@ fn a_scene_renders_in_bands_to_a_named_channel_exr_and_a_false_colour_png() {
         &["--gpu", "bands"],
     );
     assert!(!d.join("g.png").exists());
+}
+
+/// `spectral = "visible"`: an RGB image from a render over visible wavelengths, like the
+/// RGB render of the scene; the GPU path refuses it; bad values and `bands` beside it are
+/// errors naming the key.
+#[test]
+fn a_scene_renders_over_visible_wavelengths() {
+    let d = scratch("spectra", "visible");
+    let scene = |film: &str| {
+        format!(
+            "[camera]\nposition = [0, 0, 1]\nlook_at = [0, 0, 0]\n\
+             [film]\nwidth = 16\nheight = 12\nspp = 16\n{film}\n\
+             [sky]\ntype = \"constant\"\nradiance = [0.3, 0.4, 0.5]\n\
+             [[light]]\ntype = \"sun\"\ndirection = [0, 0, 1]\nirradiance = 2\n\
+             [[material]]\nname = \"l\"\ntype = \"leaf\"\npigments = {{ cab = 40 }}\n\
+             [[object]]\ntype = \"quad\"\nmaterial = \"l\"\ncorner = [-2, -2, 0]\nedge_u = [4, 0, 0]\nedge_v = [0, 4, 0]\n"
+        )
+    };
+    std::fs::write(d.join("rgb.toml"), scene("")).unwrap();
+    std::fs::write(d.join("vis.toml"), scene("spectral = \"visible\"")).unwrap();
+    ok(&lamina(&["render", "rgb.toml", "-o", "rgb.exr"], &d));
+    let e = ok(&lamina(&["render", "vis.toml", "-o", "vis.exr", "-o", "vis.png"], &d));
+    assert!(e.contains("making the spectral channels"), "{e}");
+    assert!(d.join("vis.png").is_file());
+    for c in ["R", "G", "B"] {
+        let (a, b) = (
+            channel_mean(&d.join("rgb.exr"), c),
+            channel_mean(&d.join("vis.exr"), c),
+        );
+        assert!((a - b).abs() < 0.05 * a + 1e-3, "{c}: RGB {a}, visible {b}");
+    }
+    fails(
+        &lamina(&["render", "vis.toml", "--gpu", "-o", "g.png"], &d),
+        &["--gpu", "visible"],
+    );
+    assert!(!d.join("g.png").exists());
+    for (film, words) in [
+        ("spectral = \"infrared\"", &["film.spectral", "unknown mode 'infrared'"][..]),
+        ("spectral = 3", &["film.spectral"][..]),
+        (
+            "spectral = \"visible\"\nbands = [{ name = \"r\", center = 665, width = 30 }]",
+            &["film.bands", "one or the other"][..],
+        ),
+    ] {
+        std::fs::write(d.join("bad.toml"), scene(film)).unwrap();
+        fails(&lamina(&["render", "bad.toml", "-o", "bad.png"], &d), words);
+        assert!(!d.join("bad.png").exists());
+    }
 }
 
 /// Mean of channel `name` of an EXR file.

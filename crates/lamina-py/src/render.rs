@@ -17,7 +17,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::atomic::AtomicBool;
 use std::sync::mpsc;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Duration;
 
 /// The worker's messages: the band group in flight, how many there are, and the pass.
@@ -76,6 +76,10 @@ fn stats_dict<'py>(py: Python<'py>, all: &[RenderStats]) -> PyResult<Bound<'py, 
     d.set_item("rays", all.iter().map(|s| s.rays).sum::<u64>())?;
     d.set_item("stopped_early", all.iter().any(|s| s.stopped_early))?;
     d.set_item("renders", all.len())?;
+    d.set_item(
+        "spectral_setup",
+        all.iter().map(|s| s.spectral_setup.as_secs_f64()).sum::<f64>(),
+    )?;
     d.set_item("primitives", first.primitives)?;
     d.set_item("instances", first.instances)?;
     Ok(d)
@@ -94,14 +98,11 @@ fn run_render(
     let (tx, rx) = mpsc::channel::<Msg>();
     let scene_arc = scene.scene.clone();
     let spectral = scene.spectral.clone();
-    // The group (band triple) in flight, for progress messages.
-    let group = Arc::new(Mutex::new((0usize, 1usize)));
     {
+        // Every render is one (a band render too): group 0 of 1 in the progress dicts.
         let tx = tx.clone();
-        let group = group.clone();
         opts.progress = Some(Arc::new(move |p: Progress| {
-            let (g, n) = *group.lock().unwrap_or_else(|e| e.into_inner());
-            let _ = tx.send(Event::Message((g, n, p)));
+            let _ = tx.send(Event::Message((0, 1, p)));
         }));
     }
     let work = move || -> Result<Rendered, String> {
@@ -114,35 +115,23 @@ fn run_render(
                 Ok(Rendered::rgb(&out.image, vec![out.stats]))
             }
             Some(sp) => {
-                let bands = &sp.bands;
-                let groups = lamina_render::bands::band_groups(bands.len());
-                let k_all = bands.len();
-                let mut data: Vec<f32> = Vec::new();
-                let mut stats = Vec::new();
-                let (mut w, mut h) = (0, 0);
-                for (g, idx) in groups.iter().enumerate() {
-                    *group.lock().unwrap_or_else(|e| e.into_inner()) = (g, groups.len());
-                    let banded = lamina_render::bands::group_scene(&scene_arc, bands, idx)
-                        .map_err(|e| e.to_string())?;
-                    let out = one(&banded)?;
-                    if out.stats.passes_done == 0 {
-                        break; // cancelled
+                // Every band in one render (each camera path carries them all).
+                let out = lamina_render::render_bands(&scene_arc, &sp.bands, &opts)
+                    .map_err(|e| e.to_string())?;
+                let k_all = out.planes.len();
+                let n = (out.width * out.height) as usize;
+                let mut data = vec![0.0f32; n * k_all];
+                for (k, plane) in out.planes.iter().enumerate() {
+                    for (px, v) in plane.iter().enumerate() {
+                        data[px * k_all + k] = *v;
                     }
-                    (w, h) = (out.image.width as usize, out.image.height as usize);
-                    data.resize(w * h * k_all, 0.0);
-                    for (px, p) in out.image.pixels.iter().enumerate() {
-                        for (k, &i) in idx.iter().enumerate() {
-                            data[px * k_all + i] = p[k];
-                        }
-                    }
-                    stats.push(out.stats);
                 }
                 Ok(Rendered {
-                    width: w,
-                    height: h,
+                    width: out.width as usize,
+                    height: out.height as usize,
                     channels: k_all,
                     data,
-                    stats,
+                    stats: vec![out.stats],
                 })
             }
         }

@@ -331,3 +331,29 @@ fn band_parts_add_up_to_the_whole() {
     }
     assert_eq!(Some(sums), whole.sums);
 }
+
+/// A visible render split by samples adds up to the whole, bit for bit (its parts merge
+/// like an RGB render's).
+#[test]
+fn visible_parts_add_up_to_the_whole() {
+    let mut scene = visible(colour_chart());
+    scene.film = film(24, 16, 6);
+    scene.film.spectral = SpectralMode::Visible;
+    let keep = |samples| RenderOptions {
+        keep_sums: true,
+        samples,
+        ..opts(6, 2)
+    };
+    let whole = render(&scene, &keep(None)).unwrap().sums.unwrap();
+    let mut sums = vec![glam::DVec3::ZERO; whole.len()];
+    for k in 0..2 {
+        let part = render(&scene, &keep(Some(crate::SampleRange::part(k, 2, 6))))
+            .unwrap()
+            .sums
+            .unwrap();
+        for (a, b) in sums.iter_mut().zip(part) {
+            *a += b;
+        }
+    }
+    assert_eq!(sums, whole);
+}

@@ -414,7 +414,10 @@ fn a_scene_renders_over_visible_wavelengths() {
     std::fs::write(d.join("rgb.toml"), scene("")).unwrap();
     std::fs::write(d.join("vis.toml"), scene("spectral = \"visible\"")).unwrap();
     ok(&lamina(&["render", "rgb.toml", "-o", "rgb.exr"], &d));
-    let e = ok(&lamina(&["render", "vis.toml", "-o", "vis.exr", "-o", "vis.png"], &d));
+    let e = ok(&lamina(
+        &["render", "vis.toml", "-o", "vis.exr", "-o", "vis.png"],
+        &d,
+    ));
     assert!(e.contains("making the spectral channels"), "{e}");
     assert!(d.join("vis.png").is_file());
     for c in ["R", "G", "B"] {
@@ -430,7 +433,10 @@ fn a_scene_renders_over_visible_wavelengths() {
     );
     assert!(!d.join("g.png").exists());
     for (film, words) in [
-        ("spectral = \"infrared\"", &["film.spectral", "unknown mode 'infrared'"][..]),
+        (
+            "spectral = \"infrared\"",
+            &["film.spectral", "unknown mode 'infrared'"][..],
+        ),
         ("spectral = 3", &["film.spectral"][..]),
         (
             "spectral = \"visible\"\nbands = [{ name = \"r\", center = 665, width = 30 }]",

@@ -15,9 +15,9 @@ use numpy::PyArray3;
 use numpy::ndarray::Array3;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::sync::mpsc;
-use std::sync::Arc;
 use std::time::Duration;
 
 /// The worker's messages: the band group in flight, how many there are, and the pass.
@@ -78,7 +78,9 @@ fn stats_dict<'py>(py: Python<'py>, all: &[RenderStats]) -> PyResult<Bound<'py, 
     d.set_item("renders", all.len())?;
     d.set_item(
         "spectral_setup",
-        all.iter().map(|s| s.spectral_setup.as_secs_f64()).sum::<f64>(),
+        all.iter()
+            .map(|s| s.spectral_setup.as_secs_f64())
+            .sum::<f64>(),
     )?;
     d.set_item("primitives", first.primitives)?;
     d.set_item("instances", first.instances)?;

@@ -326,7 +326,8 @@ def render_mitsuba(scene, spp, seed, out_exr=None):
 # ---------------------------------------------------------------- lamina
 
 SUMMARY_RE = re.compile(
-    r"(\d+)x(\d+), (\d+) spp in ([0-9.]+) s: ([0-9.]+) M samples/s, ([0-9.]+) M rays/s")
+    r"(\d+)x(\d+), (\d+) spp in ([0-9.]+) s(?: \(([0-9.]+) s of it making [^)]*\))?: "
+    r"([0-9.]+) M samples/s, ([0-9.]+) M rays/s")
 
 
 def lamina_binary(explicit=None, build=True):
@@ -360,8 +361,8 @@ def run_lamina(binary, scene, outputs, spp, threads, seed):
     m = SUMMARY_RE.search(r.stderr)
     summary = None
     if m:
-        summary = {"secs": float(m.group(4)), "msamples": float(m.group(5)),
-                   "mrays": float(m.group(6))}
+        summary = {"secs": float(m.group(4)), "setup": float(m.group(5) or 0.0),
+                   "msamples": float(m.group(6)), "mrays": float(m.group(7))}
     return wall, summary, r.stderr.strip()
 
 

@@ -225,6 +225,11 @@ pub trait SpectralSky: std::fmt::Debug + Send + Sync {
     /// The map in three bands (channel `i` = `bands[i]`; alpha 1): band-mean spectral
     /// radiance, W m⁻² sr⁻¹ nm⁻¹, oriented as [`Sky::Image`]'s map.
     fn band_map(&self, bands: [&lamina_leaf::spectrum::bands::Band; 3]) -> Texture;
+    /// [`Self::band_map`] for each of `groups`, in order: a model may make them together
+    /// faster than one by one.
+    fn band_maps(&self, groups: &[[&lamina_leaf::spectrum::bands::Band; 3]]) -> Vec<Texture> {
+        groups.iter().map(|g| self.band_map(*g)).collect()
+    }
     /// The direct normal irradiance of the sun this sky brought (a scene with such a sky
     /// has that sun as its **last** light) in three bands, W m⁻² nm⁻¹; `None` when the sky
     /// brought no sun.

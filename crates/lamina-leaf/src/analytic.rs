@@ -229,6 +229,41 @@ pub(crate) fn single_scatter_and_surface(
     }
 }
 
+/// [`single_scatter_and_surface`] for slabs that differ only in their coefficients (the
+/// same thicknesses, indices and `g`: one texel in several spectral channels), their
+/// shared geometry computed once. Bit for bit the single-slab values.
+#[inline]
+pub(crate) fn single_scatter_and_surface_sets<const G: usize>(
+    stacks: [&LayerStack; G],
+    wo: Vec3,
+    wi: Vec3,
+) -> ([Vec3; G], [f32; 2]) {
+    let transmit = wo.z * wi.z < 0.0;
+    if transmit {
+        let m = Vec3::new(1.0, 1.0, -1.0);
+        let (wo, wi) = if wi.z > 0.0 {
+            (wo, wi)
+        } else {
+            (wo * m, wi * m)
+        };
+        let g = Geometry::new(stacks[0], wo, wi);
+        (
+            std::array::from_fn(|k| g.paths(stacks[k]).mirror_average()),
+            [g.to[3], g.ti[0]],
+        )
+    } else {
+        let flip = wi.z <= 0.0;
+        let orient = |s: &LayerStack| if flip { s.flipped() } else { *s };
+        let f = Vec3::new(1.0, 1.0, -1.0);
+        let (wo, wi) = if flip { (wo * f, wi * f) } else { (wo, wi) };
+        let g = Geometry::new(&orient(stacks[0]), wo, wi);
+        (
+            std::array::from_fn(|k| g.paths(&orient(stacks[k])).term()),
+            [g.to[0], g.ti[0]],
+        )
+    }
+}
+
 /// The slab and the directions turned so the light enters through layer 0 (`wi.z > 0`).
 #[inline]
 fn oriented(stack: &LayerStack, wo: Vec3, wi: Vec3) -> (LayerStack, Vec3, Vec3) {
@@ -315,9 +350,25 @@ struct Paths {
     local: [Vec4; 3],
 }
 
-impl Paths {
+/// What [`Paths`] takes from the directions and the layers' thicknesses, indices and phase
+/// asymmetry alone, not from their coefficients: shared by slabs that differ only in their
+/// coefficients (one leaf's texel in other spectral channels), whose [`Paths`] are then
+/// [`Geometry::paths`] of each.
+#[derive(Clone, Copy, Debug)]
+struct Geometry {
+    transmit: bool,
+    ti: [f32; 4],
+    to: [f32; 4],
+    /// `1 / mu` per layer along the light and view paths.
+    ri: [f32; 3],
+    ro: [f32; 3],
+    /// The phase function over `n^2 mu_i mu_o` per layer.
+    w: [f32; 3],
+}
+
+impl Geometry {
     #[inline(always)]
-    fn new(stack: &LayerStack, wo: Vec3, wi: Vec3) -> Paths {
+    fn new(stack: &LayerStack, wo: Vec3, wi: Vec3) -> Geometry {
         let l = &stack.layers;
         let transmit = wo.z < 0.0;
         let (ci, co) = (wi.z, wo.z.abs());
@@ -334,55 +385,6 @@ impl Paths {
             ]
         };
         let (ti, to) = (borders(ci, &mu_i), borders(co, &mu_o));
-        // Per layer four lanes (RGB and a spare, whose optical thickness is 0): the
-        // optical thickness, the path-length factors 1/mu, the thickness.
-        let mut tau = [0.0f32; 12];
-        let mut inv_i = [0.0f32; 12];
-        let mut inv_o = [0.0f32; 12];
-        let mut d = [0.0f32; 12];
-        for k in 0..3 {
-            let st = l[k].sigma_t() * l[k].d;
-            for c in 0..4 {
-                tau[4 * k + c] = if c < 3 { st[c] } else { 0.0 };
-                inv_i[4 * k + c] = ri[k];
-                inv_o[4 * k + c] = ro[k];
-                d[4 * k + c] = l[k].d;
-            }
-        }
-        // The 18 attenuations (and 6 spare lanes), light path then view path.
-        let mut e = [0.0f32; 24];
-        for j in 0..12 {
-            e[j] = -tau[j] * inv_i[j];
-            e[12 + j] = -tau[j] * inv_o[j];
-        }
-        crate::fastexp::exp_neg_in_place(&mut e);
-        // Depth integrals I_k (mm) from the attenuations: `d (1 - A_i A_o) / x` with
-        // `x = (a + b) d` (reflection), `d (A_hi - A_lo) / y` with `y = |a - b| d`
-        // (transmission), by the series `d A_hi (1 - e^{-y}) / y` where the difference
-        // would cancel.
-        let mut integral = [0.0f32; 12];
-        if transmit {
-            for j in 0..12 {
-                let (ei, eo) = (e[j], e[12 + j]);
-                let y = tau[j] * (inv_i[j] - inv_o[j]).abs();
-                let (hi, lo) = (ei.max(eo), ei.min(eo));
-                integral[j] = if y < SERIES_BELOW {
-                    d[j] * hi * one_minus_exp_over_series(y)
-                } else {
-                    d[j] * (hi - lo) / y
-                };
-            }
-        } else {
-            for j in 0..12 {
-                let (ei, eo) = (e[j], e[12 + j]);
-                let x = tau[j] * (inv_i[j] + inv_o[j]);
-                integral[j] = if x < SERIES_BELOW {
-                    d[j] * one_minus_exp_over_series(x)
-                } else {
-                    d[j] * (1.0 - ei * eo) / x
-                };
-            }
-        }
         // Henyey-Greenstein phase function between the refracted directions `u` (the
         // light's propagation direction) and `v` (toward the viewer), over n^2 mu_i mu_o.
         // Its denominator `1 + g^2 - 2 g cos` is written `(1 - g)^2 + g |u - v|^2` for
@@ -416,16 +418,88 @@ impl Paths {
         let w0 = weight(0);
         let w1 = if n[1] == n[0] { w0 } else { weight(1) };
         let w2 = if n[2] == n[1] { w1 } else { weight(2) };
-        let v4 = |a: &[f32], k: usize| Vec4::from_slice(&a[4 * k..4 * k + 4]);
-        let local = |k: usize, w: f32| l[k].sigma_s.extend(0.0) * (w * v4(&integral, k));
-        Paths {
+        Geometry {
             transmit,
             ti,
             to,
+            ri,
+            ro,
+            w: [w0, w1, w2],
+        }
+    }
+
+    /// The paths through `stack`, whose thicknesses, indices and `g` are those this
+    /// geometry was made with.
+    #[inline(always)]
+    fn paths(&self, stack: &LayerStack) -> Paths {
+        let l = &stack.layers;
+        let (ri, ro) = (&self.ri, &self.ro);
+        // Per layer four lanes (RGB and a spare, whose optical thickness is 0): the
+        // optical thickness, the path-length factors 1/mu, the thickness.
+        let mut tau = [0.0f32; 12];
+        let mut inv_i = [0.0f32; 12];
+        let mut inv_o = [0.0f32; 12];
+        let mut d = [0.0f32; 12];
+        for k in 0..3 {
+            let st = l[k].sigma_t() * l[k].d;
+            for c in 0..4 {
+                tau[4 * k + c] = if c < 3 { st[c] } else { 0.0 };
+                inv_i[4 * k + c] = ri[k];
+                inv_o[4 * k + c] = ro[k];
+                d[4 * k + c] = l[k].d;
+            }
+        }
+        // The 18 attenuations (and 6 spare lanes), light path then view path.
+        let mut e = [0.0f32; 24];
+        for j in 0..12 {
+            e[j] = -tau[j] * inv_i[j];
+            e[12 + j] = -tau[j] * inv_o[j];
+        }
+        crate::fastexp::exp_neg_in_place(&mut e);
+        // Depth integrals I_k (mm) from the attenuations: `d (1 - A_i A_o) / x` with
+        // `x = (a + b) d` (reflection), `d (A_hi - A_lo) / y` with `y = |a - b| d`
+        // (transmission), by the series `d A_hi (1 - e^{-y}) / y` where the difference
+        // would cancel.
+        let mut integral = [0.0f32; 12];
+        if self.transmit {
+            for j in 0..12 {
+                let (ei, eo) = (e[j], e[12 + j]);
+                let y = tau[j] * (inv_i[j] - inv_o[j]).abs();
+                let (hi, lo) = (ei.max(eo), ei.min(eo));
+                integral[j] = if y < SERIES_BELOW {
+                    d[j] * hi * one_minus_exp_over_series(y)
+                } else {
+                    d[j] * (hi - lo) / y
+                };
+            }
+        } else {
+            for j in 0..12 {
+                let (ei, eo) = (e[j], e[12 + j]);
+                let x = tau[j] * (inv_i[j] + inv_o[j]);
+                integral[j] = if x < SERIES_BELOW {
+                    d[j] * one_minus_exp_over_series(x)
+                } else {
+                    d[j] * (1.0 - ei * eo) / x
+                };
+            }
+        }
+        let v4 = |a: &[f32], k: usize| Vec4::from_slice(&a[4 * k..4 * k + 4]);
+        let local = |k: usize| l[k].sigma_s.extend(0.0) * (self.w[k] * v4(&integral, k));
+        Paths {
+            transmit: self.transmit,
+            ti: self.ti,
+            to: self.to,
             att_i: [v4(&e, 0), v4(&e, 1), v4(&e, 2)],
             att_o: [v4(&e, 3), v4(&e, 4), v4(&e, 5)],
-            local: [local(0, w0), local(1, w1), local(2, w2)],
+            local: [local(0), local(1), local(2)],
         }
+    }
+}
+
+impl Paths {
+    #[inline(always)]
+    fn new(stack: &LayerStack, wo: Vec3, wi: Vec3) -> Paths {
+        Geometry::new(stack, wo, wi).paths(stack)
     }
 
     /// The same paths through the slab flipped (layer order reversed).

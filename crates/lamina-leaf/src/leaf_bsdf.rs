@@ -22,7 +22,10 @@
 //! normals; diffuse lobes: cosine-weighted on the respective side. [`Bsdf::pdf`] returns the
 //! mixture density, so `sample`'s weight is exactly `eval / pdf`.
 
-use crate::analytic::{single_scatter, single_scatter_and_surface, single_scatter_mirrored};
+use crate::analytic::{
+    single_scatter, single_scatter_and_surface, single_scatter_and_surface_sets,
+    single_scatter_mirrored,
+};
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::diffusion::Diffusion;
 use crate::frame::Frame;
@@ -370,6 +373,75 @@ impl Bsdf for LeafBsdf {
 }
 
 impl LeafBsdf {
+    /// Whether `other` is this texel in other channels: everything but the coefficients,
+    /// the colours and what follows from them is the same (mode, thicknesses, indices,
+    /// phase asymmetry, shading normal, specular lobe, blend band), so that directions,
+    /// Fresnel terms and the specular lobe can be shared ([`LeafBsdf::eval_sets`]).
+    fn same_geometry(&self, other: &LeafBsdf) -> bool {
+        let layers = |b: &LeafBsdf| b.stack.layers.map(|l| (l.d, l.ior));
+        self.mode == other.mode
+            && layers(self) == layers(other)
+            && self.stack.g == other.stack.g
+            && self.shading == other.shading
+            && self.alpha == other.alpha
+            && self.specular == other.specular
+            && self.inv_blend == other.inv_blend
+            && self.inv_t_out == other.inv_t_out
+    }
+
+    /// [`Bsdf::eval`] of several texel BSDFs of one leaf in other channels (wavelength
+    /// bins or bands of a spectral render) for the same directions: bit for bit each one's
+    /// `eval`, with what they share (refraction, Fresnel, the phase function's geometry, the
+    /// specular lobe, the shading cosine) computed once where their geometry agrees.
+    pub fn eval_sets<const G: usize>(b: [&LeafBsdf; G], wo: Vec3, wi: Vec3) -> [Vec3; G] {
+        let shared =
+            G > 1 && b[0].mode == LeafMode::Layered && b[1..].iter().all(|x| b[0].same_geometry(x));
+        if !shared {
+            return std::array::from_fn(|k| b[k].eval(wo, wi));
+        }
+        if wo.z == 0.0 || wi.z == 0.0 {
+            return [Vec3::ZERO; G];
+        }
+        let stacks: [&LayerStack; G] = std::array::from_fn(|k| &b[k].stack);
+        let (ss, [t_wo, t_wi]) = single_scatter_and_surface_sets(stacks, wo, wi);
+        let side = |w: Vec3| if w.z > 0.0 { 0 } else { 1 };
+        let norm = b[0].inv_t_out[side(wo)] * b[0].inv_t_out[side(wi)];
+        let cos = b[0].cos_eff(wi);
+        let spec = Vec3::splat(b[0].specular_term(wo, wi));
+        std::array::from_fn(|k| {
+            let layered = ss[k] + b[k].diffuse_lobe(wo, wi) * (t_wo * t_wi * norm * FRAC_1_PI);
+            layered * b[k].lobe_scale(wo, wi) * cos + spec
+        })
+    }
+
+    /// The mean of [`Bsdf::pdf`] over several texel BSDFs of one leaf in other channels
+    /// (the one-sample MIS density of a spectral path), the specular lobe's density computed
+    /// once where their geometry agrees; equal to the mean of each one's `pdf` up to the
+    /// order of the additions.
+    pub fn pdf_mean<const G: usize>(b: [&LeafBsdf; G], wo: Vec3, wi: Vec3) -> f32 {
+        let shared = G > 1 && b[1..].iter().all(|x| b[0].same_geometry(x));
+        if !shared || wo.z == 0.0 || wi.z == 0.0 {
+            return b.iter().map(|x| x.pdf(wo, wi)).sum::<f32>() / G as f32;
+        }
+        let (lo, li, side) = b[0].shading_dirs(wo, wi);
+        let spec = if b[0].specular > 0.0 {
+            specular::pdf(lo, li, b[0].alpha[side])
+        } else {
+            0.0
+        };
+        let cos = wi.z.abs() * FRAC_1_PI;
+        let mut sum = 0.0;
+        for x in &b {
+            let [ps, pr, pt] = x.lobe_probabilities(wo);
+            let mut p = if wo.z * wi.z > 0.0 { pr } else { pt } * cos;
+            if ps > 0.0 {
+                p += ps * spec;
+            }
+            sum += p;
+        }
+        sum / G as f32
+    }
+
     /// [`Bsdf::pdf`] for `wo.z != 0`, `wi.z != 0`, given `lobe_probabilities(wo)`.
     #[inline]
     fn pdf_with(&self, wo: Vec3, wi: Vec3, [ps, pr, pt]: [f32; 3]) -> f32 {

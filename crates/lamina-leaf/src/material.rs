@@ -756,6 +756,45 @@ impl LeafMaterial {
         self.bsdf_from(&v)
     }
 
+    /// [`Self::bsdf`] of several materials of one leaf in other channels (variants sharing
+    /// its maps) at the same `uv`: the shared maps are read once. Bit for bit each one's
+    /// `bsdf`.
+    pub fn bsdf_sets<const G: usize>(m: [&LeafMaterial; G], uv: Vec2) -> [LeafBsdf; G] {
+        Self::bsdf_sets_into(m, uv, |b| b)
+    }
+
+    /// [`Self::bsdf_sets`], each BSDF handed to `wrap` as it is made (so that a caller's
+    /// enum of BSDFs is built in place rather than copied from an array of these).
+    #[inline]
+    pub fn bsdf_sets_into<T, const G: usize>(
+        m: [&LeafMaterial; G],
+        uv: Vec2,
+        wrap: impl Fn(LeafBsdf) -> T,
+    ) -> [T; G] {
+        let with_bump = m[0].params.bump_scale > 0.0;
+        let shared = G > 1
+            && m.iter().all(|x| {
+                (x.params.bump_scale > 0.0) == with_bump
+                    && match (&x.packed, &m[0].packed) {
+                        (Some(a), Some(b)) => a.shares_grid(b),
+                        _ => false,
+                    }
+            });
+        match (&m[0].packed, shared) {
+            (Some(p), true) => {
+                let l = p.lookup(uv, with_bump);
+                std::array::from_fn(|k| {
+                    let v = match &m[k].packed {
+                        Some(q) => q.values(&l),
+                        None => MapValues::read(&m[k].maps, uv, with_bump),
+                    };
+                    wrap(m[k].bsdf_from(&v))
+                })
+            }
+            _ => std::array::from_fn(|k| wrap(m[k].bsdf(uv))),
+        }
+    }
+
     /// The BSDF of a texel whose filtered map values are `v`.
     #[inline]
     fn bsdf_from(&self, v: &MapValues) -> LeafBsdf {
@@ -1391,6 +1430,51 @@ mod tests {
             }
             assert_eq!(like.alpha_from_channel, fresh.alpha_from_channel);
             assert_eq!(like.ranges, fresh.ranges);
+        }
+    }
+
+    /// Several channel variants of a leaf at once (RGB variants sharing the colour maps,
+    /// pigment-like variants with their own constant colours): `bsdf_sets` and
+    /// `LeafBsdf::eval_sets` equal each variant's own `bsdf` and `eval` bit for bit, and
+    /// `LeafBsdf::pdf_mean` the mean of their `pdf`s.
+    #[test]
+    fn channel_sets_equal_each_variant() {
+        use crate::bsdf::Bsdf;
+        let m3 = |a: f32| {
+            Mat3::from_cols(
+                Vec3::new(0.6, 0.1 * a, 0.0),
+                Vec3::new(0.3, 0.7, 0.2 * a),
+                Vec3::new(0.1, 0.2 * a, 0.8),
+            )
+        };
+        let mut rng = Pcg32::new(5);
+        for (name, m) in materials() {
+            let mut pa = m.params;
+            pa.mesophyll.absorption *= Vec3::new(0.5, 2.0, 3.0);
+            let a = m.variant(m.params, m3(1.0)).unwrap();
+            let b = m.variant(pa, m3(0.5)).unwrap();
+            let mut cmaps = m.maps.clone();
+            cmaps.front = Some(Texture::constant(Vec4::new(0.2, 0.5, 0.1, 1.0)));
+            let c = LeafMaterial::new_like(cmaps, pa, &m).unwrap();
+            for uv in uvs() {
+                let sets = LeafMaterial::bsdf_sets([&a, &b, &c], uv);
+                assert_eq!(sets, [a.bsdf(uv), b.bsdf(uv), c.bsdf(uv)], "{name} at {uv}");
+                for _ in 0..8 {
+                    let wo =
+                        crate::sampling::uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+                    let wi =
+                        crate::sampling::uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+                    let refs = [&sets[0], &sets[1], &sets[2]];
+                    let each = refs.map(|s| s.eval(wo, wi));
+                    assert_eq!(LeafBsdf::eval_sets(refs, wo, wi), each, "{name}");
+                    let mean = refs.iter().map(|s| s.pdf(wo, wi)).sum::<f32>() / 3.0;
+                    let got = LeafBsdf::pdf_mean(refs, wo, wi);
+                    assert!(
+                        (got - mean).abs() <= 1e-5 * mean.abs() + 1e-12,
+                        "{name}: {got} {mean}"
+                    );
+                }
+            }
         }
     }
 }

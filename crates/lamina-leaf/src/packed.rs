@@ -207,12 +207,46 @@ impl PackedMaps {
     /// The filtered values at `uv`, bit-identical to [`MapValues::read`].
     #[inline]
     pub fn read(&self, uv: Vec2, with_bump: bool) -> MapValues {
+        self.values(&self.lookup(uv, with_bump))
+    }
+
+    /// Whether `other` holds this very grid and reads its data maps (thickness, extinction,
+    /// bump) the same way (a material in other channels sharing the maps; colour sources
+    /// may differ): then one [`Self::lookup`] serves both.
+    pub fn shares_grid(&self, other: &PackedMaps) -> bool {
+        Arc::ptr_eq(&self.texels, &other.texels)
+            && (self.width, self.height, self.wrap) == (other.width, other.height, other.wrap)
+            && self.sources[3..] == other.sources[3..]
+    }
+
+    /// The grid's filtered record at `uv` and the bump lane's gradient (when asked for and
+    /// in the grid): what [`Self::values`] turns into map values.
+    #[inline]
+    pub fn lookup(&self, uv: Vec2, with_bump: bool) -> Lookup {
         let grid = self.sources.contains(&Source::Grid);
         let rec = if grid {
             Footprint::new(self.width, self.height, self.wrap, uv).filter(|i| self.texels[i])
         } else {
             [Vec4::ZERO; 3]
         };
+        let bump = (with_bump && self.sources[5] == Source::Grid).then(|| {
+            gradient(self.width, self.height, self.wrap, uv, |i| {
+                self.texels[i][2].w
+            })
+        });
+        Lookup {
+            rec,
+            bump,
+            with_bump,
+        }
+    }
+
+    /// The map values of a [`Self::lookup`] of this grid or of one it
+    /// [shares](Self::shares_grid), by this material's sources (its constants, its absent
+    /// maps).
+    #[inline]
+    pub fn values(&self, l: &Lookup) -> MapValues {
+        let rec = l.rec;
         let [f, b, tr, th, ex, bu] = self.sources;
         let rgb = |s: Source, lane: usize| match s {
             Source::Absent => None,
@@ -225,12 +259,10 @@ impl PackedMaps {
             Source::Grid => Some(rec[lane].w),
         };
         let bump_gradient = match bu {
-            _ if !with_bump => None,
+            _ if !l.with_bump => None,
             Source::Absent => None,
             Source::Constant(_) => Some(Vec2::ZERO),
-            Source::Grid => Some(gradient(self.width, self.height, self.wrap, uv, |i| {
-                self.texels[i][2].w
-            })),
+            Source::Grid => l.bump,
         };
         MapValues {
             front: rgb(f, 0),
@@ -241,4 +273,12 @@ impl PackedMaps {
             bump_gradient,
         }
     }
+}
+
+/// One filtered read of a packed grid ([`PackedMaps::lookup`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Lookup {
+    rec: Record,
+    bump: Option<Vec2>,
+    with_bump: bool,
 }

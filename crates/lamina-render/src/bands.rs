@@ -39,6 +39,17 @@ pub fn band_values(
     bands: [&Band; 3],
     illuminant: Illuminant,
 ) -> Result<BandValues, RenderError> {
+    band_values_with(scene, bands, illuminant, None)
+}
+
+/// [`band_values`] with the map of a physical sky in the bands already made (`sky_map`,
+/// from [`lamina_core::SpectralSky::band_maps`]), if the scene has such a sky.
+pub fn band_values_with(
+    scene: &Scene,
+    bands: [&Band; 3],
+    illuminant: Illuminant,
+    sky_map: Option<Texture>,
+) -> Result<BandValues, RenderError> {
     let basis = BandBasis::with_illuminant(bands, illuminant);
     let centres = bands.map(|b| b.center());
     let materials = scene
@@ -66,7 +77,7 @@ pub fn band_values(
                 spectral: Some(spectral),
                 ..
             } => {
-                *map = spectral.band_map(bands);
+                *map = sky_map.unwrap_or_else(|| spectral.band_map(bands));
                 if let Some(e) = spectral.band_sun(bands)
                     && let Some(Light::Sun { irradiance, .. }) = lights.last_mut()
                 {

@@ -49,6 +49,41 @@ impl SurfaceBsdf {
         }
     }
 
+    /// The BSDFs of several materials, one per channel set of a spectral render, at the
+    /// same `uv`: a leaf's variants read their shared maps once
+    /// ([`lamina_leaf::LeafMaterial::bsdf_sets`]).
+    #[inline]
+    pub fn at_sets<const G: usize>(materials: [&Material; G], uv: Vec2) -> [Self; G] {
+        let leaves: [Option<&lamina_leaf::LeafMaterial>; G] = materials.map(|m| match m {
+            Material::Leaf { leaf, .. } => Some(&**leaf),
+            _ => None,
+        });
+        if G > 1 && leaves.iter().all(Option::is_some) {
+            let leaves = leaves.map(|l| l.expect("checked"));
+            return lamina_leaf::LeafMaterial::bsdf_sets_into(leaves, uv, SurfaceBsdf::Leaf);
+        }
+        materials.map(|m| SurfaceBsdf::at(m, uv))
+    }
+
+    /// `eval` of each of `b` (one per channel set) for the same directions, sharing what a
+    /// leaf's variants share ([`LeafBsdf::eval_sets`]).
+    #[inline]
+    pub fn eval_sets<const G: usize>(b: &[Self; G], wo: Vec3, wi: Vec3) -> [Vec3; G] {
+        match leaf_refs(b) {
+            Some(l) => LeafBsdf::eval_sets(l, wo, wi),
+            None => std::array::from_fn(|k| b[k].eval(wo, wi)),
+        }
+    }
+
+    /// The mean of the `pdf`s of `b` (the one-sample MIS density over the sets).
+    #[inline]
+    pub fn pdf_mean<const G: usize>(b: &[Self; G], wo: Vec3, wi: Vec3) -> f32 {
+        match leaf_refs(b) {
+            Some(l) => LeafBsdf::pdf_mean(l, wo, wi),
+            None => b.iter().map(|x| x.pdf(wo, wi)).sum::<f32>() / G as f32,
+        }
+    }
+
     /// Diffuse hemispherical (reflectance, transmittance), linear RGB: what the paper
     /// integrator's ambient multiple-scattering term multiplies.
     #[inline]
@@ -60,6 +95,18 @@ impl SurfaceBsdf {
             SurfaceBsdf::Pbr(b) => b.diffuse_albedo(),
         }
     }
+}
+
+/// The leaf BSDFs of `b` when every one is a leaf (and there are several).
+#[inline]
+fn leaf_refs<const G: usize>(b: &[SurfaceBsdf; G]) -> Option<[&LeafBsdf; G]> {
+    if G < 2 || !b.iter().all(|x| matches!(x, SurfaceBsdf::Leaf(_))) {
+        return None;
+    }
+    Some(std::array::from_fn(|k| match &b[k] {
+        SurfaceBsdf::Leaf(l) => l,
+        _ => unreachable!("checked above"),
+    }))
 }
 
 impl Bsdf for SurfaceBsdf {

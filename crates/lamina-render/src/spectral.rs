@@ -23,7 +23,7 @@
 //! [`crate::RenderStats::spectral_setup`].
 
 use crate::accel::Ray;
-use crate::bands::{band_groups, band_values, group_scene};
+use crate::bands::{band_groups, band_values_with, group_scene};
 use crate::error::RenderError;
 use crate::film::Accumulator;
 use crate::integrators::SceneContext;
@@ -32,7 +32,7 @@ use crate::lights::LightSet;
 use crate::render::{Estimator, Job, RenderOptions, RenderStats};
 use crate::sampler::PixelSampler;
 use glam::Vec3;
-use lamina_core::{Integrator, Scene, SpectralMode};
+use lamina_core::{Integrator, Scene, Sky, SpectralMode};
 use lamina_leaf::spectrum::bands::{Band, Illuminant};
 use lamina_leaf::spectrum::visible;
 use rayon::prelude::*;
@@ -53,10 +53,18 @@ fn build_sets(
     pool: &rayon::ThreadPool,
 ) -> Result<Vec<ChannelSet>, RenderError> {
     pool.install(|| {
+        // A physical sky's maps in every set at once (one spectrum per texel).
+        let sky_maps: Vec<Option<lamina_leaf::Texture>> = match &scene.sky {
+            Some(Sky::Image {
+                spectral: Some(sp), ..
+            }) => sp.band_maps(groups).into_iter().map(Some).collect(),
+            _ => vec![None; groups.len()],
+        };
         groups
             .par_iter()
-            .map(|g| {
-                let v = band_values(scene, *g, illuminant)?;
+            .zip(sky_maps)
+            .map(|(g, sky_map)| {
+                let v = band_values_with(scene, *g, illuminant, sky_map)?;
                 Ok(ChannelSet {
                     lights: LightSet::from_parts(&v.lights, v.sky.as_ref())?,
                     materials: v.materials,
@@ -98,7 +106,9 @@ pub(crate) fn render_visible(
     let band_groups: Vec<[&Band; 3]> = groups.iter().map(|g| g.map(|b| &bins[b])).collect();
     let setup = Instant::now();
     let sets = build_sets(scene, &band_groups, Illuminant::D65, &job.pool)?;
-    let ctx = SceneContext::new(scene)?.with_sets(sets)?;
+    // The two sets of a path side by side in the sky's texels.
+    let slot = (0..2 * s).map(|j| 2 * (j % s) + j / s).collect();
+    let ctx = SceneContext::new(scene)?.with_sets(sets, slot)?;
     let spectral_setup = setup.elapsed().saturating_sub(ctx.accel_build);
     let est = VisibleEstimator {
         max_depth,
@@ -137,15 +147,7 @@ impl Estimator for VisibleEstimator {
         let s = visible::STRIDE;
         let h = ((sampler.next_1d() * s as f32) as usize).min(s - 1);
         let pick = [h, s + h];
-        let l = radiance_sets::<2>(
-            ctx,
-            pick.map(|j| &ctx.sets[j]),
-            ray,
-            sampler,
-            self.max_depth,
-            self.rr_depth,
-            rays,
-        );
+        let l = radiance_sets::<2>(ctx, pick, ray, sampler, self.max_depth, self.rr_depth, rays);
         let mut rgb = Vec3::ZERO;
         for (lk, &j) in l.iter().zip(&pick) {
             for (w, v) in self.weights[j].iter().zip(lk.to_array()) {
@@ -198,7 +200,8 @@ pub fn render_bands(
         .collect();
     let setup = Instant::now();
     let sets = build_sets(scene, &band_groups, Illuminant::Solar, &job.pool)?;
-    let ctx = SceneContext::new(scene)?.with_sets(sets)?;
+    let slot = (0..sets.len()).collect();
+    let ctx = SceneContext::new(scene)?.with_sets(sets, slot)?;
     let spectral_setup = setup.elapsed().saturating_sub(ctx.accel_build);
     let chunks: Vec<std::ops::Range<usize>> = (0..groups.len())
         .step_by(MAX_SETS_PER_PATH)
@@ -251,40 +254,32 @@ impl Estimator for BandEstimator {
         for chunk in &self.chunks {
             // Every path of the sample from the same random numbers.
             let mut s = start;
-            let sets = &ctx.sets[chunk.clone()];
-            let (d, r) = (self.max_depth, self.rr_depth);
+            let (a, d, r) = (chunk.start, self.max_depth, self.rr_depth);
             let mut l = [Vec3::ZERO; MAX_SETS_PER_PATH];
-            match sets.len() {
-                1 => l[..1].copy_from_slice(&radiance_sets::<1>(
+            let mut put = |v: &[Vec3]| l[..v.len()].copy_from_slice(v);
+            match chunk.len() {
+                1 => put(&radiance_sets::<1>(ctx, [a], ray, &mut s, d, r, rays)),
+                2 => put(&radiance_sets::<2>(
                     ctx,
-                    [&sets[0]],
+                    [a, a + 1],
                     ray,
                     &mut s,
                     d,
                     r,
                     rays,
                 )),
-                2 => l[..2].copy_from_slice(&radiance_sets::<2>(
+                3 => put(&radiance_sets::<3>(
                     ctx,
-                    [&sets[0], &sets[1]],
+                    [a, a + 1, a + 2],
                     ray,
                     &mut s,
                     d,
                     r,
                     rays,
                 )),
-                3 => l[..3].copy_from_slice(&radiance_sets::<3>(
+                _ => put(&radiance_sets::<4>(
                     ctx,
-                    [&sets[0], &sets[1], &sets[2]],
-                    ray,
-                    &mut s,
-                    d,
-                    r,
-                    rays,
-                )),
-                _ => l.copy_from_slice(&radiance_sets::<4>(
-                    ctx,
-                    [&sets[0], &sets[1], &sets[2], &sets[3]],
+                    [a, a + 1, a + 2, a + 3],
                     ray,
                     &mut s,
                     d,

@@ -247,21 +247,32 @@ impl SunSky {
     /// The sky's band-mean spectral radiance along `dir` in `band`, W m⁻² sr⁻¹ nm⁻¹ (see
     /// the module docs). Zero below the horizon.
     pub fn sky_band(&self, dir: DVec3, band: &Band) -> f64 {
+        let mut v = [0.0];
+        self.sky_bands(dir, &[band], &mut v);
+        v[0]
+    }
+
+    /// [`Self::sky_band`] for each of `bands` into `out`, the sky's spectrum along `dir`
+    /// computed once: what maps in many bands at once are made with.
+    pub fn sky_bands(&self, dir: DVec3, bands: &[&Band], out: &mut [f64]) {
         if dir.y <= 0.0 {
-            return 0.0;
+            out.fill(0.0);
+            return;
         }
         let visible = self.preetham.spectrum(dir);
         let y = self.preetham.xyz(dir).y;
-        Self::band_mean(band, |nm| {
-            if nm <= VISIBLE_END_NM {
-                visible.eval(nm) * self.scale
-            } else if self.diffuse_y > 0.0 {
-                y * self.scale * self.at(nm).1 / self.diffuse_y
-            } else {
-                0.0
-            }
-        })
-        .max(0.0)
+        for (o, band) in out.iter_mut().zip(bands) {
+            *o = Self::band_mean(band, |nm| {
+                if nm <= VISIBLE_END_NM {
+                    visible.eval(nm) * self.scale
+                } else if self.diffuse_y > 0.0 {
+                    y * self.scale * self.at(nm).1 / self.diffuse_y
+                } else {
+                    0.0
+                }
+            })
+            .max(0.0);
+        }
     }
 }
 
@@ -296,16 +307,28 @@ pub fn bake_map(
     to_sky: impl Fn(DVec3) -> DVec3 + Sync,
     f: impl Fn(DVec3) -> [f32; 3] + Sync,
 ) -> Vec<[f32; 3]> {
+    let flat = bake_values(width, 3, to_sky, |d, out| out.copy_from_slice(&f(d)));
+    flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+}
+
+/// [`bake_map`] of `n` values per pixel: `f(direction, out)` fills a pixel's `n` values;
+/// the result is pixel-major (`n` values per pixel).
+pub fn bake_values(
+    width: u32,
+    n: usize,
+    to_sky: impl Fn(DVec3) -> DVec3 + Sync,
+    f: impl Fn(DVec3, &mut [f32]) + Sync,
+) -> Vec<f32> {
     use rayon::prelude::*;
     let (w, h) = (width as usize, (width / 2).max(1) as usize);
-    let mut out = vec![[0.0f32; 3]; w * h];
-    out.par_chunks_mut(w).enumerate().for_each(|(j, row)| {
+    let mut out = vec![0.0f32; w * h * n];
+    out.par_chunks_mut(w * n).enumerate().for_each(|(j, row)| {
         let th = std::f64::consts::PI * (j as f64 + 0.5) / h as f64;
-        for (i, px) in row.iter_mut().enumerate() {
+        for (i, px) in row.chunks_exact_mut(n).enumerate() {
             let ph =
                 -std::f64::consts::PI + 2.0 * std::f64::consts::PI * (i as f64 + 0.5) / w as f64;
             let d = DVec3::new(th.sin() * ph.sin(), th.cos(), -th.sin() * ph.cos());
-            *px = f(to_sky(d));
+            f(to_sky(d), px);
         }
     });
     out

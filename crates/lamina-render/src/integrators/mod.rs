@@ -30,6 +30,8 @@ pub struct SceneContext<'a> {
     /// The scene in other channels (wavelength bins or bands) for spectral renders
     /// ([`spectral`]); empty for RGB.
     pub sets: Vec<spectral::ChannelSet>,
+    /// The sets' sky maps interleaved (with sets and an image sky).
+    pub sky_sets: Option<spectral::SkySets>,
 }
 
 impl<'a> SceneContext<'a> {
@@ -47,15 +49,19 @@ impl<'a> SceneContext<'a> {
             filter: FilterSampler::new(scene.film.filter),
             accel_build,
             sets: Vec::new(),
+            sky_sets: None,
         })
     }
 
     /// Adds the scene in other channels for a spectral render: each set must hold the
     /// scene's lights in order, with a sky map of the same size as the scene's (the
     /// integrator reads the sets' skies at the scene sky's texels).
+    /// `slot[j]` is set `j`'s place in the interleaved sky maps ([`spectral::SkySets`]):
+    /// the sets a path carries should be neighbours.
     pub(crate) fn with_sets(
         mut self,
         sets: Vec<spectral::ChannelSet>,
+        slot: Vec<usize>,
     ) -> Result<Self, RenderError> {
         let sky_size = |l: &LightSet| match l.lights.last() {
             Some(crate::lights::AnyLight::Sky(s)) => s.size(),
@@ -72,6 +78,12 @@ impl<'a> SceneContext<'a> {
                 )));
             }
         }
+        self.sky_sets = match self.lights.lights.last() {
+            Some(crate::lights::AnyLight::Sky(base)) => {
+                spectral::SkySets::new(base, &sets, slot, self.lights.lights.len())
+            }
+            _ => None,
+        };
         self.sets = sets;
         Ok(self)
     }

@@ -24,7 +24,7 @@
 
 use super::SceneContext;
 use crate::accel::{FLAG_EMITTER, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
-use crate::lights::{LightSet, power_heuristic};
+use crate::lights::{LightSet, NO_TEXEL, power_heuristic};
 use crate::materials::SurfaceBsdf;
 use crate::sampler::PixelSampler;
 use crate::shading::{ShadingFrame, shading_normal};
@@ -43,11 +43,118 @@ pub struct ChannelSet {
     pub lights: LightSet,
 }
 
+/// The sets' skies as the scene sky's own texels times a coarse table of colour ratios:
+/// set `j`'s radiance in texel `t` is `lum(L(t)) · r_j(c(t))`, with `L` the scene's (RGB)
+/// sky map, `lum` its channel mean and `r_j` set `j`'s radiance over `lum`, averaged over
+/// the `F x F` texels of the coarse cell `c(t)` (weighted by `lum`, so the cell's mean is
+/// kept exactly). Exact wherever the sky's colour is constant over a cell; the sky's
+/// brightness, its sharp circumsolar peak included, comes from the full-resolution map that
+/// light sampling reads anyway.
+///
+/// Why: sky lookups at random texels are memory-bound, and the sets' own maps (16 of them
+/// for a visible render, 25 MB at 512 x 256) do not stay in cache; the ratios of the sets a
+/// path carries (neighbours by `slot`) sit in one cache line of a table that does (0.8 MB),
+/// in half precision relative to each set's largest ratio (11 significant bits).
+#[derive(Debug)]
+pub struct SkySets {
+    /// The index of the sky among the lights.
+    pub light: usize,
+    /// Number of sets.
+    pub sets: usize,
+    /// Per set, its place among a cell's values.
+    pub slot: Vec<usize>,
+    /// Per set, what its ratios are relative to.
+    pub scale: Vec<f32>,
+    /// Fine texels per coarse cell along each axis, and the fine and coarse widths.
+    factor: usize,
+    width: usize,
+    coarse_width: usize,
+    /// The relative ratios, cell-major.
+    ratios: Vec<[half::f16; 3]>,
+}
+
+/// The coarse table's width at most (height half): 128 x 64 cells.
+const SKY_CELLS: usize = 128;
+
+impl SkySets {
+    /// The ratio tables of `sets`' skies over `base`, the scene's sky map (all of the same
+    /// size, each the last of `lights` lights), set `j` at `slot[j]` in each cell; `None`
+    /// for a constant sky or none.
+    pub fn new(
+        base: &crate::lights::SkyLight,
+        sets: &[ChannelSet],
+        slot: Vec<usize>,
+        lights: usize,
+    ) -> Option<Self> {
+        let (w, h) = base.size()?;
+        let factor = (w / SKY_CELLS).max(1);
+        let (cw, ch) = (w.div_ceil(factor), h.div_ceil(factor));
+        let n = sets.len();
+        let lum = |t: usize| base.le_texel(Vec3::Y, t as u32).element_sum() / 3.0;
+        let mut ratio = vec![Vec3::ZERO; cw * ch * n];
+        let mut weight = vec![0.0f32; cw * ch];
+        for y in 0..h {
+            for x in 0..w {
+                let (t, c) = (y * w + x, (y / factor) * cw + x / factor);
+                weight[c] += lum(t);
+                for (j, set) in sets.iter().enumerate() {
+                    let crate::lights::AnyLight::Sky(sky) = set.lights.lights.last()? else {
+                        return None;
+                    };
+                    ratio[c * n + slot[j]] += sky.le_texel(Vec3::Y, t as u32);
+                }
+            }
+        }
+        let mut scale = vec![0.0f32; n];
+        for c in 0..cw * ch {
+            let inv = if weight[c] > 0.0 {
+                1.0 / weight[c]
+            } else {
+                0.0
+            };
+            for (j, s) in scale.iter_mut().enumerate() {
+                let r = &mut ratio[c * n + slot[j]];
+                *r *= inv;
+                *s = s.max(r.max_element());
+            }
+        }
+        let ratios = (0..cw * ch * n)
+            .map(|i| {
+                let j = slot.iter().position(|&s| s == i % n).unwrap_or(0);
+                let inv = if scale[j] > 0.0 { 1.0 / scale[j] } else { 0.0 };
+                (ratio[i] * inv).to_array().map(half::f16::from_f32)
+            })
+            .collect();
+        Some(SkySets {
+            light: lights - 1,
+            sets: n,
+            slot,
+            scale,
+            factor,
+            width: w,
+            coarse_width: cw,
+            ratios,
+        })
+    }
+
+    /// Set `j` (at `slot`)'s radiance in texel `t`, where the scene's sky map holds `base`.
+    #[inline]
+    fn at(&self, t: u32, base: Vec3, j: usize, slot: usize) -> Vec3 {
+        let t = t as usize;
+        let (x, y) = (t % self.width, t / self.width);
+        let c = (y / self.factor) * self.coarse_width + x / self.factor;
+        let v = self.ratios[c * self.sets + slot];
+        Vec3::new(v[0].to_f32(), v[1].to_f32(), v[2].to_f32())
+            * (self.scale[j] * base.element_sum() / 3.0)
+    }
+}
+
 /// The radiance (W m⁻² sr⁻¹ per channel: per nm for spectral channels) arriving along the
-/// camera ray `ray` in each of the `G` sets. Adds the rays it traces to `rays`.
+/// camera ray `ray` in each of the `G` sets `sets` (indices into [`SceneContext::sets`]).
+/// Adds the rays it traces to `rays`.
 pub fn radiance_sets<const G: usize>(
     ctx: &SceneContext,
-    sets: [&ChannelSet; G],
+    set_ids: [usize; G],
     mut ray: Ray,
     sampler: &mut PixelSampler,
     max_depth: u32,
@@ -61,6 +168,16 @@ pub fn radiance_sets<const G: usize>(
     let mut skip = PrimRef::NONE;
     let mut bounces = 0u32;
     let lights = &ctx.lights.lights;
+    let sets: [&ChannelSet; G] = set_ids.map(|j| &ctx.sets[j]);
+    // A sky map's texel in set `j` (the interleaved copy), or the light's own value.
+    let sky = ctx.sky_sets.as_ref();
+    let slots: [usize; G] = from_fn(|k| sky.map_or(0, |s| s.slot[set_ids[k]]));
+    let sky_texel = |i: usize, k: usize, texel: u32, base: Vec3| match sky {
+        Some(s) if s.light == i && texel != NO_TEXEL => {
+            Some(s.at(texel, base, set_ids[k], slots[k]))
+        }
+        _ => None,
+    };
     let weight = |camera_ray: bool, prev: f32, pdf: f32| {
         if camera_ray {
             1.0
@@ -75,10 +192,12 @@ pub fn radiance_sets<const G: usize>(
                 if !light.is_infinite() {
                     continue;
                 }
-                let (_, pdf, texel) = light.escaped_texel(ray.dir);
+                let (base, pdf, texel) = light.escaped_texel(ray.dir);
                 let w = weight(camera_ray, prev_pdf, pdf);
                 for k in 0..G {
-                    let le = sets[k].lights.lights[i].escaped_radiance(ray.dir, texel);
+                    let le = sky_texel(i, k, texel, base).unwrap_or_else(|| {
+                        sets[k].lights.lights[i].escaped_radiance(ray.dir, texel)
+                    });
                     l[k] += beta[k] * le * w;
                 }
             }
@@ -110,9 +229,8 @@ pub fn radiance_sets<const G: usize>(
         let ns = shading_normal(&ctx.accel, prim, bary, &info, normal_map);
         let frame = ShadingFrame::new(&info, ns, -ray.dir);
         let uv = info.uv_at(bary);
-        let bsdfs: [SurfaceBsdf; G] = from_fn(|k| SurfaceBsdf::at(&sets[k].materials[m], uv));
+        let bsdfs = SurfaceBsdf::at_sets(sets.map(|s| &s.materials[m]), uv);
         let wo = frame.to_local(-ray.dir);
-        let mixture_pdf = |wi: Vec3| bsdfs.iter().map(|b| b.pdf(wo, wi)).sum::<f32>() / G as f32;
 
         for (i, light) in lights.iter().enumerate() {
             let u = sampler.next_2d();
@@ -122,18 +240,15 @@ pub fn radiance_sets<const G: usize>(
             if !(ls.pdf > 0.0) || !frame.consistent(ls.wi) {
                 continue;
             }
-            let li: [Vec3; G] = from_fn(|k| sets[k].lights.lights[i].li_along(&ls));
+            let li: [Vec3; G] = from_fn(|k| {
+                sky_texel(i, k, ls.texel, ls.li)
+                    .unwrap_or_else(|| sets[k].lights.lights[i].li_along(&ls))
+            });
             if li.iter().all(|v| *v == Vec3::ZERO) {
                 continue;
             }
             let wi = frame.to_local(ls.wi);
-            let f: [Vec3; G] = from_fn(|k| {
-                if li[k] == Vec3::ZERO {
-                    Vec3::ZERO
-                } else {
-                    bsdfs[k].eval(wo, wi)
-                }
-            });
+            let f = SurfaceBsdf::eval_sets(&bsdfs, wo, wi);
             if f.iter().all(|v| *v == Vec3::ZERO) {
                 continue;
             }
@@ -143,7 +258,7 @@ pub fn radiance_sets<const G: usize>(
             let w = if ls.delta {
                 1.0
             } else {
-                power_heuristic(ls.pdf, mixture_pdf(wi))
+                power_heuristic(ls.pdf, SurfaceBsdf::pdf_mean(&bsdfs, wo, wi))
             };
             for k in 0..G {
                 l[k] += beta[k] * f[k] * li[k] * (w / ls.pdf);
@@ -171,16 +286,14 @@ pub fn radiance_sets<const G: usize>(
         if !frame.consistent(dir) {
             break; // its geometric side disagrees with the BSDF's: no light goes there
         }
-        let mut pdf_sum = bs.pdf;
-        let f: [Vec3; G] = from_fn(|k| {
-            if k == hero {
-                bs.f
-            } else {
-                pdf_sum += bsdfs[k].pdf(wo, bs.wi);
-                bsdfs[k].eval(wo, bs.wi)
-            }
-        });
-        let pdf = pdf_sum / G as f32;
+        // Every set's value and the mixture density at the hero's direction (the hero's
+        // own value is `bs.f`, recomputed here with the others at no extra cost).
+        let f = SurfaceBsdf::eval_sets(&bsdfs, wo, bs.wi);
+        let pdf = if G == 1 {
+            bs.pdf
+        } else {
+            SurfaceBsdf::pdf_mean(&bsdfs, wo, bs.wi)
+        };
         let mut largest = 0.0f32;
         let mut finite = true;
         for k in 0..G {

@@ -103,6 +103,38 @@ impl lamina_core::SpectralSky for PhysicalSky {
         self.map(|v| bands.map(|b| self.model.sky_band(v, b) as f32))
     }
 
+    fn band_maps(
+        &self,
+        groups: &[[&lamina_leaf::spectrum::bands::Band; 3]],
+    ) -> Vec<lamina_leaf::Texture> {
+        // Every band of every group from one evaluation of the sky's spectrum per texel.
+        let bands: Vec<&lamina_leaf::spectrum::bands::Band> =
+            groups.iter().flat_map(|g| g.iter().copied()).collect();
+        let n = bands.len();
+        let values = lamina_sky::sunsky::bake_values(
+            self.width,
+            n,
+            |d| self.to_sky(d),
+            |v, out| {
+                let mut f = vec![0.0f64; n];
+                self.model.sky_bands(v, &bands, &mut f);
+                for (o, x) in out.iter_mut().zip(f) {
+                    *o = x as f32;
+                }
+            },
+        );
+        let (w, h) = (self.width, (self.width / 2).max(1));
+        (0..groups.len())
+            .map(|g| {
+                let texels = values
+                    .chunks_exact(n)
+                    .map(|px| glam::Vec4::new(px[3 * g], px[3 * g + 1], px[3 * g + 2], 1.0))
+                    .collect();
+                lamina_leaf::Texture::from_texels(w, h, texels, lamina_leaf::Wrap::Repeat)
+            })
+            .collect()
+    }
+
     fn band_sun(&self, bands: [&lamina_leaf::spectrum::bands::Band; 3]) -> Option<glam::Vec3> {
         self.sun
             .then(|| glam::Vec3::from(bands.map(|b| self.model.sun_band(b) as f32)))

@@ -41,8 +41,9 @@ mi = None
 dr = None
 
 
-def setup_mitsuba(threads, cold_cache_dir=None):
-    """Imports Mitsuba with the `llvm_ad_rgb` variant and `threads` Dr.Jit worker threads.
+def setup_mitsuba(threads, cold_cache_dir=None, variant="llvm_ad_rgb"):
+    """Imports Mitsuba with `variant` (default `llvm_ad_rgb`; bench/spectral uses
+    `llvm_ad_spectral`) and `threads` Dr.Jit worker threads.
 
     `cold_cache_dir`: when given, Dr.Jit's on-disk kernel cache (~/.drjit) is redirected
     there (HOME is changed before the import), so the first render pays the full JIT
@@ -60,7 +61,7 @@ def setup_mitsuba(threads, cold_cache_dir=None):
     import drjit as _dr
     import mitsuba as _mi
 
-    _mi.set_variant("llvm_ad_rgb")
+    _mi.set_variant(variant)
     _mi.set_log_level(_mi.LogLevel.Warn)
     _dr.set_thread_count(threads)
     _dr.set_flag(_dr.JitFlag.KernelHistory, True)
@@ -90,8 +91,14 @@ def _register_bsdf():
         def _lobes(self, ctx, si, active):
             r = self.reflectance.eval(si, active)
             t = self.transmittance.eval(si, active)
-            lr = dr.maximum(mi.luminance(r), 0.0)
-            lt = dr.maximum(mi.luminance(t), 0.0)
+            # Any lobe choice is unbiased; this one is lamina's (Rec.709 luminance; in a
+            # spectral variant, the luminance of the path's wavelengths).
+            if mi.is_spectral:
+                lr = dr.maximum(mi.luminance(r, si.wavelengths, active), 0.0)
+                lt = dr.maximum(mi.luminance(t, si.wavelengths, active), 0.0)
+            else:
+                lr = dr.maximum(mi.luminance(r), 0.0)
+                lt = dr.maximum(mi.luminance(t), 0.0)
             pr = dr.select(lr + lt > 0.0, lr / (lr + lt), 0.5)
             has_r = ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0)
             has_t = ctx.is_enabled(mi.BSDFFlags.DiffuseTransmission, 1)
@@ -100,9 +107,9 @@ def _register_bsdf():
             if not has_t:
                 pr = mi.Float(1.0)
             if not has_r:
-                r = mi.Color3f(0.0)
+                r = mi.Spectrum(0.0)
             if not has_t:
-                t = mi.Color3f(0.0)
+                t = mi.Spectrum(0.0)
             return r, t, pr
 
         def sample(self, ctx, si, sample1, sample2, active):
@@ -128,16 +135,16 @@ def _register_bsdf():
             # f |cos| / pdf = colour / lobe probability.
             value = dr.select(reflect, r, t) / lobe
             bs.pdf = dr.select(ok, bs.pdf, 0.0)
-            return bs, dr.select(ok, value, mi.Color3f(0.0))
+            return bs, dr.select(ok, value, mi.Spectrum(0.0))
 
         def _eval_pdf(self, ctx, si, wo, active):
             cos_i = mi.Frame3f.cos_theta(si.wi)
             r, t, pr = self._lobes(ctx, si, active)
             c = cos_i * mi.Frame3f.cos_theta(wo)
             cosw = dr.abs(mi.Frame3f.cos_theta(wo)) * dr.inv_pi
-            f = dr.select(c > 0.0, r, dr.select(c < 0.0, t, mi.Color3f(0.0))) * cosw
+            f = dr.select(c > 0.0, r, dr.select(c < 0.0, t, mi.Spectrum(0.0))) * cosw
             lobe = dr.select(c > 0.0, pr, dr.select(c < 0.0, 1.0 - pr, 0.0))
-            f = dr.select(active, f, mi.Color3f(0.0))
+            f = dr.select(active, f, mi.Spectrum(0.0))
             pdf = dr.select(active, lobe * cosw, 0.0)
             return f, pdf
 

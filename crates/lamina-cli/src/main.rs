@@ -26,6 +26,7 @@ mod plant_cmd;
 mod render_cmd;
 mod sensors_cmd;
 mod sky_cmd;
+mod spectrum_cmd;
 mod view_cmd;
 
 /// A renderer for plant leaves and whole plants.
@@ -63,6 +64,9 @@ enum Command {
     /// The sun and clear sky for a place and a time: the sun's position, the direct/diffuse
     /// split per band (SPCTRAL2), and the sky as an equirectangular EXR (Preetham).
     Sky(sky_cmd::SkyArgs),
+    /// The spectrum lamina gives an RGB reflectance or light in spectral renders, as CSV
+    /// `wavelength_nm,value` (to give another renderer the same scene).
+    Spectrum(spectrum_cmd::SpectrumArgs),
 }
 
 #[derive(Subcommand, Debug)]
@@ -87,6 +91,7 @@ fn main() -> ExitCode {
         Command::Leaf(cmd) => leaf_cmd::run(cmd),
         Command::Plant(PlantCommand::Generate(args)) => plant_cmd::run_generate(args),
         Command::Sky(args) => sky_cmd::run(&args),
+        Command::Spectrum(args) => spectrum_cmd::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -503,3 +503,88 @@ fn a_band_given_by_a_response_file_renders_like_the_same_flat_band() {
     );
     assert!(!d.join("bad.exr").exists());
 }
+
+#[test]
+fn spectrum_writes_what_spectral_renders_give_an_rgb_value() {
+    let d = scratch("spectra", "spectrum-cmd");
+    // White reflects 1 at every wavelength; a green reflects more at 550 nm than at 450 or
+    // 650 nm, and holds its 830 nm value beyond.
+    ok(&lamina(&["spectrum", "--rgb", "1,1,1", "-o", "w.csv"], &d));
+    let w = rows(&d.join("w.csv"));
+    assert_eq!(w.len(), 471);
+    assert!(w.iter().all(|r| (r[1] - 1.0).abs() < 1e-5), "{w:?}");
+    ok(&lamina(
+        &[
+            "spectrum",
+            "--rgb",
+            "0.1,0.5,0.1",
+            "--wavelengths",
+            "450:2450:100",
+            "-o",
+            "g.csv",
+        ],
+        &d,
+    ));
+    let g = rows(&d.join("g.csv"));
+    let at = |nm: f64| g.iter().find(|r| r[0] == nm).unwrap()[1];
+    assert!(
+        at(550.0) > 2.0 * at(450.0) && at(550.0) > 2.0 * at(650.0),
+        "{g:?}"
+    );
+    assert!((at(950.0) - at(2450.0)).abs() < 1e-6);
+    // Light of the D65 shape: Y = ∫ L ȳ dλ = 1 for white (ȳ ≈ 1 at 555 nm, so the spectrum
+    // is near 1/106.9 per nm there); the solar shape carries infrared.
+    ok(&lamina(
+        &[
+            "spectrum",
+            "--rgb",
+            "1,1,1",
+            "--emission",
+            "d65",
+            "-o",
+            "e.csv",
+        ],
+        &d,
+    ));
+    let e = rows(&d.join("e.csv"));
+    let at555 = e.iter().find(|r| r[0] == 555.0).unwrap()[1];
+    assert!((at555 * 106.857 - 1.0).abs() < 0.05, "{at555}");
+    ok(&lamina(
+        &[
+            "spectrum",
+            "--rgb",
+            "1,1,1",
+            "--emission",
+            "solar",
+            "--wavelengths",
+            "1000:1000:1",
+            "-o",
+            "s.csv",
+        ],
+        &d,
+    ));
+    assert!(rows(&d.join("s.csv"))[0][1] > 0.0);
+    // Bad input: named, nothing written.
+    for (args, words) in [
+        (&["--rgb", "1,2"][..], &["--rgb", "three numbers"][..]),
+        (
+            &["--rgb", "1.5,0,0"][..],
+            &["reflectance", "[0, 1]", "--emission"][..],
+        ),
+        (
+            &["--rgb", "1,1,1", "--emission", "d50"][..],
+            &["--emission", "d65 or solar"][..],
+        ),
+        (
+            &["--rgb", "1,1,1", "--wavelengths", "300:900:1"][..],
+            &["--wavelengths", "360-2500"][..],
+        ),
+        (&["--rgb", "nan,0,0"][..], &["--rgb", "finite"][..]),
+    ] {
+        let mut a = vec!["spectrum"];
+        a.extend_from_slice(args);
+        a.extend_from_slice(&["-o", "bad.csv"]);
+        fails(&lamina(&a, &d), words);
+        assert!(!d.join("bad.csv").exists());
+    }
+}

@@ -251,6 +251,19 @@ fn basis(nm: f32) -> Vec3 {
     v / v.element_sum().max(1e-6)
 }
 
+/// The spectrum an RGB reflectance (or any RGB material coefficient) has at `nm` in spectral
+/// renders: `Σ_c rgb_c B_c(λ)` (see the module docs). Band and bin values are its means.
+pub fn rgb_reflectance_at(rgb: Vec3, nm: f32) -> f32 {
+    basis(nm).dot(rgb)
+}
+
+/// The spectral radiance (or irradiance), per nm, of an RGB emission at `nm` when RGB light
+/// takes the shape `illuminant`: [`rgb_reflectance_at`] times the shape, scaled so that an
+/// RGB white of 1 has `∫ L ȳ dλ = 1` over 360-830 nm (see the module docs).
+pub fn rgb_emission_at(rgb: Vec3, nm: f32, illuminant: Illuminant) -> f32 {
+    rgb_reflectance_at(rgb, nm) * illuminant.at(nm) / illuminant.norm()
+}
+
 /// The spectral shape RGB emission takes in bands (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Illuminant {
@@ -371,6 +384,48 @@ mod tests {
 
     fn band(lo: f32, hi: f32) -> Band {
         Band::flat(format!("{lo}-{hi}"), lo, hi)
+    }
+
+    #[test]
+    fn per_wavelength_values_average_to_the_band_values() {
+        let rgb = Vec3::new(0.2, 0.6, 0.1);
+        let e = Vec3::new(3.0, 2.9, 2.7);
+        for (lo, hi) in [
+            (400.0, 450.0),
+            (620.0, 700.0),
+            (800.0, 900.0),
+            (1550.0, 1750.0),
+        ] {
+            let b = band(lo, hi);
+            for ill in [Illuminant::Solar, Illuminant::D65] {
+                let basis = BandBasis::with_illuminant([&b, &b, &b], ill);
+                let n = (hi - lo) as usize;
+                let mean = |f: &dyn Fn(f32) -> f32| {
+                    (0..n).map(|k| f(lo + k as f32 + 0.5)).sum::<f32>() / n as f32
+                };
+                let r = mean(&|nm| rgb_reflectance_at(rgb, nm));
+                let em = mean(&|nm| rgb_emission_at(e, nm, ill));
+                assert!(
+                    (r - basis.reflectance(rgb).x).abs() < 1e-5,
+                    "{lo}-{hi}: {r}"
+                );
+                let want = basis.emission(e).x;
+                assert!(
+                    (em - want).abs() <= 1e-5 * want.max(1e-3),
+                    "{lo}-{hi} {ill:?}: {em} {want}"
+                );
+            }
+        }
+        // White light of 1 has Y = ∫ L ȳ dλ = 1 in either shape.
+        for ill in [Illuminant::Solar, Illuminant::D65] {
+            let y: f32 = (360..830)
+                .map(|k| {
+                    let nm = k as f32 + 0.5;
+                    rgb_emission_at(Vec3::ONE, nm, ill) * cie_xyz_bar(nm).y
+                })
+                .sum();
+            assert!((y - 1.0).abs() < 1e-4, "{ill:?}: {y}");
+        }
     }
 
     #[test]

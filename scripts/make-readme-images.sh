@@ -21,6 +21,8 @@ if [[ $what == all ]]; then
   # Leaves from pigments under a sun placed by time (README, "Leaves from pigments and spectra").
   $lamina render examples/pigment_leaves.toml -o docs/images/pigment_leaves.png --quiet
   $lamina render examples/pigment_leaves_bands.toml -o docs/images/pigment_leaves_nir.png --quiet
+  $lamina render examples/pigment_leaves.toml --set 'film.spectral="visible"' \
+    -o docs/images/pigment_leaves_visible.png --quiet
   # The clear sky (Preetham, turbidity 2.5) at four sun elevations, for lamina-sky's README.
   out=$(mktemp -d)
   cargo run --release -q -p lamina-sky --example sky_images -- "$out"

@@ -1,6 +1,8 @@
-//! Rendering in spectral bands, three at a time: a copy of the scene whose every RGB value
-//! is replaced by its values in three bands ([`lamina_leaf::spectrum::bands`] says how), so
-//! that the RGB integrator, unchanged and at its own speed, renders band `i` in channel `i`.
+//! A scene in three spectral bands (or visible wavelength bins): its every RGB value replaced
+//! by its values in the three ([`lamina_leaf::spectrum::bands`] says how), channel `i` = band
+//! `i`. [`crate::spectral`] makes one such channel set per three bands or bins and carries
+//! them all along each path; the paper integrator renders a copy of the scene made of one
+//! set ([`group_scene`]) through the RGB renderer, three bands at a time.
 //!
 //! * Leaves made from PROSPECT pigments are rebuilt at the three band centres from their
 //!   pigments ([`lamina_leaf::PigmentLeaf::material`]): truly spectral, 400-2500 nm.

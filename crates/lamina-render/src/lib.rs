@@ -14,7 +14,10 @@
 //! * [`materials`]: scene materials to a [`materials::SurfaceBsdf`] at a hit.
 //! * [`shading`]: the shading frame of a hit (interpolated vertex normals, sides decided by
 //!   the geometric normal).
-//! * [`integrators`]: `path` (unidirectional, NEE + MIS + Russian roulette) and `paper`.
+//! * [`integrators`]: `path` (unidirectional, NEE + MIS + Russian roulette), `paper`, and
+//!   `spectral` (the path integrator over several channel sets at once).
+//! * [`bands`]: a scene's materials, lights and sky in three bands or wavelength bins.
+//! * [`spectral`]: `[film] spectral = "visible"` and `[film] bands` renders in one pass.
 //! * [`film`]: pixel filters (importance-sampled) and the sample accumulator.
 //! * [`output`]: EXR / PNG writing with tone maps, atomically (lamina-image's writer).
 //! * [`render`](mod@render): tiles, passes, threads, time limit and cancellation.

@@ -562,9 +562,27 @@ impl LeafMaterial {
             .as_ref()
             .is_some_and(|t| t.texels().iter().any(|v| v.w < 1.0));
         let ranges = [map_range(&maps.thickness), map_range(&maps.extinction)];
-        let pre = Precomputed::new(&params, ranges[0], ranges[1]);
         let packed = PackedMaps::new(&maps);
-        Ok(LeafMaterial {
+        Ok(Self::assemble(
+            maps,
+            params,
+            alpha_from_channel,
+            ranges,
+            packed,
+        ))
+    }
+
+    /// The material from its parts, with the precomputation its parameters and map ranges
+    /// need.
+    fn assemble(
+        maps: LeafMaps,
+        params: LeafParams,
+        alpha_from_channel: bool,
+        ranges: [(f32, f32); 2],
+        packed: Option<PackedMaps>,
+    ) -> Self {
+        let pre = Precomputed::new(&params, ranges[0], ranges[1]);
+        LeafMaterial {
             maps,
             params,
             alpha_from_channel,
@@ -573,7 +591,7 @@ impl LeafMaterial {
             pigment: None,
             ranges,
             channels: None,
-        })
+        }
     }
 
     /// [`Self::new`] for maps that share their data maps (alpha, thickness, extinction,
@@ -610,21 +628,17 @@ impl LeafMaterial {
                 .as_ref()
                 .is_some_and(|t| t.texels().iter().any(|v| v.w < 1.0))
         };
-        let pre = Precomputed::new(&params, ranges[0], ranges[1]);
         let packed = match &like.packed {
             Some(p) => PackedMaps::new_like(&maps, p, &like.maps),
             None => PackedMaps::new(&maps),
         };
-        Ok(LeafMaterial {
+        Ok(Self::assemble(
             maps,
             params,
             alpha_from_channel,
-            pre: Box::new(pre),
-            packed,
-            pigment: None,
             ranges,
-            channels: None,
-        })
+            packed,
+        ))
     }
 
     /// This leaf in other channels (three spectral bands, say): the same maps, shared, not

@@ -219,6 +219,17 @@ pub struct Wavelengths(pub Vec<f32>);
 
 /// Parses `A:B:STEP` (nm) into the wavelengths `A, A + STEP, ... <= B`, inside 400-2500 nm.
 pub fn parse_wavelengths(s: &str) -> Result<Wavelengths, String> {
+    wavelength_grid(s, (400.0, 2500.0), "PROSPECT covers", 2101).map(Wavelengths)
+}
+
+/// `--wavelengths A:B:STEP` (nm) as the wavelengths `A, A + STEP, ... <= B`, with `A` and
+/// `B` inside `range` (the errors say "`covers` LO-HI nm") and at most `max` of them.
+pub fn wavelength_grid(
+    s: &str,
+    range: (f32, f32),
+    covers: &str,
+    max: usize,
+) -> Result<Vec<f32>, String> {
     let parts: Vec<&str> = s.split(':').collect();
     let bad = || format!("--wavelengths '{s}': expected FIRST:LAST:STEP in nm, e.g. 400:2500:10");
     if parts.len() != 3 {
@@ -234,18 +245,19 @@ pub fn parse_wavelengths(s: &str) -> Result<Wavelengths, String> {
             "--wavelengths '{s}': need FIRST <= LAST and STEP > 0"
         ));
     }
-    if a < 400.0 || b > 2500.0 {
+    if a < range.0 || b > range.1 {
         return Err(format!(
-            "--wavelengths '{s}': PROSPECT covers 400-2500 nm; keep FIRST and LAST inside it"
+            "--wavelengths '{s}': {covers} {}-{} nm; keep FIRST and LAST inside it",
+            range.0, range.1
         ));
     }
     let n = ((b - a) / step).floor() as usize + 1;
-    if n > 2101 {
+    if n > max {
         return Err(format!(
-            "--wavelengths '{s}': {n} wavelengths; at most 2101 (1 nm)"
+            "--wavelengths '{s}': {n} wavelengths; at most {max}"
         ));
     }
-    Ok(Wavelengths((0..n).map(|k| a + k as f32 * step).collect()))
+    Ok((0..n).map(|k| a + k as f32 * step).collect())
 }
 
 /// `(nm, R, T)` of a pigment leaf at `nodes`, three wavelengths per material, in parallel.

@@ -69,31 +69,8 @@ fn parse_illuminant(s: &str) -> Result<Illuminant, String> {
 }
 
 fn parse_grid(s: &str) -> Result<Grid, String> {
-    let bad = || format!("--wavelengths '{s}': expected FIRST:LAST:STEP in nm, e.g. 360:830:5");
-    let v: Vec<f32> = s
-        .split(':')
-        .map(|p| p.trim().parse::<f32>().map_err(|_| bad()))
-        .collect::<Result<_, _>>()?;
-    let [a, b, step] = v[..] else {
-        return Err(bad());
-    };
-    if !(a.is_finite() && b.is_finite() && step.is_finite()) || step <= 0.0 || b < a {
-        return Err(format!(
-            "--wavelengths '{s}': need FIRST <= LAST and STEP > 0"
-        ));
-    }
-    if a < 360.0 || b > 2500.0 {
-        return Err(format!(
-            "--wavelengths '{s}': lamina's spectra cover 360-2500 nm; keep FIRST and LAST inside"
-        ));
-    }
-    let n = ((b - a) / step + 1e-4).floor() as usize + 1;
-    if n > 21401 {
-        return Err(format!(
-            "--wavelengths '{s}': {n} wavelengths; at most 21401"
-        ));
-    }
-    Ok(Grid((0..n).map(|k| a + k as f32 * step).collect()))
+    crate::leaf_spectra_cmd::wavelength_grid(s, (360.0, 2500.0), "lamina's spectra cover", 21401)
+        .map(Grid)
 }
 
 /// Runs `lamina spectrum`.

@@ -207,6 +207,13 @@ struct EnergyRow {
     trans: Vec3,
 }
 
+/// Whether the alpha matte is read from its alpha channel: it has one (some texel below 1).
+fn alpha_in_channel(maps: &LeafMaps) -> bool {
+    maps.alpha
+        .as_ref()
+        .is_some_and(|t| t.texels().iter().any(|v| v.w < 1.0))
+}
+
 /// Everything that depends on the parameters and the maps' value ranges, not on the texel.
 #[derive(Clone, Debug)]
 struct Precomputed {
@@ -557,10 +564,7 @@ impl LeafMaterial {
     /// them one by one, with the same results.
     pub fn new(maps: LeafMaps, params: LeafParams) -> Result<Self, LeafError> {
         params.validate()?;
-        let alpha_from_channel = maps
-            .alpha
-            .as_ref()
-            .is_some_and(|t| t.texels().iter().any(|v| v.w < 1.0));
+        let alpha_from_channel = alpha_in_channel(&maps);
         let ranges = [map_range(&maps.thickness), map_range(&maps.extinction)];
         let packed = PackedMaps::new(&maps);
         Ok(Self::assemble(
@@ -624,9 +628,7 @@ impl LeafMaterial {
         let alpha_from_channel = if same(&maps.alpha, &like.maps.alpha) {
             like.alpha_from_channel
         } else {
-            maps.alpha
-                .as_ref()
-                .is_some_and(|t| t.texels().iter().any(|v| v.w < 1.0))
+            alpha_in_channel(&maps)
         };
         let packed = match &like.packed {
             Some(p) => PackedMaps::new_like(&maps, p, &like.maps),

@@ -90,6 +90,13 @@ impl SkySets {
         let factor = (w / SKY_CELLS).max(1);
         let (cw, ch) = (w.div_ceil(factor), h.div_ceil(factor));
         let n = sets.len();
+        let skies = sets
+            .iter()
+            .map(|set| match set.lights.lights.last() {
+                Some(crate::lights::AnyLight::Sky(sky)) => Some(sky),
+                _ => None,
+            })
+            .collect::<Option<Vec<_>>>()?;
         let lum = |t: usize| base.le_texel(Vec3::Y, t as u32).element_sum() / 3.0;
         let mut ratio = vec![Vec3::ZERO; cw * ch * n];
         let mut weight = vec![0.0f32; cw * ch];
@@ -97,10 +104,7 @@ impl SkySets {
             for x in 0..w {
                 let (t, c) = (y * w + x, (y / factor) * cw + x / factor);
                 weight[c] += lum(t);
-                for (j, set) in sets.iter().enumerate() {
-                    let crate::lights::AnyLight::Sky(sky) = set.lights.lights.last()? else {
-                        return None;
-                    };
+                for (j, sky) in skies.iter().enumerate() {
                     ratio[c * n + slot[j]] += sky.le_texel(Vec3::Y, t as u32);
                 }
             }
@@ -118,9 +122,14 @@ impl SkySets {
                 *s = s.max(r.max_element());
             }
         }
+        // The set at each slot.
+        let mut set_at = vec![0usize; n];
+        for (j, &s) in slot.iter().enumerate() {
+            set_at[s] = j;
+        }
         let ratios = (0..cw * ch * n)
             .map(|i| {
-                let j = slot.iter().position(|&s| s == i % n).unwrap_or(0);
+                let j = set_at[i % n];
                 let inv = if scale[j] > 0.0 { 1.0 / scale[j] } else { 0.0 };
                 (ratio[i] * inv).to_array().map(half::f16::from_f32)
             })

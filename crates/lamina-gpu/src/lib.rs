@@ -52,7 +52,7 @@ pub mod sky;
 
 pub use context::{ContextOptions, GpuContext, context_for_tests};
 pub use error::GpuError;
-pub use renderer::{FrameView, RenderSettings, Renderer};
+pub use renderer::{FrameView, MAX_SHADOWED_LIGHTS, RenderSettings, Renderer};
 
 /// Renders `scene` headless at its film size: the GPU counterpart of
 /// `lamina_render::render`. Returns linear radiance and the upload warnings.

@@ -1,10 +1,11 @@
 //! The camera pass: the per-frame globals buffer, the camera pass's group 0 (globals, the
-//! sun's maps, the sky-visibility maps), the HDR and depth targets it draws into (made
-//! for the view's size, kept while the size holds), and the pass itself.
+//! sun's maps, the sky-visibility maps, the local lights' cubes), the HDR and depth targets
+//! it draws into (made for the view's size, kept while the size holds), and the pass itself.
 
 use super::geometry::{DrawList, Geometry};
 use super::layout::{DEPTH_FORMAT, HDR_FORMAT, buffer_entry, texture_2d, view_entry};
 use super::lights::Globals;
+use super::local_shadows::LocalShadows;
 use super::pipelines::ScenePipelines;
 use super::sky_visibility::SkyVisibility;
 use super::sun::SunShadow;
@@ -39,15 +40,14 @@ pub(super) fn globals_buffer(device: &wgpu::Device) -> wgpu::Buffer {
 }
 
 impl CameraPass {
-    /// Binds `globals` with the sun's and the sky's maps.
+    /// Binds `globals` with the sun's, the sky's and the local lights' maps.
     pub fn new(
         device: &wgpu::Device,
         pipelines: &ScenePipelines,
         globals: wgpu::Buffer,
-        sun: &SunShadow,
-        sky: &SkyVisibility,
+        (sun, sky, local): (&SunShadow, &SkyVisibility, &LocalShadows),
     ) -> Self {
-        let (s, k) = (&sun.views, &sky.array_views);
+        let (s, k, c) = (&sun.views, &sky.array_views, &local.array_views);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("main globals"),
             layout: &pipelines.camera_layout,
@@ -62,6 +62,8 @@ impl CameraPass {
                 view_entry(7, &k[1]),
                 view_entry(8, &k[2]),
                 view_entry(9, &k[3]),
+                view_entry(10, &c[0]),
+                view_entry(11, &c[1]),
             ],
         });
         CameraPass {

@@ -1,5 +1,5 @@
 //! Lights and sky as the shader sees them: the per-frame uniform block (camera and light
-//! matrices, the shadowed sun, up to [`MAX_LIGHTS`] unshadowed point and directional
+//! matrices, the shadowed sun, up to [`MAX_LIGHTS`] point, quad, sphere and directional
 //! lights, the sky's SH irradiance) and how scene lights become those.
 //!
 //! The first sun is the shadowed one (its direction may be overridden per frame); further
@@ -7,8 +7,12 @@
 //! unshadowed irradiance (the vector form factor of the polygon, Lambert 1760 / Arvo 1994:
 //! `E = L/2 Σ Θ_k Γ_k` over its edges), one-sided as on the CPU unless `two_sided`; a sphere
 //! light is a point light of intensity `L π R²`, which is exact outside the sphere when all
-//! of it is above the receiver's horizon. None of them casts shadows: [`Lighting::warnings`]
-//! says so, naming the lights, and names the lights past [`MAX_LIGHTS`], which are left out.
+//! of it is above the receiver's horizon. The first [`MAX_SHADOWED_LIGHTS`] point, sphere
+//! and quad lights among those cast shadows through a cube of two-layer translucent maps
+//! baked at load ([`super::local_shadows`]): hard for a point light, soft for a sphere
+//! (its radius) and a quad (the disc of its area) by percentage-closer soft shadows.
+//! [`Lighting::warnings`] names the lights that cast no shadows, the quads whose shadow
+//! stands in for a long one, and the lights past [`MAX_LIGHTS`], which are left out.
 
 use super::FrameView;
 use super::bounds::SceneBounds;
@@ -19,6 +23,13 @@ use lamina_scene::{Light, Scene, Sky};
 
 /// Most lights besides the shadowed sun in the uniform block (`MAX_LIGHTS` in scene.wgsl).
 pub(super) const MAX_LIGHTS: usize = 32;
+
+/// Most point, sphere and quad lights with a cube of shadow maps (12 array layers each).
+pub const MAX_SHADOWED_LIGHTS: usize = 8;
+
+/// A quad light longer than this many times its width is named in a warning: its soft
+/// shadow is drawn as from the disc of its area at its centre.
+const LONG_QUAD: f32 = 3.0;
 
 /// One light in the uniform block (see `Light` in scene.wgsl for the kinds).
 #[repr(C)]
@@ -42,7 +53,12 @@ pub(super) struct Globals {
     /// Direction toward the sun, `w` = 1 when there is a sun.
     pub sun_dir: [f32; 4],
     sun_irr: [f32; 4],
-    shadow: [f32; 4],
+    /// Sun map side (texels), world size of one of its texels (m), its depth range (m),
+    /// side of each cube face of the local lights' maps (texels).
+    pub shadow: [f32; 4],
+    /// For a cube face's light-view pass: the light's centre (m) and the maps' range (m),
+    /// depth being distance over range.
+    pub cube: [f32; 4],
     sky: [[f32; 4]; 9],
     lights: [GpuLight; MAX_LIGHTS],
     counts: [u32; 4],
@@ -57,13 +73,16 @@ pub(super) struct Lighting {
     sky_sh: [Vec3; 9],
     /// Radiance seen where no geometry is (the clear colour), linear RGB W m⁻² sr⁻¹.
     pub background: Vec3,
+    /// Per scene light, its cube of shadow maps (slot), if it has one.
+    pub slots: Vec<Option<u32>>,
     /// What the GPU path does differently from the offline renderer with these lights.
     pub warnings: Vec<String>,
 }
 
 impl Lighting {
-    /// The lights and sky of `scene`.
-    pub fn of(scene: &Scene) -> Self {
+    /// The lights and sky of `scene`, with cubes of shadow maps for at most `cubes` of its
+    /// point, sphere and quad lights (the first ones shaded).
+    pub fn of(scene: &Scene, cubes: usize) -> Self {
         let sky_sh = sky::sky_irradiance_sh(scene.sky.as_ref());
         let background = match &scene.sky {
             None => Vec3::ZERO,
@@ -71,23 +90,41 @@ impl Lighting {
             // The mean radiance: SH band 0 is E = pi * mean.
             Some(Sky::Image { .. }) => sky_sh[0] * 0.282_095 / std::f32::consts::PI,
         };
+        let slots = shadow_slots(&scene.lights, cubes);
         Lighting {
             lights: scene.lights.clone(),
             sky_sh,
             background,
-            warnings: light_warnings(&scene.lights),
+            warnings: light_warnings(&scene.lights, &slots, cubes),
+            slots,
         }
     }
 
+    /// The lights with a cube of shadow maps: (slot, scene light index, centre of the maps).
+    pub fn cubes(&self) -> Vec<(u32, usize, Vec3)> {
+        self.slots
+            .iter()
+            .enumerate()
+            .filter_map(|(i, s)| Some((((*s)?), i, shadow_center(&self.lights[i])?)))
+            .collect()
+    }
+
     /// The uniforms of a frame seen by `view`: depth range from the scene's `bounds`, the
-    /// sun's light matrix around the casters, its maps of side `shadow_size` texels.
-    pub fn globals(&self, view: &FrameView, bounds: &SceneBounds, shadow_size: u32) -> Globals {
+    /// sun's light matrix around the casters, its maps of side `shadow_size` texels, the
+    /// local lights' cube faces of side `cube_size`.
+    pub fn globals(
+        &self,
+        view: &FrameView,
+        bounds: &SceneBounds,
+        shadow_size: u32,
+        cube_size: u32,
+    ) -> Globals {
         let (c, r) = bounds.all;
         let dist = (view.camera.position - c).length();
         let far = (dist + r) * 1.01;
         let near = (dist - r).max(far * 1e-4).max(1e-4);
         let view_proj = camera_matrix(&view.camera, view.width, view.height, near, far);
-        let (lights, n, sun) = self.gpu_lights(view.sun_dir);
+        let (lights, n, sun) = self.gpu_lights(view.sun_dir, bounds);
         let (sc, sr) = bounds.casters;
         let (sun_dir, sun_irr, light_view_proj) = match sun {
             Some((d, e)) => (d.extend(1.0), e.extend(0.0), light_matrix(d, sc, sr)),
@@ -104,23 +141,31 @@ impl Lighting {
             camera_pos: view.camera.position.extend(1.0).to_array(),
             sun_dir: sun_dir.to_array(),
             sun_irr: sun_irr.to_array(),
-            shadow: [size as f32, 2.0 * sr / size as f32, 2.0 * sr, 0.0],
+            shadow: [
+                size as f32,
+                2.0 * sr / size as f32,
+                2.0 * sr,
+                cube_size as f32,
+            ],
+            cube: [0.0; 4],
             sky,
             lights,
             counts: [n as u32, 0, 0, 0],
         }
     }
 
-    /// The unshadowed lights (the first [`MAX_LIGHTS`]), their count, and the shadowed sun
-    /// (unit direction toward it, `sun_dir` if given, and irradiance W m⁻²).
+    /// The lights besides the sun (the first [`MAX_LIGHTS`], with their shadow slots and
+    /// ranges in `bounds`), their count, and the shadowed sun (unit direction toward it,
+    /// `sun_dir` if given, and irradiance W m⁻²).
     fn gpu_lights(
         &self,
         sun_dir: Option<Vec3>,
+        bounds: &SceneBounds,
     ) -> ([GpuLight; MAX_LIGHTS], usize, Option<(Vec3, Vec3)>) {
         let mut lights = [GpuLight::default(); MAX_LIGHTS];
         let mut n = 0usize;
         let mut sun: Option<(Vec3, Vec3)> = None;
-        for l in &self.lights {
+        for (i, l) in self.lights.iter().enumerate() {
             if let Light::Sun {
                 direction,
                 irradiance,
@@ -134,6 +179,11 @@ impl Lighting {
             }
             if n < MAX_LIGHTS {
                 lights[n] = gpu_light(l);
+                lights[n].color[3] = -1.0;
+                if let (Some(slot), Some(c)) = (self.slots[i], shadow_center(l)) {
+                    lights[n].color[3] = slot as f32;
+                    lights[n].u[3] = shadow_range(c, bounds);
+                }
                 n += 1;
             }
         }
@@ -141,11 +191,60 @@ impl Lighting {
     }
 }
 
-/// A scene light as an unshadowed uniform-block light: `pos.w` 0 = directional (toward
-/// the light, irradiance W m⁻²), 1 = point (position m, intensity W sr⁻¹, `u.x` the radius
-/// of a sphere light, inside which the distance is clamped), 2 = one-sided quad and 3 =
+/// Where a light's cube of shadow maps is centred: a point or sphere light's centre, a
+/// quad's middle; `None` for suns (they have no cube).
+pub(super) fn shadow_center(l: &Light) -> Option<Vec3> {
+    match l {
+        Light::Sun { .. } => None,
+        Light::Point { position, .. } => Some(*position),
+        Light::Sphere { center, .. } => Some(*center),
+        Light::Quad {
+            corner,
+            edge_u,
+            edge_v,
+            ..
+        } => Some(*corner + 0.5 * (*edge_u + *edge_v)),
+    }
+}
+
+/// The range (m) of a cube of shadow maps centred at `center`: the farthest any geometry
+/// of `bounds` can be from it, with 1 % to spare.
+pub(super) fn shadow_range(center: Vec3, bounds: &SceneBounds) -> f32 {
+    let (c, r) = bounds.all;
+    ((center - c).length() + r).max(1e-4) * 1.01
+}
+
+/// Which lights get a cube of shadow maps: the first `cubes` point, sphere and quad lights
+/// among those shaded (the first [`MAX_LIGHTS`] besides the first sun), slots in order.
+fn shadow_slots(lights: &[Light], cubes: usize) -> Vec<Option<u32>> {
+    let first_sun = lights.iter().position(|l| matches!(l, Light::Sun { .. }));
+    let mut shaded = 0usize;
+    let mut next = 0u32;
+    lights
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            if Some(i) == first_sun {
+                return None;
+            }
+            shaded += 1;
+            let local = shadow_center(l).is_some();
+            if shaded <= MAX_LIGHTS && local && (next as usize) < cubes {
+                next += 1;
+                Some(next - 1)
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+/// A scene light as a uniform-block light: `pos.w` 0 = directional (toward the light,
+/// irradiance W m⁻²), 1 = point (position m, intensity W sr⁻¹, `u.x` the radius of a
+/// sphere light, inside which the distance is clamped), 2 = one-sided quad and 3 =
 /// two-sided quad (`pos` a corner, `u`, `v` its edges in m, emitting toward `u × v`,
-/// radiance W m⁻² sr⁻¹).
+/// radiance W m⁻² sr⁻¹). [`Lighting::gpu_lights`] adds the shadow slot (`color.w`, -1 for
+/// none) and the cube's range (`u.w`, m).
 fn gpu_light(l: &Light) -> GpuLight {
     let v4 = |v: Vec3, w: f32| v.extend(w).to_array();
     match l {
@@ -204,9 +303,11 @@ fn light_name(i: usize, l: &Light) -> String {
     format!("light {} ({kind})", i + 1)
 }
 
-/// The warnings for `lights` on the GPU path: which cast no shadows there (all but the
-/// first sun), and which are left out (past the first sun and [`MAX_LIGHTS`] others).
-fn light_warnings(lights: &[Light]) -> Vec<String> {
+/// The warnings for `lights` on the GPU path, given their shadow `slots` and the `cubes`
+/// allowed: which cast no shadows there (suns but the first, local lights past the cubes),
+/// which long quads cast the shadow of a disc, and which are left out (past the first sun
+/// and [`MAX_LIGHTS`] others).
+fn light_warnings(lights: &[Light], slots: &[Option<u32>], cubes: usize) -> Vec<String> {
     let first_sun = lights.iter().position(|l| matches!(l, Light::Sun { .. }));
     let others: Vec<(usize, &Light)> = lights
         .iter()
@@ -220,16 +321,44 @@ fn light_warnings(lights: &[Light]) -> Vec<String> {
             .join(", ")
     };
     let shaded = &others[..others.len().min(MAX_LIGHTS)];
+    let (suns, locals): (Vec<_>, Vec<_>) = shaded
+        .iter()
+        .filter(|(i, _)| slots[*i].is_none())
+        .partition(|(_, l)| matches!(l, Light::Sun { .. }));
     let mut out = Vec::new();
-    if !shaded.is_empty() {
-        let one = shaded.len() == 1;
-        out.push(format!(
-            "{} cast{} no shadows on the GPU path (only the first sun does): what the \
-             offline renderer shows in {} shadow is lit here",
-            names(shaded),
+    let unshadowed = |ls: &[(usize, &Light)], why: &str| {
+        let one = ls.len() == 1;
+        format!(
+            "{} cast{} no shadows on the GPU path ({why}): what the offline renderer shows in \
+             {} shadow is lit here",
+            names(ls),
             if one { "s" } else { "" },
             if one { "its" } else { "their" }
-        ));
+        )
+    };
+    if !suns.is_empty() {
+        out.push(unshadowed(&suns, "only the first sun does"));
+    }
+    if !locals.is_empty() {
+        let why = if cubes == 0 {
+            "shadows of point, sphere and quad lights are off".to_string()
+        } else {
+            format!("it shadows the first {cubes} point, sphere and quad lights")
+        };
+        out.push(unshadowed(&locals, &why));
+    }
+    for (i, l) in shaded {
+        if let (Some(_), Light::Quad { edge_u, edge_v, .. }) = (slots[*i], l) {
+            let (a, b) = (edge_u.length(), edge_v.length());
+            let ratio = a.max(b) / a.min(b).max(1e-12);
+            if ratio > LONG_QUAD {
+                out.push(format!(
+                    "{} is {ratio:.1} times longer than wide: its soft shadow on the GPU \
+                     path is drawn as from a disc of its area at its centre",
+                    light_name(*i, l)
+                ));
+            }
+        }
     }
     if others.len() > MAX_LIGHTS {
         out.push(format!(

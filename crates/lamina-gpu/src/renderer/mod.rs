@@ -12,16 +12,20 @@
 //!    share scaled by the form factor `a² / (a² + d²)` of its card (radius `a`) seen from
 //!    `d` behind it, since a leaf passes light on diffusely.
 //! 3. **Camera** (`fs_main`): every mesh and instance with the alpha test, shaded with the
-//!    baked leaf model ([`crate::bake`]), the sun through the transmittance map, unshadowed
-//!    point and extra directional lights, and the SH sky ([`crate::sky`]) scaled by the
-//!    sky visibility baked at load. Output: linear radiance in an RGBA16F target.
+//!    baked leaf model ([`crate::bake`]), the sun through the transmittance map, point,
+//!    sphere and quad lights through their cubes of maps, extra directional lights, and the
+//!    SH sky ([`crate::sky`]) scaled by the sky visibility baked at load. Output: linear
+//!    radiance in an RGBA16F target.
 //!
 //! Quad lights are shaded by their exact unshadowed irradiance (one-sided unless
-//! `two_sided`), sphere lights as point lights (exact outside them), see [`lights`]. Only
-//! the first sun casts shadows; the others are named in [`Renderer::warnings`], as are the
-//! lights past the first sun and 32 others, which are left out. Determinism: the same scene
-//! and view give the same image on the same device and driver (no randomness; the draw
-//! lists keep instance order within each LOD bucket).
+//! `two_sided`), sphere lights as point lights (exact outside them), see [`lights`]; the
+//! first [`MAX_SHADOWED_LIGHTS`] of them are shadowed, through two-layer translucent cube
+//! maps baked at load (`local_shadows.rs`): hard shadows for point lights, soft ones for
+//! spheres and quads. Suns after the first and local lights past those cast no shadows;
+//! they are named in [`Renderer::warnings`], as are the lights past the first sun and 32
+//! others, which are left out. Determinism: the same scene and view give the same image on
+//! the same device and driver (the soft-shadow taps rotate with the pixel, not at random;
+//! the draw lists keep instance order within each LOD bucket).
 //!
 //! The rooms, in the order [`Renderer::new`] fills them:
 //! * `materials`: baked materials uploaded as group 1 of every pass;
@@ -30,6 +34,8 @@
 //! * `pipelines`: the scene shader's three pipelines and their group-0 layouts;
 //! * `sun`: the sun's two-layer maps, redrawn every frame;
 //! * `sky_visibility`: the sky's two-layer maps per direction, baked once;
+//! * `local_shadows`: the cubes of two-layer maps of point, sphere and quad lights, baked
+//!   once;
 //! * `camera`: the globals buffer, the camera pass and its HDR/depth targets;
 //! * `post`: tone map and overlay;
 //! * `lights`: scene lights and sky as the per-frame uniforms, and the light warnings;
@@ -44,6 +50,7 @@ mod geometry;
 mod half;
 mod layout;
 mod lights;
+mod local_shadows;
 mod lod;
 mod materials;
 mod pipelines;
@@ -54,6 +61,7 @@ mod sky_visibility;
 mod sun;
 mod timing;
 
+pub use lights::MAX_SHADOWED_LIGHTS;
 pub use post::OVERLAY_SIZE;
 pub use projection::{camera_matrix, sphere_directions};
 pub use sky_visibility::MAX_SKY_DIRS;
@@ -69,6 +77,7 @@ use glam::Vec3;
 use lamina_image::Image;
 use lamina_scene::{Camera, Film, Light, Scene};
 use lights::{Globals, Lighting};
+use local_shadows::LocalShadows;
 use materials::Materials;
 use pipelines::ScenePipelines;
 use post::PostProcess;
@@ -108,6 +117,10 @@ pub struct RenderSettings {
     /// of the image (before supersampling), below which a plant's leaves thin out (the
     /// survivors grow so that its leaf area is kept). 0 draws every leaf.
     pub lod_pixels: f32,
+    /// Side of each cube face of the shadow maps of point, sphere and quad lights, in
+    /// texels (12 MiB per light at 512: six faces, two layers of depth and transmittance).
+    /// 0 turns their shadows off (each such light is then named in a warning).
+    pub local_shadow_size: u32,
 }
 
 impl Default for RenderSettings {
@@ -118,6 +131,7 @@ impl Default for RenderSettings {
             sky_directions: 16,
             sky_map_size: 512,
             lod_pixels: 1.0,
+            local_shadow_size: 512,
         }
     }
 }
@@ -144,6 +158,7 @@ pub struct Renderer {
     pipelines: ScenePipelines,
     sun: SunShadow,
     sky_visibility: SkyVisibility,
+    local_shadows: LocalShadows,
     camera: CameraPass,
     post: PostProcess,
     lighting: Lighting,
@@ -181,8 +196,21 @@ impl Renderer {
             settings.sky_map_size.clamp(16, ctx.max_texture_dim),
             settings.sky_directions.clamp(1, MAX_SKY_DIRS as u32),
         );
-        let camera = CameraPass::new(device, &pipelines, globals, &sun, &sky_visibility);
-        let lighting = Lighting::of(scene);
+        let cube_size = settings.local_shadow_size.min(ctx.max_texture_dim);
+        let cubes = if cube_size == 0 {
+            0
+        } else {
+            // Array layers: 12 per light.
+            MAX_SHADOWED_LIGHTS.min(ctx.device.limits().max_texture_array_layers as usize / 12)
+        };
+        let lighting = Lighting::of(scene, cubes);
+        let local_shadows = LocalShadows::new(device, cube_size, lighting.cubes().len());
+        let camera = CameraPass::new(
+            device,
+            &pipelines,
+            globals,
+            (&sun, &sky_visibility, &local_shadows),
+        );
         let mut warnings = warnings;
         warnings.extend(lighting.warnings.iter().cloned());
         if geometry.culling.is_none() && geometry.lod_elements > 0 {
@@ -200,6 +228,7 @@ impl Renderer {
             pipelines,
             sun,
             sky_visibility,
+            local_shadows,
             camera,
             post: PostProcess::new(device, post_module),
             lighting,
@@ -211,7 +240,41 @@ impl Renderer {
             post_target: None,
         };
         renderer.bake_sky_visibility()?;
+        renderer.bake_local_shadows()?;
         Ok(renderer)
+    }
+
+    /// Renders the cubes of shadow maps of the shadowed point, sphere and quad lights
+    /// (once: lights and geometry are static).
+    fn bake_local_shadows(&self) -> Result<(), GpuError> {
+        let cubes: Vec<(u32, Vec3)> = self
+            .lighting
+            .cubes()
+            .into_iter()
+            .map(|(slot, _, c)| (slot, c))
+            .collect();
+        if cubes.is_empty() {
+            return Ok(());
+        }
+        let base = self.globals(&FrameView {
+            camera: self.scene_camera,
+            sun_dir: None,
+            width: 1,
+            height: 1,
+        });
+        self.local_shadows.bake(
+            &self.ctx,
+            &cubes,
+            &self.bounds,
+            base,
+            self.settings.lod_pixels,
+            (&self.pipelines, &self.geometry, &self.materials.groups),
+        )
+    }
+
+    /// GPU memory of the shadow maps of point, sphere and quad lights, bytes.
+    pub fn local_shadow_bytes(&self) -> u64 {
+        self.local_shadows.bytes()
     }
 
     /// Renders the sky-visibility maps (once: geometry and sky are static) for
@@ -305,7 +368,8 @@ impl Renderer {
     }
 
     fn globals(&self, view: &FrameView) -> Globals {
-        self.lighting.globals(view, &self.bounds, self.sun.size)
+        self.lighting
+            .globals(view, &self.bounds, self.sun.size, self.local_shadows.size)
     }
 
     /// Records the three scene passes for `view` into `encoder`, rendering into the

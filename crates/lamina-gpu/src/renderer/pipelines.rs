@@ -1,5 +1,5 @@
-//! The scene shader's three render pipelines (sun/sky light view layer 1 and layer 2, the
-//! camera) and the layouts of their group 0 (group 1 is the material,
+//! The scene shader's five render pipelines (sun/sky light view layer 1 and layer 2, the
+//! local lights' cube faces layer 1 and layer 2, the camera) and the layouts of their group 0 (group 1 is the material,
 //! [`super::materials`]; group 2 the instances, [`super::geometry`]).
 
 use super::geometry::vertex_layouts;
@@ -14,12 +14,17 @@ use crate::error::GpuError;
 pub(super) struct ScenePipelines {
     /// Group 0 of the light-view passes: the globals and the depth map to peel behind.
     pub shadow_layout: wgpu::BindGroupLayout,
-    /// Group 0 of the camera pass: the globals, the sun's maps, the sky-visibility maps.
+    /// Group 0 of the camera pass: the globals, the sun's maps, the sky-visibility maps,
+    /// the local lights' cubes.
     pub camera_layout: wgpu::BindGroupLayout,
     /// Light view, layer 1 (`fs_shadow_first`): nearest occluder.
     pub shadow_first: wgpu::RenderPipeline,
     /// Light view, layer 2 (`fs_shadow_peel`): the next occluder behind layer 1.
     pub shadow_peel: wgpu::RenderPipeline,
+    /// A local light's cube face, layer 1 (`fs_cube_first`): depth is distance over range.
+    pub cube_first: wgpu::RenderPipeline,
+    /// A local light's cube face, layer 2 (`fs_cube_peel`).
+    pub cube_peel: wgpu::RenderPipeline,
     /// The camera pass (`fs_main`) into the HDR target.
     pub camera: wgpu::RenderPipeline,
 }
@@ -48,23 +53,15 @@ impl ScenePipelines {
                 color,
             )
         };
-        let (shadow_first, shadow_peel, camera) =
+        let light_view =
+            |label: &str, fs| make(label, &shadow_layout, "vs_shadow", fs, SHADOW_COLOR_FORMAT);
+        let (shadow_first, shadow_peel, cube_first, cube_peel, camera) =
             ctx.validated("building the render pipelines", || {
                 (
-                    make(
-                        "shadow layer 1",
-                        &shadow_layout,
-                        "vs_shadow",
-                        "fs_shadow_first",
-                        SHADOW_COLOR_FORMAT,
-                    ),
-                    make(
-                        "shadow layer 2",
-                        &shadow_layout,
-                        "vs_shadow",
-                        "fs_shadow_peel",
-                        SHADOW_COLOR_FORMAT,
-                    ),
+                    light_view("shadow layer 1", "fs_shadow_first"),
+                    light_view("shadow layer 2", "fs_shadow_peel"),
+                    light_view("cube face layer 1", "fs_cube_first"),
+                    light_view("cube face layer 2", "fs_cube_peel"),
                     make("camera", &camera_layout, "vs_main", "fs_main", HDR_FORMAT),
                 )
             })?;
@@ -73,6 +70,8 @@ impl ScenePipelines {
             camera_layout,
             shadow_first,
             shadow_peel,
+            cube_first,
+            cube_peel,
             camera,
         })
     }
@@ -92,6 +91,8 @@ fn camera_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             tex_entry(7, DEPTH, D2_ARRAY),
             tex_entry(8, UNFILTERED, D2_ARRAY),
             tex_entry(9, UNFILTERED, D2_ARRAY),
+            tex_entry(10, DEPTH, D2_ARRAY),
+            tex_entry(11, UNFILTERED, D2_ARRAY),
         ],
     })
 }

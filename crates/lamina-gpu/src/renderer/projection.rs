@@ -25,6 +25,54 @@ pub(super) fn light_matrix(dir: Vec3, c: Vec3, r: f32) -> Mat4 {
     orthographic(r, r, 3.0 * r) * look_at(c + dir * (2.0 * r), c, up)
 }
 
+/// The six faces of a light's cube of shadow maps, `+x -x +y -y +z -z` in that order: the
+/// axis each looks along (`forward`) and its `up`; its `right` is `forward x up`.
+/// `cube_face` and `cube_axes` in scene.wgsl are the same table.
+pub(super) const CUBE_FACES: [(Vec3, Vec3); 6] = [
+    (Vec3::X, Vec3::Y),
+    (Vec3::NEG_X, Vec3::Y),
+    (Vec3::Y, Vec3::Z),
+    (Vec3::NEG_Y, Vec3::Z),
+    (Vec3::Z, Vec3::Y),
+    (Vec3::NEG_Z, Vec3::Y),
+];
+
+/// World-to-clip matrix of face `face` of the cube around `center` (a 90° square view
+/// along [`CUBE_FACES`]`[face]`, depth 0..1 from `range * 1e-4` to `range`): a point
+/// `w` from the centre lands at `x = w.right / w.forward`, `y = w.up / w.forward` in
+/// normalised device coordinates (what [`cube_lookup`] computes).
+pub(super) fn cube_face_matrix(face: usize, center: Vec3, range: f32) -> Mat4 {
+    let (f, u) = CUBE_FACES[face];
+    let s = f.cross(u);
+    let view = Mat4::from_cols(
+        glam::Vec4::new(s.x, u.x, -f.x, 0.0),
+        glam::Vec4::new(s.y, u.y, -f.y, 0.0),
+        glam::Vec4::new(s.z, u.z, -f.z, 0.0),
+        glam::Vec4::new(-s.dot(center), -u.dot(center), f.dot(center), 1.0),
+    );
+    perspective(std::f32::consts::FRAC_PI_2, 1.0, range * 1e-4, range) * view
+}
+
+/// The cube face a direction `w` (from the cube's centre, non-zero) falls on and its
+/// normalised device coordinates there (each in -1..1), as scene.wgsl's `cube_face` and
+/// `cube_texel` find them (the shader's mirror, for the test against the matrices).
+#[cfg(test)]
+fn cube_lookup(w: Vec3) -> (usize, f32, f32) {
+    let a = w.abs();
+    let face = if a.x >= a.y && a.x >= a.z {
+        if w.x >= 0.0 { 0 } else { 1 }
+    } else if a.y >= a.z {
+        if w.y >= 0.0 { 2 } else { 3 }
+    } else if w.z >= 0.0 {
+        4
+    } else {
+        5
+    };
+    let (f, u) = CUBE_FACES[face];
+    let z = w.dot(f);
+    (face, w.dot(f.cross(u)) / z, w.dot(u) / z)
+}
+
 /// Right-handed view matrix: camera at `eye` looking at `center`, `-z` forward.
 fn look_at(eye: Vec3, center: Vec3, up: Vec3) -> Mat4 {
     let f = (center - eye).normalize();
@@ -95,5 +143,43 @@ mod tests {
         let v = look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y);
         assert!((v.transform_point3(Vec3::ZERO) - Vec3::new(0.0, 0.0, -5.0)).length() < 1e-6);
         assert!(v.transform_vector3(Vec3::X).x > 0.99);
+    }
+
+    /// The shader's face lookup (mirrored by `cube_lookup`) lands every direction where the
+    /// face's matrix, which the cube's maps are rendered with, puts it: on that face, inside
+    /// its square, in front of the light.
+    #[test]
+    fn cube_lookup_matches_the_face_matrices() {
+        let center = Vec3::new(0.3, -1.2, 2.0);
+        let range = 7.0;
+        let mut seed = 1u32;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+        };
+        for _ in 0..2000 {
+            let w = Vec3::new(rnd(), rnd(), rnd()) * 3.0;
+            if w.length() < 1e-3 {
+                continue;
+            }
+            let (face, x, y) = cube_lookup(w);
+            assert!(
+                x.abs() <= 1.0 + 1e-5 && y.abs() <= 1.0 + 1e-5,
+                "{w} {x} {y}"
+            );
+            let c = cube_face_matrix(face, center, range) * (center + w).extend(1.0);
+            let ndc = c.truncate() / c.w;
+            assert!(c.w > 0.0, "{w}: behind face {face}");
+            assert!(
+                (ndc.x - x).abs() < 1e-4 && (ndc.y - y).abs() < 1e-4,
+                "{w}: {ndc} vs {x} {y}"
+            );
+            assert!(ndc.z > 0.0 && ndc.z < 1.0, "{w}: depth {}", ndc.z);
+        }
+        // Every face of the table is used and its axes are perpendicular.
+        for (k, (f, u)) in CUBE_FACES.iter().enumerate() {
+            assert_eq!(cube_lookup(*f).0, k);
+            assert!(f.dot(*u).abs() < 1e-6);
+        }
     }
 }

@@ -11,12 +11,13 @@
 const PI: f32 = 3.14159265;
 const MAX_LIGHTS: u32 = 32u;
 
-// One unshadowed light (Rust: `lights::GpuLight`). `pos.w == 0`: directional, `pos.xyz`
-// toward the light, `color` = irradiance at normal incidence (W m^-2). `pos.w == 1`: point
-// light at `pos.xyz`, `color` = radiant intensity (W sr^-1), `u.x` the radius of a sphere
-// light (distances clamped to it). `pos.w == 2` (one-sided) or `3` (two-sided): a quad with
-// corner `pos.xyz` and edges `u.xyz`, `v.xyz`, emitting toward `u x v`, `color` = radiance
-// (W m^-2 sr^-1).
+// One light besides the shadowed sun (Rust: `lights::GpuLight`). `pos.w == 0`:
+// directional, `pos.xyz` toward the light, `color.rgb` = irradiance at normal incidence
+// (W m^-2). `pos.w == 1`: point light at `pos.xyz`, `color.rgb` = radiant intensity
+// (W sr^-1), `u.x` the radius of a sphere light (distances clamped to it). `pos.w == 2`
+// (one-sided) or `3` (two-sided): a quad with corner `pos.xyz` and edges `u.xyz`, `v.xyz`,
+// emitting toward `u x v`, `color.rgb` = radiance (W m^-2 sr^-1). `color.w`: the slot of
+// its cube of shadow maps (-1: none); `u.w`: that cube's range (m).
 struct Light {
     pos: vec4<f32>,
     color: vec4<f32>,
@@ -37,8 +38,11 @@ struct Globals {
     // The shadowed sun's irradiance at normal incidence (W m^-2, linear RGB).
     sun_irr: vec4<f32>,
     // x: shadow map side (texels); y: world size of one shadow texel (m);
-    // z: depth range of the shadow camera (m); w: unused.
+    // z: depth range of the shadow camera (m); w: side of a local light's cube face (texels).
     shadow: vec4<f32>,
+    // Only in a cube face's light-view pass: the light's centre (m, xyz) and the cube's
+    // range (m, w); its depth is the distance from the centre over the range.
+    cube: vec4<f32>,
     // Sky irradiance as 9 SH coefficients (bands 0-2), E(n) = sum c_k Y_k(n), W m^-2.
     sky: array<vec4<f32>, 9>,
     lights: array<Light, 32>,
@@ -82,6 +86,13 @@ struct SkyVis {
 @group(0) @binding(7) var sky_d2: texture_depth_2d_array;
 @group(0) @binding(8) var sky_c1: texture_2d_array<f32>;
 @group(0) @binding(9) var sky_c2: texture_2d_array<f32>;
+
+// The cubes of two-layer maps of shadowed point, sphere and quad lights (baked once, see
+// local_shadows.rs): layer (slot * 6 + face) * 2 + l holds layer l (0: nearest occluder,
+// 1: the next behind it) of a face: depth = distance from the light's centre / range, and
+// the transmittance colour with the card radius (a).
+@group(0) @binding(10) var local_d: texture_depth_2d_array;
+@group(0) @binding(11) var local_c: texture_2d_array<f32>;
 
 // Material maps baked from lamina-leaf (see bake.rs): white-sky albedos, sRGB-encoded
 // 8-bit, sampled as linear. front.a = alpha matte.
@@ -206,6 +217,45 @@ fn fs_shadow_peel(in: VOut) -> @location(0) vec4<f32> {
         discard;
     }
     return vec4<f32>(t, mat.shape.x);
+}
+
+// Cube faces of a local light: the same two layers, with depth the distance from the
+// light's centre over the cube's range (linear, the same on every face).
+struct CubeOut {
+    @location(0) color: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+}
+
+fn cube_depth(p: vec3<f32>) -> f32 {
+    return clamp(length(p - g.cube.xyz) / g.cube.w, 0.0, 1.0);
+}
+
+@fragment
+fn fs_cube_first(in: VOut) -> CubeOut {
+    let uv = map_uv(in.uv);
+    if textureSample(t_front, s_map, uv).a < 0.5 {
+        discard;
+    }
+    var o: CubeOut;
+    o.color = vec4<f32>(textureSample(t_trans, s_map, uv).rgb, mat.shape.x);
+    o.depth = cube_depth(in.world);
+    return o;
+}
+
+@fragment
+fn fs_cube_peel(in: VOut) -> CubeOut {
+    let uv = map_uv(in.uv);
+    let a = textureSample(t_front, s_map, uv).a;
+    let t = textureSample(t_trans, s_map, uv).rgb;
+    let d = cube_depth(in.world);
+    let d1 = textureLoad(shadow_d1, vec2<i32>(in.clip.xy), 0);
+    if a < 0.5 || d <= d1 + 1e-6 {
+        discard;
+    }
+    var o: CubeOut;
+    o.color = vec4<f32>(t, mat.shape.x);
+    o.depth = d;
+    return o;
 }
 
 // ---------------------------------------------------------------------------------
@@ -395,6 +445,122 @@ fn sun_transmittance(p: vec3<f32>, n_l: vec3<f32>) -> vec3<f32> {
     return acc / 9.0;
 }
 
+// The cube face (0..5: +x -x +y -y +z -z) that direction `w` from a light falls on
+// (Rust: projection::cube_lookup, whose test checks it against the faces' matrices).
+fn cube_face(w: vec3<f32>) -> u32 {
+    let a = abs(w);
+    if a.x >= a.y && a.x >= a.z {
+        return select(1u, 0u, w.x >= 0.0);
+    }
+    if a.y >= a.z {
+        return select(3u, 2u, w.y >= 0.0);
+    }
+    return select(5u, 4u, w.z >= 0.0);
+}
+
+// The texel of a cube face of side `size` that direction `w` from the light falls on
+// (face `f`: forward axis, up = +z for the y faces and +y otherwise, right = forward x up).
+fn cube_texel(w: vec3<f32>, f: u32, size: f32) -> vec2<i32> {
+    var fwd = vec3<f32>(0.0);
+    fwd[f / 2u] = select(-1.0, 1.0, (f & 1u) == 0u);
+    let up = select(vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0), f / 2u == 1u);
+    let z = dot(w, fwd);
+    let x = dot(w, cross(fwd, up)) / z;
+    let y = dot(w, up) / z;
+    let tc = vec2<f32>(x * 0.5 + 0.5, 0.5 - y * 0.5) * size;
+    return clamp(vec2<i32>(floor(tc)), vec2<i32>(0), vec2<i32>(i32(size) - 1));
+}
+
+// One tap of a cube: the light (per RGB channel) passed to normalised distance `dr` along
+// direction `w`, through none, one or two leaves (as `sun_transmittance`); `base` the
+// cube's first array layer, `range` its range (m), `bias` the depth tolerance.
+fn cube_tap(base: i32, w: vec3<f32>, dr: f32, bias: f32, range: f32) -> vec3<f32> {
+    let size = g.shadow.w;
+    let f = cube_face(w);
+    let t = cube_texel(w, f, size);
+    let l = base + 2 * i32(f);
+    let d1 = textureLoad(local_d, t, l, 0);
+    if dr <= d1 + bias {
+        return vec3<f32>(1.0);
+    }
+    let c1 = textureLoad(local_c, t, l, 0);
+    let d2 = textureLoad(local_d, t, l + 1, 0);
+    if dr <= d2 + bias {
+        return passed(c1, (dr - d1) * range);
+    }
+    let c2 = textureLoad(local_c, t, l + 1, 0);
+    return passed(c1, (d2 - d1) * range) * passed(c2, (dr - d2) * range);
+}
+
+// Tap k of n on a Vogel disc of unit radius turned by `turn` (radians).
+fn vogel(k: i32, n: i32, turn: f32) -> vec2<f32> {
+    let r = sqrt((f32(k) + 0.5) / f32(n));
+    let phi = f32(k) * 2.39996323 + turn;
+    return r * vec2<f32>(cos(phi), sin(phi));
+}
+
+const CUBE_TAPS: i32 = 16;
+
+// Fraction of a local light's light (per RGB channel, through leaves) reaching world point
+// `p` with unit normal `n_l` on the light's side, from the light's cube (slot
+// `li.color.w`, range `li.u.w`) centred at `center`; `radius` the light's size (0 for a
+// point light). Percentage-closer filtering over 16 taps of a Vogel disc, turned per pixel
+// (`pix`, interleaved gradient noise) so that its pattern averages out; for a light with a
+// size, percentage-closer soft shadows: a blocker search over the directions whose
+// occluders can hide part of the light, then a filter as wide as the penumbra
+// radius (d_r - d_b) / (d_r d_b) (radians), d_b the blockers' mean distance. The point is
+// offset 1.5 texels along the normal, as for the sun.
+fn local_transmittance(li: Light, center: vec3<f32>, radius: f32, p: vec3<f32>, n_l: vec3<f32>, pix: vec2<f32>) -> vec3<f32> {
+    let slot = i32(li.color.w);
+    if slot < 0 {
+        return vec3<f32>(1.0);
+    }
+    let range = li.u.w;
+    // A texel's angle (rad) at a face's centre.
+    let texel = 2.0 / g.shadow.w;
+    let q = p + n_l * (1.5 * texel * length(p - center));
+    let w = q - center;
+    let dq = max(length(w), 1e-6);
+    let dr = dq / range;
+    let bias = 2.0 * texel * dr;
+    let wn = w / dq;
+    let a = select(vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(1.0, 0.0, 0.0), abs(wn.y) > 0.9);
+    let t1 = normalize(cross(wn, a));
+    let t2 = cross(wn, t1);
+    let turn = 6.2831853 * fract(52.9829189 * fract(dot(pix, vec2<f32>(0.06711056, 0.00583715))));
+    let base = slot * 12;
+    let widest = 24.0 * texel;
+    var width = 1.0 * texel;
+    if radius > 0.0 {
+        // Occluders at a third of the way or farther from the light hide part of it within
+        // 2 R / d_r of the receiver's direction.
+        let search = clamp(2.0 * radius / dq, 1.5 * texel, widest);
+        var sum = 0.0;
+        var found = 0.0;
+        for (var k = 0; k < CUBE_TAPS; k++) {
+            let o = vogel(k, CUBE_TAPS, turn) * search;
+            let d = wn + t1 * o.x + t2 * o.y;
+            let f = cube_face(d);
+            let d1 = textureLoad(local_d, cube_texel(d, f, g.shadow.w), base + 2 * i32(f), 0);
+            if dr > d1 + bias {
+                sum += d1;
+                found += 1.0;
+            }
+        }
+        if found == 0.0 {
+            return vec3<f32>(1.0);
+        }
+        let db = max(sum / found * range, 1e-6);
+        width = clamp(radius * (dq - db) / (dq * db), texel, widest);
+    }
+    var acc = vec3<f32>(0.0);
+    for (var k = 0; k < CUBE_TAPS; k++) {
+        let o = vogel(k, CUBE_TAPS, turn) * width;
+        acc += cube_tap(base, wn + t1 * o.x + t2 * o.y, dr, bias, range);
+    }
+    return acc / f32(CUBE_TAPS);
+}
+
 // Fraction of the sky (per RGB channel, through leaves) seen by the two faces of the
 // surface at `p` with unit normal `n`: `.front` for the face `n` points to, `.back` for the
 // other, each the cosine-weighted mean over the baked directions on its side of the
@@ -579,14 +745,23 @@ fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) 
         } else if li.pos.w < 1.5 {
             let d = li.pos.xyz - in.world;
             let r2 = max(dot(d, d), max(li.u.x * li.u.x, 1e-8));
-            col += bsdf_cos(s, normalize(d)) * li.color.rgb / r2;
+            let l = normalize(d);
+            let n_l = select(-s.ng, s.ng, dot(s.ng, l) >= 0.0);
+            let vis = local_transmittance(li, li.pos.xyz, li.u.x, in.world, n_l, in.clip.xy);
+            col += bsdf_cos(s, l) * li.color.rgb / r2 * vis;
         } else {
             // The quad's irradiance vector: its direction is where the light comes from on
-            // average, its length the irradiance at normal incidence.
+            // average, its length the irradiance at normal incidence. Its shadow: from its
+            // centre, soft as from the disc of its area.
             let e = quad_irradiance(li, in.world);
             let m = length(e);
             if m > 1e-12 {
-                col += bsdf_cos(s, e / m) * li.color.rgb * m;
+                let l = e / m;
+                let n_l = select(-s.ng, s.ng, dot(s.ng, l) >= 0.0);
+                let c = li.pos.xyz + 0.5 * (li.u.xyz + li.v.xyz);
+                let r = sqrt(length(cross(li.u.xyz, li.v.xyz)) / PI);
+                let vis = local_transmittance(li, c, r, in.world, n_l, in.clip.xy);
+                col += bsdf_cos(s, l) * li.color.rgb * m * vis;
             }
         }
     }

@@ -255,8 +255,8 @@ fn quad_and_point_lights_agree_with_the_offline_renderer() {
 }
 
 /// Lights the GPU path cannot shadow or shade are named in the renderer's warnings: past
-/// the lights with shadow maps (the first 8 point, sphere and quad lights) they cast no
-/// shadows, past the first sun and 32 others they are left out.
+/// the lights with shadow maps (the first 8 besides the first sun) they cast no shadows,
+/// past the first sun and 32 others they are left out.
 #[test]
 fn unshadowed_and_dropped_lights_are_named() {
     let Some(ctx) = context(&ContextOptions::default()) else {

@@ -16,9 +16,9 @@ fn context() -> Option<GpuContext> {
 }
 
 /// The demo's leaf lying flat (adaxial side up) `0.75 h` above the studio ground (`h` the
-/// leaf's length), seen obliquely from the front, lit by `light` alone (no sun, no sky),
-/// which stands above and behind it so that its shadow falls forward onto the ground.
-fn flat_leaf_under(light: Light, size: u32) -> Scene {
+/// leaf's length), seen obliquely from the front, lit by `lights` alone (no sky), which
+/// stand above and behind it so that its shadow falls forward onto the ground.
+fn flat_leaf_under(lights: Vec<Light>, size: u32) -> Scene {
     let (_, mut scene) = common::demo_scenes(size, 1).remove(0);
     let h = common::demo_leaf().size_m.y;
     let q = Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2);
@@ -37,7 +37,7 @@ fn flat_leaf_under(light: Light, size: u32) -> Scene {
     scene.camera.focus_distance = (scene.camera.position - scene.camera.look_at).length();
     scene.camera.fov_deg = 50.0;
     scene.sky = None;
-    scene.lights = vec![light];
+    scene.lights = lights;
     scene
 }
 
@@ -46,37 +46,51 @@ const LIGHT_AT: Vec3 = Vec3::new(0.25, 1.5, -0.5);
 /// Their intensity (W sr⁻¹) per h², the same for each kind.
 const INTENSITY: f32 = 16.0;
 
-fn lights(h: f32) -> Vec<(&'static str, Light)> {
+/// The cases: a point light, a sphere light, a quad light (each alone) and a second sun (a
+/// weak first sun from the front-left, the second from where the others stand).
+fn lights(h: f32) -> Vec<(&'static str, Vec<Light>)> {
     let c = LIGHT_AT * h;
     let i = INTENSITY * h * h;
     let side = 0.5 * h;
     let r = 0.25 * h;
+    let sun = |direction: Vec3, e: f32| Light::Sun {
+        direction: direction.normalize(),
+        irradiance: Vec3::splat(e),
+        angular_diameter_deg: 0.53,
+    };
     vec![
         (
             "point",
-            Light::Point {
+            vec![Light::Point {
                 position: c,
                 intensity: Vec3::splat(i),
-            },
+            }],
         ),
         (
             "sphere",
-            Light::Sphere {
+            vec![Light::Sphere {
                 center: c,
                 radius: r,
                 radiance: Vec3::splat(i / (std::f32::consts::PI * r * r)),
-            },
+            }],
         ),
         (
             "quad",
             // Facing down (u x v = -y), its intensity toward the leaf about L A.
-            Light::Quad {
+            vec![Light::Quad {
                 corner: c - 0.5 * Vec3::new(side, 0.0, side),
                 edge_u: Vec3::new(side, 0.0, 0.0),
                 edge_v: Vec3::new(0.0, 0.0, side),
                 radiance: Vec3::splat(i / (side * side)),
                 two_sided: false,
-            },
+            }],
+        ),
+        (
+            "second-sun",
+            vec![
+                sun(Vec3::new(-0.6, 0.5, 0.6), 0.3),
+                sun(LIGHT_AT, INTENSITY / LIGHT_AT.length_squared()),
+            ],
         ),
     ]
 }
@@ -113,14 +127,15 @@ fn triple(a: &Image, b: &Image, c: &Image) -> Image {
 /// | light                | MAE    | SSIM  | shadow GPU/offline | unshadowed: MAE, SSIM, shadow ratio |
 /// |----------------------|--------|-------|--------------------|-------------------------------------|
 /// | point                | 0.0045 | 0.980 | 0.961              | 0.0467, 0.793, 13.7                 |
-/// | sphere (R = h/4)     | 0.0046 | 0.979 | 0.906              | 0.0438, 0.816, 5.47                 |
-/// | quad (h/2 square)    | 0.0046 | 0.980 | 0.891              | 0.0405, 0.824, 5.28                 |
+/// | sphere (R = h/4)     | 0.0047 | 0.979 | 0.901              | 0.0438, 0.816, 5.47                 |
+/// | quad (h/2 square)    | 0.0047 | 0.979 | 0.887              | 0.0405, 0.824, 5.28                 |
+/// | second sun           | 0.0041 | 0.989 | 1.077              | 0.0347, 0.891, 12.1                 |
 ///
-/// (The shadow covers 15-16 % of the image. The GPU's shadow is a little darker: the
-/// offline one also holds light bounced between the ground and the leaf's underside.)
-/// Bounds: the shadow's ratio within 25 %, the MAE under 0.6 of the unshadowed frame's
-/// and the SSIM above it (measured: 0.1x the MAE; without shadows the shadow is 5-14x too
-/// bright).
+/// (The local lights' shadows cover 15-16 % of the image, the sun's 7 %. Their GPU
+/// shadows are a little darker: the offline ones also hold light bounced between the
+/// ground and the leaf's underside; the sun's edge is a little softer.) Bounds: the
+/// shadow's ratio within 25 %, the MAE under 0.6 of the unshadowed frame's and the SSIM
+/// above it (measured: 0.1x the MAE; without shadows the shadow is 5-14x too bright).
 ///
 /// With `LAMINA_TEST_IMAGES=DIR` the triples (GPU, offline, GPU unshadowed) are written
 /// there.
@@ -144,7 +159,7 @@ fn local_light_shadows_agree_with_the_offline_renderer() {
         let (flat, warnings) = lamina_gpu::render_scene(&ctx, &scene, off).expect("GPU");
         assert!(
             warnings.len() == 1
-                && warnings[0].contains("light 1 (")
+                && warnings[0].contains(&format!("light {} (", scene.lights.len()))
                 && warnings[0].contains("no shadows"),
             "{name}: {warnings:?}"
         );
@@ -210,7 +225,7 @@ fn local_light_shadows_agree_with_the_offline_renderer() {
     }
 }
 
-/// Lights past the cubes the GPU path has cast no shadows and are named; a long quad's
+/// Lights past the shadow maps the GPU path has cast no shadows and are named; a long quad's
 /// shadow (drawn from the disc of its area) is named; shadowed lights are not.
 #[test]
 fn lights_without_shadow_maps_are_named() {
@@ -222,7 +237,7 @@ fn lights_without_shadow_maps_are_named() {
         position: Vec3::new(0.1 * k as f32, 2.0, 0.0) * h,
         intensity: Vec3::splat(0.01),
     };
-    let mut scene = flat_leaf_under(point(0), 32);
+    let mut scene = flat_leaf_under(vec![point(0)], 32);
     scene.lights = (0..lamina_gpu::MAX_SHADOWED_LIGHTS + 2)
         .map(point)
         .collect();
@@ -243,7 +258,7 @@ fn lights_without_shadow_maps_are_named() {
             n + 1,
             n + 2,
             n + 3
-        )) && w.contains(&format!("first {n} point, sphere and quad lights")),
+        )) && w.contains(&format!("it shadows the first sun and {n} other lights")),
         "{w}"
     );
     assert!(!w.contains("light 1 (point)"), "{w}");

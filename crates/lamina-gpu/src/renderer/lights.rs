@@ -7,10 +7,11 @@
 //! unshadowed irradiance (the vector form factor of the polygon, Lambert 1760 / Arvo 1994:
 //! `E = L/2 Σ Θ_k Γ_k` over its edges), one-sided as on the CPU unless `two_sided`; a sphere
 //! light is a point light of intensity `L π R²`, which is exact outside the sphere when all
-//! of it is above the receiver's horizon. The first [`MAX_SHADOWED_LIGHTS`] point, sphere
-//! and quad lights among those cast shadows through a cube of two-layer translucent maps
-//! baked at load ([`super::local_shadows`]): hard for a point light, soft for a sphere
-//! (its radius) and a quad (the disc of its area) by percentage-closer soft shadows.
+//! of it is above the receiver's horizon. The first [`MAX_SHADOWED_LIGHTS`] of those cast
+//! shadows through two-layer translucent maps baked at load ([`super::local_shadows`]):
+//! further suns through one orthographic map each like the first sun's; point, sphere and
+//! quad lights through a cube of them, hard for a point light, soft for a sphere (its
+//! radius) and a quad (the disc of its area) by percentage-closer soft shadows.
 //! [`Lighting::warnings`] names the lights that cast no shadows, the quads whose shadow
 //! stands in for a long one, and the lights past [`MAX_LIGHTS`], which are left out.
 
@@ -24,8 +25,31 @@ use lamina_scene::{Light, Scene, Sky};
 /// Most lights besides the shadowed sun in the uniform block (`MAX_LIGHTS` in scene.wgsl).
 pub(super) const MAX_LIGHTS: usize = 32;
 
-/// Most point, sphere and quad lights with a cube of shadow maps (12 array layers each).
+/// Most lights besides the first sun with shadow maps baked at load (a cube of 12 array
+/// layers for a point, sphere or quad light, 2 layers for a sun).
 pub const MAX_SHADOWED_LIGHTS: usize = 8;
+
+/// The shadow maps of one light besides the first sun, baked at load.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum ShadowMaps {
+    /// Six 90° faces around `center` (m), two layers each.
+    Cube { center: Vec3 },
+    /// One orthographic view along `-direction` (`direction` toward the sun) of the
+    /// casters' bounding sphere, two layers, as the first sun's, cut into `tiles x tiles`
+    /// maps (one array layer pair each, row by row from the top left) so that it is as
+    /// sharp as the first sun's.
+    Directional { direction: Vec3, tiles: u32 },
+}
+
+impl ShadowMaps {
+    /// Array layers they take.
+    pub fn layers(&self) -> u32 {
+        match self {
+            ShadowMaps::Cube { .. } => 12,
+            ShadowMaps::Directional { tiles, .. } => 2 * tiles * tiles,
+        }
+    }
+}
 
 /// A quad light longer than this many times its width is named in a warning: its soft
 /// shadow is drawn as from the disc of its area at its centre.
@@ -59,6 +83,8 @@ pub(super) struct Globals {
     /// For a cube face's light-view pass: the light's centre (m) and the maps' range (m),
     /// depth being distance over range.
     pub cube: [f32; 4],
+    /// The casters' bounding sphere (centre, radius in m) the suns' maps frame.
+    casters: [f32; 4],
     sky: [[f32; 4]; 9],
     lights: [GpuLight; MAX_LIGHTS],
     counts: [u32; 4],
@@ -73,16 +99,17 @@ pub(super) struct Lighting {
     sky_sh: [Vec3; 9],
     /// Radiance seen where no geometry is (the clear colour), linear RGB W m⁻² sr⁻¹.
     pub background: Vec3,
-    /// Per scene light, its cube of shadow maps (slot), if it has one.
-    pub slots: Vec<Option<u32>>,
+    /// Per scene light, its shadow maps baked at load (first array layer, kind), if any.
+    pub maps: Vec<Option<(u32, ShadowMaps)>>,
     /// What the GPU path does differently from the offline renderer with these lights.
     pub warnings: Vec<String>,
 }
 
 impl Lighting {
-    /// The lights and sky of `scene`, with cubes of shadow maps for at most `cubes` of its
-    /// point, sphere and quad lights (the first ones shaded).
-    pub fn of(scene: &Scene, cubes: usize) -> Self {
+    /// The lights and sky of `scene`, with shadow maps for at most `shadowed` of its lights
+    /// besides the first sun (the first ones shaded), in at most `layers` array layers, a
+    /// sun's cut into `sun_tiles x sun_tiles` maps.
+    pub fn of(scene: &Scene, shadowed: usize, layers: u32, sun_tiles: u32) -> Self {
         let sky_sh = sky::sky_irradiance_sh(scene.sky.as_ref());
         let background = match &scene.sky {
             None => Vec3::ZERO,
@@ -90,23 +117,24 @@ impl Lighting {
             // The mean radiance: SH band 0 is E = pi * mean.
             Some(Sky::Image { .. }) => sky_sh[0] * 0.282_095 / std::f32::consts::PI,
         };
-        let slots = shadow_slots(&scene.lights, cubes);
+        let maps = shadow_maps(&scene.lights, shadowed, layers, sun_tiles);
         Lighting {
             lights: scene.lights.clone(),
             sky_sh,
             background,
-            warnings: light_warnings(&scene.lights, &slots, cubes),
-            slots,
+            warnings: light_warnings(&scene.lights, &maps, shadowed),
+            maps,
         }
     }
 
-    /// The lights with a cube of shadow maps: (slot, scene light index, centre of the maps).
-    pub fn cubes(&self) -> Vec<(u32, usize, Vec3)> {
-        self.slots
-            .iter()
-            .enumerate()
-            .filter_map(|(i, s)| Some((((*s)?), i, shadow_center(&self.lights[i])?)))
-            .collect()
+    /// Every light's shadow maps baked at load: (first array layer, kind), in layer order.
+    pub fn shadow_maps(&self) -> Vec<(u32, ShadowMaps)> {
+        self.maps.iter().flatten().copied().collect()
+    }
+
+    /// Array layers the baked shadow maps take.
+    pub fn shadow_layers(&self) -> u32 {
+        self.maps.iter().flatten().map(|(_, m)| m.layers()).sum()
     }
 
     /// The uniforms of a frame seen by `view`: depth range from the scene's `bounds`, the
@@ -148,14 +176,15 @@ impl Lighting {
                 cube_size as f32,
             ],
             cube: [0.0; 4],
+            casters: sc.extend(sr).to_array(),
             sky,
             lights,
             counts: [n as u32, 0, 0, 0],
         }
     }
 
-    /// The lights besides the sun (the first [`MAX_LIGHTS`], with their shadow slots and
-    /// ranges in `bounds`), their count, and the shadowed sun (unit direction toward it,
+    /// The lights besides the sun (the first [`MAX_LIGHTS`], with their shadow maps' first
+    /// layers and cubes' ranges in `bounds`), their count, and the shadowed sun (unit direction toward it,
     /// `sun_dir` if given, and irradiance W m⁻²).
     fn gpu_lights(
         &self,
@@ -180,9 +209,14 @@ impl Lighting {
             if n < MAX_LIGHTS {
                 lights[n] = gpu_light(l);
                 lights[n].color[3] = -1.0;
-                if let (Some(slot), Some(c)) = (self.slots[i], shadow_center(l)) {
-                    lights[n].color[3] = slot as f32;
-                    lights[n].u[3] = shadow_range(c, bounds);
+                if let Some((layer, maps)) = self.maps[i] {
+                    lights[n].color[3] = layer as f32;
+                    match maps {
+                        ShadowMaps::Cube { center } => {
+                            lights[n].u[3] = shadow_range(center, bounds)
+                        }
+                        ShadowMaps::Directional { tiles, .. } => lights[n].v[3] = tiles as f32,
+                    }
                 }
                 n += 1;
             }
@@ -193,7 +227,7 @@ impl Lighting {
 
 /// Where a light's cube of shadow maps is centred: a point or sphere light's centre, a
 /// quad's middle; `None` for suns (they have no cube).
-pub(super) fn shadow_center(l: &Light) -> Option<Vec3> {
+fn shadow_center(l: &Light) -> Option<Vec3> {
     match l {
         Light::Sun { .. } => None,
         Light::Point { position, .. } => Some(*position),
@@ -214,11 +248,18 @@ pub(super) fn shadow_range(center: Vec3, bounds: &SceneBounds) -> f32 {
     ((center - c).length() + r).max(1e-4) * 1.01
 }
 
-/// Which lights get a cube of shadow maps: the first `cubes` point, sphere and quad lights
-/// among those shaded (the first [`MAX_LIGHTS`] besides the first sun), slots in order.
-fn shadow_slots(lights: &[Light], cubes: usize) -> Vec<Option<u32>> {
+/// Which lights get shadow maps baked at load: the first `shadowed` among those shaded
+/// (the first [`MAX_LIGHTS`] besides the first sun) whose maps fit in `layers` array
+/// layers (a sun's cut into `sun_tiles x sun_tiles` maps), with their first layers in order.
+fn shadow_maps(
+    lights: &[Light],
+    shadowed: usize,
+    layers: u32,
+    sun_tiles: u32,
+) -> Vec<Option<(u32, ShadowMaps)>> {
     let first_sun = lights.iter().position(|l| matches!(l, Light::Sun { .. }));
     let mut shaded = 0usize;
+    let mut count = 0usize;
     let mut next = 0u32;
     lights
         .iter()
@@ -228,13 +269,20 @@ fn shadow_slots(lights: &[Light], cubes: usize) -> Vec<Option<u32>> {
                 return None;
             }
             shaded += 1;
-            let local = shadow_center(l).is_some();
-            if shaded <= MAX_LIGHTS && local && (next as usize) < cubes {
-                next += 1;
-                Some(next - 1)
-            } else {
-                None
+            let maps = match (l, shadow_center(l)) {
+                (Light::Sun { direction, .. }, _) => ShadowMaps::Directional {
+                    direction: direction.normalize_or(Vec3::Y),
+                    tiles: sun_tiles,
+                },
+                (_, Some(center)) => ShadowMaps::Cube { center },
+                _ => return None,
+            };
+            if shaded > MAX_LIGHTS || count >= shadowed || next + maps.layers() > layers {
+                return None;
             }
+            count += 1;
+            next += maps.layers();
+            Some((next - maps.layers(), maps))
         })
         .collect()
 }
@@ -243,8 +291,9 @@ fn shadow_slots(lights: &[Light], cubes: usize) -> Vec<Option<u32>> {
 /// irradiance W m⁻²), 1 = point (position m, intensity W sr⁻¹, `u.x` the radius of a
 /// sphere light, inside which the distance is clamped), 2 = one-sided quad and 3 =
 /// two-sided quad (`pos` a corner, `u`, `v` its edges in m, emitting toward `u × v`,
-/// radiance W m⁻² sr⁻¹). [`Lighting::gpu_lights`] adds the shadow slot (`color.w`, -1 for
-/// none) and the cube's range (`u.w`, m).
+/// radiance W m⁻² sr⁻¹). [`Lighting::gpu_lights`] adds the first array layer of its
+/// shadow maps (`color.w`, -1 for none), a cube's range (`u.w`, m) and a sun's tiles per
+/// side (`v.w`).
 fn gpu_light(l: &Light) -> GpuLight {
     let v4 = |v: Vec3, w: f32| v.extend(w).to_array();
     match l {
@@ -303,11 +352,15 @@ fn light_name(i: usize, l: &Light) -> String {
     format!("light {} ({kind})", i + 1)
 }
 
-/// The warnings for `lights` on the GPU path, given their shadow `slots` and the `cubes`
-/// allowed: which cast no shadows there (suns but the first, local lights past the cubes),
-/// which long quads cast the shadow of a disc, and which are left out (past the first sun
-/// and [`MAX_LIGHTS`] others).
-fn light_warnings(lights: &[Light], slots: &[Option<u32>], cubes: usize) -> Vec<String> {
+/// The warnings for `lights` on the GPU path, given their shadow `maps` and the number of
+/// lights allowed them (`shadowed`): which cast no shadows there (past those), which long
+/// quads cast the shadow of a disc, and which are left out (past the first sun and
+/// [`MAX_LIGHTS`] others).
+fn light_warnings(
+    lights: &[Light],
+    maps: &[Option<(u32, ShadowMaps)>],
+    shadowed: usize,
+) -> Vec<String> {
     let first_sun = lights.iter().position(|l| matches!(l, Light::Sun { .. }));
     let others: Vec<(usize, &Light)> = lights
         .iter()
@@ -321,34 +374,29 @@ fn light_warnings(lights: &[Light], slots: &[Option<u32>], cubes: usize) -> Vec<
             .join(", ")
     };
     let shaded = &others[..others.len().min(MAX_LIGHTS)];
-    let (suns, locals): (Vec<_>, Vec<_>) = shaded
+    let unshadowed: Vec<(usize, &Light)> = shaded
         .iter()
-        .filter(|(i, _)| slots[*i].is_none())
-        .partition(|(_, l)| matches!(l, Light::Sun { .. }));
+        .filter(|(i, _)| maps[*i].is_none())
+        .copied()
+        .collect();
     let mut out = Vec::new();
-    let unshadowed = |ls: &[(usize, &Light)], why: &str| {
-        let one = ls.len() == 1;
-        format!(
+    if !unshadowed.is_empty() {
+        let one = unshadowed.len() == 1;
+        let why = if shadowed == 0 {
+            "shadows of lights besides the first sun are off".to_string()
+        } else {
+            format!("it shadows the first sun and {shadowed} other lights")
+        };
+        out.push(format!(
             "{} cast{} no shadows on the GPU path ({why}): what the offline renderer shows in \
              {} shadow is lit here",
-            names(ls),
+            names(&unshadowed),
             if one { "s" } else { "" },
             if one { "its" } else { "their" }
-        )
-    };
-    if !suns.is_empty() {
-        out.push(unshadowed(&suns, "only the first sun does"));
-    }
-    if !locals.is_empty() {
-        let why = if cubes == 0 {
-            "shadows of point, sphere and quad lights are off".to_string()
-        } else {
-            format!("it shadows the first {cubes} point, sphere and quad lights")
-        };
-        out.push(unshadowed(&locals, &why));
+        ));
     }
     for (i, l) in shaded {
-        if let (Some(_), Light::Quad { edge_u, edge_v, .. }) = (slots[*i], l) {
+        if let (Some(_), Light::Quad { edge_u, edge_v, .. }) = (maps[*i], l) {
             let (a, b) = (edge_u.length(), edge_v.length());
             let ratio = a.max(b) / a.min(b).max(1e-12);
             if ratio > LONG_QUAD {

@@ -1,15 +1,15 @@
-//! Shadows of point, sphere and quad lights: for each such light with a slot
-//! ([`super::lights::MAX_SHADOWED_LIGHTS`] at most), a cube of the same two-layer
-//! translucent maps as the sun's, baked once at load (lights and geometry are static; only
-//! the sun moves per frame).
+//! Shadows of the lights besides the first sun ([`super::lights::MAX_SHADOWED_LIGHTS`] at
+//! most), baked once at load (lights and geometry are static; only the first sun moves per
+//! frame): for a further sun, one orthographic two-layer map like the first sun's; for a
+//! point, sphere or quad light, a cube of them.
 //!
 //! Each of a cube's six 90° faces ([`CUBE_FACES`]) holds, like the sun's maps, the nearest
 //! alpha-tested occluder (layer 1) and the next one behind it (layer 2, depth peeling):
 //! depth and transmittance colour with card radius. Depth is the distance from the light's
 //! centre over the cube's range, written by the fragment shader (`fs_cube_first`,
 //! `fs_cube_peel`), so it is linear and the same on every face: the camera pass compares
-//! distances across face seams without a conversion. Layers of the two array textures:
-//! `(slot * 6 + face) * 2 + layer`.
+//! distances across face seams without a conversion. Layers of the two array textures: a
+//! light's first layer (`color.w` of its uniform) plus `2 * face + layer` (a sun: `layer`).
 //!
 //! The camera pass (`local_transmittance` in scene.wgsl) reads a light's visibility by
 //! percentage-closer filtering with 16 taps on a rotated Vogel disc, each tap a direction
@@ -25,38 +25,32 @@ use super::geometry::{DrawList, Geometry};
 use super::layout::{
     D2, D2_ARRAY, DEPTH_FORMAT, SHADOW_COLOR_FORMAT, buffer_entry, texture_2d, view_entry,
 };
-use super::lights::{Globals, shadow_range};
+use super::lights::{Globals, ShadowMaps, shadow_range};
 use super::pipelines::ScenePipelines;
-use super::projection::{CUBE_FACES, cube_face_matrix};
+use super::projection::{CUBE_FACES, cube_face_matrix, light_matrix};
 use super::sun::light_view_pass;
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
-/// Array layers per light: six faces, two layers each.
-const LAYERS_PER_LIGHT: u32 = 2 * CUBE_FACES.len() as u32;
-
-/// The cubes of shadow maps of the shadowed local lights.
+/// The shadow maps baked at load of the lights besides the first sun.
 pub(super) struct LocalShadows {
     /// Depth (distance over range) and transmittance (rgb, card radius in a), one array
     /// layer per light, face and layer.
     textures: [wgpu::Texture; 2],
     /// The same as 2D-array views, for the camera pass.
     pub array_views: [wgpu::TextureView; 2],
-    /// Side of each face, texels (0 when no light has a cube).
+    /// Side of each map, texels (0 when no light has one).
     pub size: u32,
 }
 
 impl LocalShadows {
-    /// Empty maps for `lights` cubes of faces of side `size` (already clamped to the
-    /// device); with no light, a 1-texel stand-in that the camera pass never reads.
-    pub fn new(device: &wgpu::Device, size: u32, lights: usize) -> Self {
-        let (side, layers) = if lights == 0 {
-            (1, LAYERS_PER_LIGHT)
-        } else {
-            (size, LAYERS_PER_LIGHT * lights as u32)
-        };
+    /// Empty maps of side `size` (already clamped to the device) in `layers` array
+    /// layers; with none, a 1-texel stand-in that the camera pass never reads.
+    pub fn new(device: &wgpu::Device, size: u32, layers: u32) -> Self {
+        let empty = layers == 0;
+        let (side, layers) = if empty { (1, 2) } else { (size, layers) };
         let mk = |label: &str, format: wgpu::TextureFormat| {
             let usage =
                 wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
@@ -75,7 +69,7 @@ impl LocalShadows {
         LocalShadows {
             textures,
             array_views,
-            size: if lights == 0 { 0 } else { size },
+            size: if empty { 0 } else { size },
         }
     }
 
@@ -87,45 +81,70 @@ impl LocalShadows {
         texels * (4 + 8)
     }
 
-    /// Renders the cubes of `cubes` (slot, centre), each light in its own submission
-    /// (the culling pass, when the device has one, thins leaves out as seen from the light
-    /// at the faces' resolution), with `base` as the globals of every face but its matrix
-    /// and centre; waits for validation.
+    /// Renders `maps` (first layer, kind), each light in its own submission (the culling
+    /// pass, when the device has one, thins leaves out as seen from the light at the maps'
+    /// resolution), with `base` as the globals of every view but its matrix and centre;
+    /// waits for validation.
     pub fn bake(
         &self,
         ctx: &GpuContext,
-        cubes: &[(u32, Vec3)],
+        maps: &[(u32, ShadowMaps)],
         bounds: &SceneBounds,
         base: Globals,
         lod_pixels: f32,
         scene: (&ScenePipelines, &Geometry, &[wgpu::BindGroup]),
     ) -> Result<(), GpuError> {
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        for &(slot, center) in cubes {
-            let range = shadow_range(center, bounds);
+        for &(first, maps) in maps {
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            let (position, focal_px, ortho) = match maps {
+                // A 90° face: the focal length is half its side.
+                ShadowMaps::Cube { center } => (center, 0.5 * self.size as f32, None),
+                ShadowMaps::Directional { tiles, .. } => {
+                    let r = bounds.casters.1.max(1e-6);
+                    (
+                        Vec3::ZERO,
+                        1.0,
+                        Some((tiles * self.size) as f32 / (2.0 * r)),
+                    )
+                }
+            };
             if let Some(c) = &scene.1.culling {
-                c.encode(
-                    &ctx.queue,
-                    &mut encoder,
-                    &CullView {
-                        view_proj: Mat4::IDENTITY,
-                        position: center,
-                        // A 90° face: the focal length is half its side.
-                        focal_px: 0.5 * self.size as f32,
-                        lod_pixels,
-                        frustum: false,
-                        ortho_px_per_m: None,
-                    },
-                    None,
-                );
+                let view = CullView {
+                    view_proj: Mat4::IDENTITY,
+                    position,
+                    focal_px,
+                    lod_pixels,
+                    frustum: false,
+                    ortho_px_per_m: ortho,
+                };
+                c.encode(&ctx.queue, &mut encoder, &view, None);
             }
-            for face in 0..CUBE_FACES.len() {
-                let mut g = base;
-                g.light_view_proj = cube_face_matrix(face, center, range).to_cols_array_2d();
-                g.cube = center.extend(range).to_array();
-                let first = (slot * LAYERS_PER_LIGHT) + 2 * face as u32;
-                self.encode_face(&ctx.device, &mut encoder, first, &g, scene);
+            match maps {
+                ShadowMaps::Cube { center } => {
+                    let range = shadow_range(center, bounds);
+                    for face in 0..CUBE_FACES.len() {
+                        let mut g = base;
+                        g.light_view_proj =
+                            cube_face_matrix(face, center, range).to_cols_array_2d();
+                        g.cube = center.extend(range).to_array();
+                        let layer = first + 2 * face as u32;
+                        let cube = (&scene.0.cube_first, &scene.0.cube_peel);
+                        self.encode_view(&ctx.device, &mut encoder, layer, &g, cube, scene);
+                    }
+                }
+                ShadowMaps::Directional { direction, tiles } => {
+                    let (c, r) = bounds.casters;
+                    let whole = light_matrix(direction, c, r);
+                    let sun = (&scene.0.shadow_first, &scene.0.shadow_peel);
+                    for k in 0..tiles * tiles {
+                        let mut g = base;
+                        g.light_view_proj =
+                            (tile_matrix(k % tiles, k / tiles, tiles) * whole).to_cols_array_2d();
+                        let layer = first + 2 * k;
+                        self.encode_view(&ctx.device, &mut encoder, layer, &g, sun, scene);
+                    }
+                }
             }
             ctx.queue.submit([encoder.finish()]);
         }
@@ -138,17 +157,19 @@ impl LocalShadows {
         }
     }
 
-    /// Records the two layers of one face (array layers `first`, `first + 1`) with `g`.
-    fn encode_face(
+    /// Records the two layers of one view (array layers `first`, `first + 1`) with `g`,
+    /// by `pipelines` (layer 1, layer 2).
+    fn encode_view(
         &self,
         device: &wgpu::Device,
         encoder: &mut wgpu::CommandEncoder,
         first: u32,
         g: &Globals,
-        (pipelines, geometry, materials): (&ScenePipelines, &Geometry, &[wgpu::BindGroup]),
+        pipelines: (&wgpu::RenderPipeline, &wgpu::RenderPipeline),
+        (scene, geometry, materials): (&ScenePipelines, &Geometry, &[wgpu::BindGroup]),
     ) {
         let buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("cube face"),
+            label: Some("light view"),
             contents: bytemuck::bytes_of(g),
             usage: wgpu::BufferUsages::UNIFORM,
         });
@@ -164,17 +185,13 @@ impl LocalShadows {
         let color = [view(&self.textures[1], 0), view(&self.textures[1], 1)];
         for layer in 0..2 {
             let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("cube face"),
-                layout: &pipelines.shadow_layout,
+                label: Some("light view"),
+                layout: &scene.shadow_layout,
                 // Layer 1 reads nothing (it binds layer 2's depth only because the layout
                 // wants a depth texture); layer 2 peels behind layer 1's depth.
                 entries: &[buffer_entry(0, &buf), view_entry(1, &depth[1 - layer])],
             });
-            let pipeline = if layer == 0 {
-                &pipelines.cube_first
-            } else {
-                &pipelines.cube_peel
-            };
+            let pipeline = if layer == 0 { pipelines.0 } else { pipelines.1 };
             let mut pass = light_view_pass(
                 encoder,
                 "local light view",
@@ -185,6 +202,51 @@ impl LocalShadows {
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bg, &[]);
             geometry.draw(&mut pass, materials, DrawList::Shadow);
+        }
+    }
+}
+
+/// The clip-space map that makes tile `(i, j)` (column, row from the top left) of a view
+/// cut into `n x n` tiles fill the viewport: `x' = n (x + 1) - 2 i - 1`,
+/// `y' = n (y - 1) + 2 j + 1`, depth kept.
+fn tile_matrix(i: u32, j: u32, n: u32) -> Mat4 {
+    let n = n as f32;
+    Mat4::from_cols(
+        glam::Vec4::new(n, 0.0, 0.0, 0.0),
+        glam::Vec4::new(0.0, n, 0.0, 0.0),
+        glam::Vec4::Z,
+        glam::Vec4::new(
+            n - 2.0 * i as f32 - 1.0,
+            -n + 2.0 * j as f32 + 1.0,
+            0.0,
+            1.0,
+        ),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Tile (i, j) of n maps the corners of its share of the whole view to the viewport's.
+    #[test]
+    fn tiles_cover_the_view() {
+        let n = 4;
+        for (i, j) in [(0, 0), (3, 0), (1, 2), (3, 3)] {
+            let m = tile_matrix(i, j, n);
+            let x0 = -1.0 + 2.0 * i as f32 / n as f32;
+            let y0 = 1.0 - 2.0 * j as f32 / n as f32;
+            let step = 2.0 / n as f32;
+            let tl = m * glam::Vec4::new(x0, y0, 0.3, 1.0);
+            let br = m * glam::Vec4::new(x0 + step, y0 - step, 0.3, 1.0);
+            assert!(
+                (tl - glam::Vec4::new(-1.0, 1.0, 0.3, 1.0)).length() < 1e-5,
+                "{tl}"
+            );
+            assert!(
+                (br - glam::Vec4::new(1.0, -1.0, 0.3, 1.0)).length() < 1e-5,
+                "{br}"
+            );
         }
     }
 }

@@ -12,18 +12,18 @@
 //!    share scaled by the form factor `a² / (a² + d²)` of its card (radius `a`) seen from
 //!    `d` behind it, since a leaf passes light on diffusely.
 //! 3. **Camera** (`fs_main`): every mesh and instance with the alpha test, shaded with the
-//!    baked leaf model ([`crate::bake`]), the sun through the transmittance map, point,
-//!    sphere and quad lights through their cubes of maps, extra directional lights, and the
-//!    SH sky ([`crate::sky`]) scaled by the sky visibility baked at load. Output: linear
-//!    radiance in an RGBA16F target.
+//!    baked leaf model ([`crate::bake`]), the sun through the transmittance map, the other
+//!    lights through their maps baked at load, and the SH sky ([`crate::sky`]) scaled by
+//!    the sky visibility baked at load. Output: linear radiance in an RGBA16F target.
 //!
-//! Quad lights are shaded by their exact unshadowed irradiance (one-sided unless
-//! `two_sided`), sphere lights as point lights (exact outside them), see [`lights`]; the
-//! first [`MAX_SHADOWED_LIGHTS`] of them are shadowed, through two-layer translucent cube
-//! maps baked at load (`local_shadows.rs`): hard shadows for point lights, soft ones for
-//! spheres and quads. Suns after the first and local lights past those cast no shadows;
-//! they are named in [`Renderer::warnings`], as are the lights past the first sun and 32
-//! others, which are left out. Determinism: the same scene and view give the same image on
+//! Quad lights are shaded by their exact irradiance (one-sided unless `two_sided`), sphere
+//! lights as point lights (exact outside them), see [`lights`]. The first
+//! [`MAX_SHADOWED_LIGHTS`] lights besides the first sun are shadowed through two-layer
+//! translucent maps baked at load (`local_shadows.rs`): a tiled orthographic map for a
+//! further sun, a cube for a point, sphere or quad light (hard shadows for point lights,
+//! soft ones for spheres and quads). Lights past those cast no shadows; they are named in
+//! [`Renderer::warnings`], as are the lights past the first sun and 32 others, which are
+//! left out. Determinism: the same scene and view give the same image on
 //! the same device and driver (the soft-shadow taps rotate with the pixel, not at random;
 //! the draw lists keep instance order within each LOD bucket).
 //!
@@ -31,11 +31,10 @@
 //! * `materials`: baked materials uploaded as group 1 of every pass;
 //! * `geometry`: vertex, index and instance buffers; the draw calls; with `lod` (leaves in
 //!   rank order at load) and `culling` (the per-frame compute pass and its draw lists);
-//! * `pipelines`: the scene shader's three pipelines and their group-0 layouts;
+//! * `pipelines`: the scene shader's five pipelines and their group-0 layouts;
 //! * `sun`: the sun's two-layer maps, redrawn every frame;
 //! * `sky_visibility`: the sky's two-layer maps per direction, baked once;
-//! * `local_shadows`: the cubes of two-layer maps of point, sphere and quad lights, baked
-//!   once;
+//! * `local_shadows`: the two-layer maps of the lights besides the first sun, baked once;
 //! * `camera`: the globals buffer, the camera pass and its HDR/depth targets;
 //! * `post`: tone map and overlay;
 //! * `lights`: scene lights and sky as the per-frame uniforms, and the light warnings;
@@ -117,9 +116,11 @@ pub struct RenderSettings {
     /// of the image (before supersampling), below which a plant's leaves thin out (the
     /// survivors grow so that its leaf area is kept). 0 draws every leaf.
     pub lod_pixels: f32,
-    /// Side of each cube face of the shadow maps of point, sphere and quad lights, in
-    /// texels (12 MiB per light at 512: six faces, two layers of depth and transmittance).
-    /// 0 turns their shadows off (each such light is then named in a warning).
+    /// Side, in texels, of the shadow maps baked at load for the lights besides the first
+    /// sun: each cube face of a point, sphere or quad light (36 MiB per light at 512: six
+    /// faces, two layers of depth and transmittance), each tile of a further sun's map (as
+    /// many tiles as make it as sharp as the first sun's, at most 4x4: 96 MiB at 512 and a
+    /// 2048 sun). 0 turns their shadows off (each such light is then named in a warning).
     pub local_shadow_size: u32,
 }
 
@@ -196,15 +197,17 @@ impl Renderer {
             settings.sky_map_size.clamp(16, ctx.max_texture_dim),
             settings.sky_directions.clamp(1, MAX_SKY_DIRS as u32),
         );
-        let cube_size = settings.local_shadow_size.min(ctx.max_texture_dim);
-        let cubes = if cube_size == 0 {
+        let map_size = settings.local_shadow_size.min(ctx.max_texture_dim);
+        let shadowed = if map_size == 0 {
             0
         } else {
-            // Array layers: 12 per light.
-            MAX_SHADOWED_LIGHTS.min(ctx.device.limits().max_texture_array_layers as usize / 12)
+            MAX_SHADOWED_LIGHTS
         };
-        let lighting = Lighting::of(scene, cubes);
-        let local_shadows = LocalShadows::new(device, cube_size, lighting.cubes().len());
+        let max_layers = ctx.device.limits().max_texture_array_layers;
+        // Further suns' maps as sharp as the first sun's: tiles of the local maps' size.
+        let sun_tiles = shadow_size.div_ceil(map_size.max(1)).clamp(1, 4);
+        let lighting = Lighting::of(scene, shadowed, max_layers, sun_tiles);
+        let local_shadows = LocalShadows::new(device, map_size, lighting.shadow_layers());
         let camera = CameraPass::new(
             device,
             &pipelines,
@@ -244,16 +247,11 @@ impl Renderer {
         Ok(renderer)
     }
 
-    /// Renders the cubes of shadow maps of the shadowed point, sphere and quad lights
-    /// (once: lights and geometry are static).
+    /// Renders the shadow maps of the lights besides the first sun (once: lights and
+    /// geometry are static).
     fn bake_local_shadows(&self) -> Result<(), GpuError> {
-        let cubes: Vec<(u32, Vec3)> = self
-            .lighting
-            .cubes()
-            .into_iter()
-            .map(|(slot, _, c)| (slot, c))
-            .collect();
-        if cubes.is_empty() {
+        let maps = self.lighting.shadow_maps();
+        if maps.is_empty() {
             return Ok(());
         }
         let base = self.globals(&FrameView {
@@ -264,7 +262,7 @@ impl Renderer {
         });
         self.local_shadows.bake(
             &self.ctx,
-            &cubes,
+            &maps,
             &self.bounds,
             base,
             self.settings.lod_pixels,
@@ -272,7 +270,7 @@ impl Renderer {
         )
     }
 
-    /// GPU memory of the shadow maps of point, sphere and quad lights, bytes.
+    /// GPU memory of the shadow maps baked at load (lights besides the first sun), bytes.
     pub fn local_shadow_bytes(&self) -> u64 {
         self.local_shadows.bytes()
     }

@@ -16,8 +16,8 @@ const MAX_LIGHTS: u32 = 32u;
 // (W m^-2). `pos.w == 1`: point light at `pos.xyz`, `color.rgb` = radiant intensity
 // (W sr^-1), `u.x` the radius of a sphere light (distances clamped to it). `pos.w == 2`
 // (one-sided) or `3` (two-sided): a quad with corner `pos.xyz` and edges `u.xyz`, `v.xyz`,
-// emitting toward `u x v`, `color.rgb` = radiance (W m^-2 sr^-1). `color.w`: the slot of
-// its cube of shadow maps (-1: none); `u.w`: that cube's range (m).
+// emitting toward `u x v`, `color.rgb` = radiance (W m^-2 sr^-1). `color.w`: the first
+// array layer of its shadow maps in local_d / local_c (-1: none); `u.w`: a cube's range (m).
 struct Light {
     pos: vec4<f32>,
     color: vec4<f32>,
@@ -43,6 +43,8 @@ struct Globals {
     // Only in a cube face's light-view pass: the light's centre (m, xyz) and the cube's
     // range (m, w); its depth is the distance from the centre over the range.
     cube: vec4<f32>,
+    // The casters' bounding sphere (centre m, radius m) that the suns' maps frame.
+    casters: vec4<f32>,
     // Sky irradiance as 9 SH coefficients (bands 0-2), E(n) = sum c_k Y_k(n), W m^-2.
     sky: array<vec4<f32>, 9>,
     lights: array<Light, 32>,
@@ -87,10 +89,13 @@ struct SkyVis {
 @group(0) @binding(8) var sky_c1: texture_2d_array<f32>;
 @group(0) @binding(9) var sky_c2: texture_2d_array<f32>;
 
-// The cubes of two-layer maps of shadowed point, sphere and quad lights (baked once, see
-// local_shadows.rs): layer (slot * 6 + face) * 2 + l holds layer l (0: nearest occluder,
-// 1: the next behind it) of a face: depth = distance from the light's centre / range, and
-// the transmittance colour with the card radius (a).
+// The two-layer maps of the lights besides the first sun (baked once, see
+// local_shadows.rs), from a light's first layer `color.w`: for a point, sphere or quad
+// light a cube, layer first + 2 * face + l holding layer l (0: nearest occluder, 1: the
+// next behind it) of a face, depth = distance from the light's centre / range; for a sun
+// its orthographic map cut into n x n tiles (n = `v.w`), layers first + 2 k + l holding
+// tile k (row by row from the top left), depth as the first sun's. Colour: the
+// transmittance with the card radius (a).
 @group(0) @binding(10) var local_d: texture_depth_2d_array;
 @group(0) @binding(11) var local_c: texture_2d_array<f32>;
 
@@ -471,25 +476,69 @@ fn cube_texel(w: vec3<f32>, f: u32, size: f32) -> vec2<i32> {
     return clamp(vec2<i32>(floor(tc)), vec2<i32>(0), vec2<i32>(i32(size) - 1));
 }
 
-// One tap of a cube: the light (per RGB channel) passed to normalised distance `dr` along
-// direction `w`, through none, one or two leaves (as `sun_transmittance`); `base` the
-// cube's first array layer, `range` its range (m), `bias` the depth tolerance.
-fn cube_tap(base: i32, w: vec3<f32>, dr: f32, bias: f32, range: f32) -> vec3<f32> {
-    let size = g.shadow.w;
-    let f = cube_face(w);
-    let t = cube_texel(w, f, size);
-    let l = base + 2 * i32(f);
+// The light (per RGB channel) passed to depth `z` at texel `t` of the two-layer map in
+// array layers `l` and `l + 1` of local_d / local_c: through none, one or two leaves (as
+// `sun_transmittance`); `range` metres per unit of depth, `bias` the depth tolerance.
+fn local_layers(t: vec2<i32>, l: i32, z: f32, bias: f32, range: f32) -> vec3<f32> {
     let d1 = textureLoad(local_d, t, l, 0);
-    if dr <= d1 + bias {
+    if z <= d1 + bias {
         return vec3<f32>(1.0);
     }
     let c1 = textureLoad(local_c, t, l, 0);
     let d2 = textureLoad(local_d, t, l + 1, 0);
-    if dr <= d2 + bias {
-        return passed(c1, (dr - d1) * range);
+    if z <= d2 + bias {
+        return passed(c1, (z - d1) * range);
     }
     let c2 = textureLoad(local_c, t, l + 1, 0);
-    return passed(c1, (d2 - d1) * range) * passed(c2, (dr - d2) * range);
+    return passed(c1, (d2 - d1) * range) * passed(c2, (z - d2) * range);
+}
+
+// One tap of a cube: the light passed to normalised distance `dr` along direction `w`;
+// `base` the cube's first array layer, `range` its range (m).
+fn cube_tap(base: i32, w: vec3<f32>, dr: f32, bias: f32, range: f32) -> vec3<f32> {
+    let f = cube_face(w);
+    return local_layers(cube_texel(w, f, g.shadow.w), base + 2 * i32(f), dr, bias, range);
+}
+
+// Fraction of a further sun's light (per RGB channel, through leaves) reaching `p` with
+// unit normal `n_l` on the sun's side, from its orthographic two-layer map (first layer
+// `li.color.w`), which frames the casters' sphere as `light_matrix` (projection.rs) does:
+// the eye 2 r toward the sun from the centre, up +z when the sun is within 8° of the
+// zenith or nadir and +y otherwise. 3x3 percentage-closer filtered, offset 1.5 texels
+// along the normal, as the first sun's.
+fn sun_map_transmittance(li: Light, p: vec3<f32>, n_l: vec3<f32>) -> vec3<f32> {
+    let base = i32(li.color.w);
+    if base < 0 {
+        return vec3<f32>(1.0);
+    }
+    let d = normalize(li.pos.xyz);
+    let r = g.casters.w;
+    let tile = g.shadow.w;
+    let n = i32(li.v.w);
+    let size = tile * f32(n);
+    let texel = 2.0 * r / size;
+    let e = p + n_l * (1.5 * texel) - (g.casters.xyz + d * (2.0 * r));
+    let f = -d;
+    let up = select(vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0), abs(d.y) > 0.99);
+    let sx = normalize(cross(f, up));
+    let sy = cross(sx, f);
+    let tc = vec2<f32>(dot(e, sx) / r * 0.5 + 0.5, 0.5 - dot(e, sy) / r * 0.5) * size;
+    let z = (dot(e, f) - r) / (2.0 * r);
+    if any(tc < vec2<f32>(0.0)) || any(tc >= vec2<f32>(size)) || z < 0.0 {
+        return vec3<f32>(1.0);
+    }
+    let bias = texel / r;
+    let t0 = vec2<i32>(floor(tc));
+    var acc = vec3<f32>(0.0);
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let t = clamp(t0 + vec2<i32>(dx, dy), vec2<i32>(0), vec2<i32>(i32(size) - 1));
+            let k = t / i32(tile);
+            let l = base + 2 * (k.y * n + k.x);
+            acc += local_layers(t - k * i32(tile), l, z, bias, 2.0 * r);
+        }
+    }
+    return acc / 9.0;
 }
 
 // Tap k of n on a Vogel disc of unit radius turned by `turn` (radians).
@@ -502,7 +551,7 @@ fn vogel(k: i32, n: i32, turn: f32) -> vec2<f32> {
 const CUBE_TAPS: i32 = 16;
 
 // Fraction of a local light's light (per RGB channel, through leaves) reaching world point
-// `p` with unit normal `n_l` on the light's side, from the light's cube (slot
+// `p` with unit normal `n_l` on the light's side, from the light's cube (first layer
 // `li.color.w`, range `li.u.w`) centred at `center`; `radius` the light's size (0 for a
 // point light). Percentage-closer filtering over 16 taps of a Vogel disc, turned per pixel
 // (`pix`, interleaved gradient noise) so that its pattern averages out; for a light with a
@@ -511,8 +560,8 @@ const CUBE_TAPS: i32 = 16;
 // radius (d_r - d_b) / (d_r d_b) (radians), d_b the blockers' mean distance. The point is
 // offset 1.5 texels along the normal, as for the sun.
 fn local_transmittance(li: Light, center: vec3<f32>, radius: f32, p: vec3<f32>, n_l: vec3<f32>, pix: vec2<f32>) -> vec3<f32> {
-    let slot = i32(li.color.w);
-    if slot < 0 {
+    let base = i32(li.color.w);
+    if base < 0 {
         return vec3<f32>(1.0);
     }
     let range = li.u.w;
@@ -528,8 +577,9 @@ fn local_transmittance(li: Light, center: vec3<f32>, radius: f32, p: vec3<f32>, 
     let t1 = normalize(cross(wn, a));
     let t2 = cross(wn, t1);
     let turn = 6.2831853 * fract(52.9829189 * fract(dot(pix, vec2<f32>(0.06711056, 0.00583715))));
-    let base = slot * 12;
-    let widest = 24.0 * texel;
+    // Up to 0.1 rad (6°) of penumbra, whatever the maps' resolution (a wider search and
+    // filter measured worse against the offline renderer with 16 taps).
+    let widest = max(0.1, 2.0 * texel);
     var width = 1.0 * texel;
     if radius > 0.0 {
         // Occluders at a third of the way or farther from the light hide part of it within
@@ -741,7 +791,9 @@ fn fs_main(in: VOut, @builtin(front_facing) front_facing: bool) -> @location(0) 
     for (var i = 0u; i < min(g.counts.x, MAX_LIGHTS); i++) {
         let li = g.lights[i];
         if li.pos.w < 0.5 {
-            col += bsdf_cos(s, normalize(li.pos.xyz)) * li.color.rgb;
+            let l = normalize(li.pos.xyz);
+            let n_l = select(-s.ng, s.ng, dot(s.ng, l) >= 0.0);
+            col += bsdf_cos(s, l) * li.color.rgb * sun_map_transmittance(li, in.world, n_l);
         } else if li.pos.w < 1.5 {
             let d = li.pos.xyz - in.world;
             let r2 = max(dot(d, d), max(li.u.x * li.u.x, 1e-8));

@@ -4,8 +4,9 @@
 //! mouse wheel or +/- zooms; right-drag or the arrow keys move the sun (azimuth and
 //! elevation, also below the horizon and across leaf planes: the shading blends smoothly
 //! from front- to back-lit, so nothing pops); Space starts/stops the sun orbiting; L turns
-//! level of detail (`--lod`) on and off; R resets; Esc or Q quits. The overlay shows the
-//! frame time per pass and whether level of detail is on.
+//! level of detail (`--lod`) on and off; O turns occlusion culling on and off; R resets;
+//! Esc or Q quits. The overlay shows the frame time per pass and whether level of detail
+//! and occlusion culling are on.
 //!
 //! `--frames N --screenshot out.png` renders N frames, saves the last one (overlay
 //! included) and exits: how tests and scripts use it (e.g. under `xvfb-run -a`).
@@ -222,8 +223,13 @@ impl State {
             0.0 => "LOD OFF".to_string(),
             px => format!("LOD {px} PX"),
         };
+        let occl = if self.renderer.occlusion_culling() {
+            "OCCL ON"
+        } else {
+            "OCCL OFF"
+        };
         let text = format!(
-            "{time}{sun}  {:.2}M TRIS  {lod}",
+            "{time}{sun}  {:.2}M TRIS  {lod}  {occl}",
             self.triangles as f64 / 1e6
         );
         lamina_gpu::overlay::render_text(&text)
@@ -499,6 +505,10 @@ impl ApplicationHandler for Viewer {
                             on
                         };
                         s.renderer.set_lod_pixels(next);
+                    }
+                    Key::Character("o") => {
+                        let on = s.renderer.occlusion_culling();
+                        s.renderer.set_occlusion_culling(!on);
                     }
                     _ => {}
                 }

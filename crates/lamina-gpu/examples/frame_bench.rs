@@ -2,9 +2,11 @@
 //! given), each without level of detail and with it (stochastic simplification below 1 and
 //! 4 px² per leaf: `lamina render --gpu`'s and `lamina view`'s defaults), as a window's
 //! frame draws it: the culling/LOD compute pass, the sun's two-layer
-//! shadow/transmittance maps (2048²), the camera pass and the tone-map pass into an
-//! offscreen sRGB target, every frame (the sun may move); sky-visibility maps are baked once
-//! at load and not counted.
+//! shadow/transmittance maps (2048²), the camera pass (with occlusion culling: its first
+//! part, the depth pyramid, the late culling pass and its second part) and the tone-map
+//! pass into an offscreen sRGB target, every frame (the sun may move); sky-visibility maps
+//! are baked once at load and not counted. Occlusion culling is on (the default) in every
+//! row; the forests add a row at 4 px² with it off.
 //!
 //! Up to 1M leaves the scene is one generated tree (`lamina_bench::frame_tree_scene`); from
 //! 5M on it is a forest of 100k-leaf trees, one prototype placed `n / 100k` times
@@ -43,10 +45,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
          map, GPU finished; LOD = leaves thinned out below 1 or 4 px² (off = every leaf)"
     );
     println!(
-        "{:>9} {:>6} {:>4} {:>11} {:>7} {:>8} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>9}",
+        "{:>9} {:>6} {:>4} {:>5} {:>11} {:>7} {:>8} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>9}",
         "leaves",
         "trees",
         "LOD",
+        "occl",
         "tris drawn",
         "load s",
         "cull ms",
@@ -85,9 +88,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         r.render_and_wait(&view, Some(&scene.film))?;
         let load = t.elapsed().as_secs_f64();
-        for lod in [0.0, 1.0, 4.0] {
+        let mut settings = vec![(0.0, true), (1.0, true), (4.0, true)];
+        if trees > 1 {
+            settings.push((4.0, false));
+        }
+        for (lod, occlusion) in settings {
             r.set_lod_pixels(lod);
-            // One frame to settle (and to count what it draws), then the timed ones.
+            r.set_occlusion_culling(occlusion);
+            // Two frames to settle (occlusion culling skips what the one before found
+            // hidden; the second counts what it draws), then the timed ones.
+            r.render_and_wait(&view, Some(&scene.film))?;
             r.render_and_wait(&view, Some(&scene.film))?;
             let drawn = r.drawn_triangles()?.map_or(r.triangles(), |d| d[0]);
             let frames = match n {
@@ -109,7 +119,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let col = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{x:.2}"));
             let wall_ms = mean(&mut wall.iter().copied()).unwrap_or(f64::NAN);
             println!(
-                "{:>9} {:>6} {:>4} {:>11} {:>7.1} {:>8} {:>9} {:>9} {:>9} {:>9} {:>9.1} {:>8.2} {:>9.1}",
+                "{:>9} {:>6} {:>4} {:>5} {:>11} {:>7.1} {:>8} {:>9} {:>9} {:>9} {:>9} {:>9.1} {:>8.2} {:>9.1}",
                 n,
                 trees,
                 if lod > 0.0 {
@@ -117,6 +127,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 } else {
                     "off".into()
                 },
+                if r.occlusion_culling() { "on" } else { "off" },
                 drawn,
                 load,
                 col(mean(&mut gpu.iter().filter_map(|t| t.cull_ms))),

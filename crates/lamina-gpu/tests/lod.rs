@@ -225,7 +225,12 @@ fn trees_outside_the_view_are_culled_but_still_cast_shadows() {
         return;
     };
     let scene = forest();
-    let mut r = Renderer::new(&ctx, &scene, settings(0.0)).expect("renderer");
+    // Frustum culling alone (tests/occlusion.rs checks occlusion culling).
+    let frustum_only = RenderSettings {
+        occlusion_culling: false,
+        ..settings(0.0)
+    };
+    let mut r = Renderer::new(&ctx, &scene, frustum_only).expect("renderer");
     let view = |look: Vec3| {
         let mut camera = scene.camera;
         camera.look_at = camera.position + look;

@@ -3,6 +3,7 @@
 //! it draws into (made for the view's size, kept while the size holds), and the pass itself.
 
 use super::geometry::{DrawList, Geometry};
+use super::hiz::{HiZ, HiZPipelines};
 use super::layout::{DEPTH_FORMAT, HDR_FORMAT, buffer_entry, texture_2d, view_entry};
 use super::lights::Globals;
 use super::local_shadows::LocalShadows;
@@ -22,6 +23,8 @@ pub(super) struct Targets {
     /// View of [`Targets::hdr`].
     pub hdr_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
+    /// The depth pyramid over the depth target, where occlusion culling can run.
+    pub hiz: Option<HiZ>,
 }
 
 /// The camera pass's uniforms, bindings and targets.
@@ -73,8 +76,15 @@ impl CameraPass {
         }
     }
 
-    /// Makes the targets for `width x height` unless they already have that size.
-    pub fn ensure_targets(&mut self, device: &wgpu::Device, width: u32, height: u32) {
+    /// Makes the targets for `width x height` unless they already have that size, with a
+    /// depth pyramid when `hiz` gives its pipelines and the culling pass's layout.
+    pub fn ensure_targets(
+        &mut self,
+        device: &wgpu::Device,
+        width: u32,
+        height: u32,
+        hiz: Option<(&HiZPipelines, &wgpu::BindGroupLayout)>,
+    ) {
         if self
             .targets
             .as_ref()
@@ -96,19 +106,23 @@ impl CameraPass {
             "depth",
             (width, height, 1),
             DEPTH_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
         );
+        let depth_view = depth.create_view(&Default::default());
+        let hiz = hiz.map(|(p, layout)| HiZ::new(device, p, &depth_view, (width, height), layout));
         self.targets = Some(Targets {
             width,
             height,
             hdr_view: hdr.create_view(&Default::default()),
             hdr,
-            depth_view: depth.create_view(&Default::default()),
+            depth_view,
+            hiz,
         });
     }
 
-    /// Records the camera pass into the current targets, cleared to `background` (linear
-    /// radiance) and depth 1.
+    /// Records the camera pass over `list` into the current targets: the camera list
+    /// cleared to `background` (linear radiance) and depth 1 first, the late list on top.
+    #[allow(clippy::too_many_arguments)]
     pub fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -116,10 +130,27 @@ impl CameraPass {
         pipelines: &ScenePipelines,
         geometry: &Geometry,
         materials: &[wgpu::BindGroup],
+        list: DrawList,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         let t = self.targets.as_ref().expect("targets were just made");
         let bg = background;
+        let clear = list != DrawList::Late;
+        let color_load = if clear {
+            wgpu::LoadOp::Clear(wgpu::Color {
+                r: bg.x as f64,
+                g: bg.y as f64,
+                b: bg.z as f64,
+                a: 1.0,
+            })
+        } else {
+            wgpu::LoadOp::Load
+        };
+        let depth_load = if clear {
+            wgpu::LoadOp::Clear(1.0)
+        } else {
+            wgpu::LoadOp::Load
+        };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("camera"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -127,19 +158,14 @@ impl CameraPass {
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color {
-                        r: bg.x as f64,
-                        g: bg.y as f64,
-                        b: bg.z as f64,
-                        a: 1.0,
-                    }),
+                    load: color_load,
                     store: wgpu::StoreOp::Store,
                 },
             })],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &t.depth_view,
                 depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
+                    load: depth_load,
                     store: wgpu::StoreOp::Store,
                 }),
                 stencil_ops: None,
@@ -150,6 +176,6 @@ impl CameraPass {
         });
         pass.set_pipeline(&pipelines.camera);
         pass.set_bind_group(0, &self.bind_group, &[]);
-        geometry.draw(&mut pass, materials, DrawList::Camera);
+        geometry.draw(&mut pass, materials, list);
     }
 }

@@ -6,6 +6,13 @@
 //! list and LOD bucket. Nothing comes back to the CPU: the passes draw from those
 //! arguments ([`super::geometry::Geometry::draw`]).
 //!
+//! With occlusion culling ([`Phase`]), frames run it twice: before the camera pass, with
+//! the camera list holding only the instances visible in the last frame; after the camera
+//! pass's first part and its depth pyramid ([`super::hiz`]), to test every instance in view
+//! against that depth and put those not hidden and not yet drawn in the late list, which
+//! the camera pass's second part draws. Each phase has its own uniforms, so both record
+//! into one submission.
+//!
 //! It needs indirect draws with a first instance (`INDIRECT_FIRST_INSTANCE`, which Vulkan
 //! drivers have); without it the geometry is drawn directly, at full detail, unculled.
 
@@ -21,8 +28,8 @@ pub const CULL_WGSL: &str = include_str!("../shaders/cull.wgsl");
 
 /// Bytes of one `DrawIndexedIndirectArgs`.
 const ARGS_BYTES: u64 = 20;
-/// Argument slots per mesh: the camera list's buckets, then the shadow list's.
-const SLOTS: u64 = 2 * BUCKETS as u64;
+/// Argument slots per mesh: the camera list's buckets, the shadow list's, the late list's.
+const SLOTS: u64 = 3 * BUCKETS as u64;
 
 /// One group of instances as the culling shader reads it (`Group` in cull.wgsl).
 #[repr(C)]
@@ -45,6 +52,23 @@ struct Params {
     cam: [f32; 4],
     lod: [f32; 4],
     counts: [u32; 4],
+    occl: [f32; 4],
+}
+
+/// Which instances the camera list takes (see the module docs and cull.wgsl).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Phase {
+    /// Every instance in view; the late list empty (single images, light views).
+    All,
+    /// Occlusion culling, before the camera pass: those in view seen last frame.
+    Seen,
+    /// Occlusion culling, after the camera pass's first part: the late list, against its
+    /// depth pyramid of `levels` levels over a `width x height` target.
+    Late {
+        width: u32,
+        height: u32,
+        levels: u32,
+    },
 }
 
 /// What one frame culls and simplifies for.
@@ -63,6 +87,8 @@ pub(super) struct CullView {
     /// For an orthographic view (a light's): pixels per metre, which then replaces
     /// `focal_px` over the distance.
     pub ortho_px_per_m: Option<f32>,
+    /// Occlusion culling's phase.
+    pub phase: Phase,
 }
 
 /// What [`Culling::new`] binds: the geometry's buffers.
@@ -80,8 +106,13 @@ pub(super) struct CullingInputs<'a> {
 /// The culling pass's pipeline, bindings and draw-argument buffer.
 pub(super) struct Culling {
     pipeline: wgpu::ComputePipeline,
-    bind_group: wgpu::BindGroup,
-    params: wgpu::Buffer,
+    /// Group 0 with the uniforms of phases `All`/`Seen` and of `Late`.
+    bind_groups: [wgpu::BindGroup; 2],
+    params: [wgpu::Buffer; 2],
+    /// Layout of group 1, the depth pyramid ([`super::hiz::HiZ`] binds it).
+    pub hiz_layout: wgpu::BindGroupLayout,
+    /// Group 1 for phases without a pyramid: a 1-texel stand-in.
+    no_hiz: wgpu::BindGroup,
     /// Per mesh, [`SLOTS`] `DrawIndexedIndirectArgs`.
     args: wgpu::Buffer,
     groups: u32,
@@ -128,12 +159,26 @@ impl Culling {
                 storage(4, false),
                 storage(5, false),
                 storage(6, false),
+                storage(7, false),
             ],
+        });
+        let hiz_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("depth pyramid"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: super::layout::UNFILTERED,
+                    view_dimension: super::layout::D2,
+                    multisampled: false,
+                },
+                count: None,
+            }],
         });
         let pipeline = ctx.validated("building the culling pipeline", || {
             let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("culling"),
-                bind_group_layouts: &[Some(&layout)],
+                bind_group_layouts: &[Some(&layout), Some(&hiz_layout)],
                 immediate_size: 0,
             });
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -172,24 +217,56 @@ impl Culling {
                 | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let params = uniform_buffer(device, "culling view", std::mem::size_of::<Params>());
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("culling"),
-            layout: &layout,
-            entries: &[
-                buffer_entry(0, &params),
-                buffer_entry(1, &groups),
-                buffer_entry(2, inputs.transforms),
-                buffer_entry(3, &counts),
-                buffer_entry(4, inputs.inst_lod),
-                buffer_entry(5, inputs.lists),
-                buffer_entry(6, &args),
-            ],
+        // Nothing was seen before the first frame.
+        let visible = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("visible last frame"),
+            size: inputs.slots.max(1) as u64 * 4,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let params =
+            [0, 1].map(|_| uniform_buffer(device, "culling view", std::mem::size_of::<Params>()));
+        let bind_groups = params.each_ref().map(|params| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("culling"),
+                layout: &layout,
+                entries: &[
+                    buffer_entry(0, params),
+                    buffer_entry(1, &groups),
+                    buffer_entry(2, inputs.transforms),
+                    buffer_entry(3, &counts),
+                    buffer_entry(4, inputs.inst_lod),
+                    buffer_entry(5, inputs.lists),
+                    buffer_entry(6, &args),
+                    buffer_entry(7, &visible),
+                ],
+            })
+        });
+        let stand_in = super::layout::texture_2d(
+            device,
+            "no depth pyramid",
+            (1, 1, 1),
+            wgpu::TextureFormat::R32Float,
+            wgpu::TextureUsages::TEXTURE_BINDING,
+        );
+        let no_hiz = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("no depth pyramid"),
+            layout: &hiz_layout,
+            entries: &[super::layout::view_entry(
+                0,
+                &stand_in.create_view(&Default::default()),
+            )],
         });
         Ok(Culling {
             pipeline,
-            bind_group,
-            bytes: groups.size() + counts.size() + args.size() + params.size(),
+            bind_groups,
+            hiz_layout,
+            no_hiz,
+            bytes: groups.size()
+                + counts.size()
+                + args.size()
+                + 2 * params[0].size()
+                + visible.size(),
             params,
             args,
             groups: inputs.groups.len() as u32,
@@ -204,20 +281,23 @@ impl Culling {
 
     /// The argument buffer and the offset of mesh `mesh`'s [`BUCKETS`] draws for `list`.
     pub fn args(&self, mesh: usize, list: DrawList) -> (&wgpu::Buffer, u64) {
-        let half = match list {
+        let part = match list {
             DrawList::Camera => 0,
             DrawList::Shadow => BUCKETS as u64,
+            DrawList::Late => 2 * BUCKETS as u64,
         };
-        (&self.args, (mesh as u64 * SLOTS + half) * ARGS_BYTES)
+        (&self.args, (mesh as u64 * SLOTS + part) * ARGS_BYTES)
     }
 
     /// Records the pass for `view` (its uniforms are written through `queue`, so record
-    /// one culling pass per submission).
+    /// one culling pass of phase `All` or `Seen` and one of `Late` at most per
+    /// submission); `hiz` is the camera's depth pyramid for phase `Late`.
     pub fn encode(
         &self,
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
         view: &CullView,
+        hiz: Option<&wgpu::BindGroup>,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         if self.groups == 0 {
@@ -234,25 +314,38 @@ impl Culling {
                 view.ortho_px_per_m.unwrap_or(0.0).max(0.0),
             ],
             counts: [self.groups, self.slots, per_row, 0],
+            occl: match view.phase {
+                Phase::All => [0.0; 4],
+                Phase::Seen => [1.0, 0.0, 0.0, 0.0],
+                Phase::Late {
+                    width,
+                    height,
+                    levels,
+                } => [2.0, width as f32, height as f32, levels as f32],
+            },
         };
-        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let k = usize::from(matches!(view.phase, Phase::Late { .. }));
+        queue.write_buffer(&self.params[k], 0, bytemuck::bytes_of(&params));
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("culling"),
             timestamp_writes: timestamps,
         });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_bind_group(0, &self.bind_groups[k], &[]);
+        pass.set_bind_group(1, hiz.unwrap_or(&self.no_hiz), &[]);
         pass.dispatch_workgroups(per_row, self.groups.div_ceil(per_row), 1);
     }
 
-    /// Triangles the last culling pass made the camera and the light views draw
-    /// (reads the arguments back, waiting for the GPU: for tests and benchmarks).
+    /// Triangles the last frame's culling passes made the camera (both of its lists) and
+    /// the light views draw (reads the arguments back, waiting for the GPU: for tests and
+    /// benchmarks).
     pub fn drawn_triangles(&self, ctx: &GpuContext) -> Result<[u64; 2], GpuError> {
         let raw = super::readback::read_buffer(ctx, &self.args)?;
         let words: &[u32] = bytemuck::cast_slice(&raw);
         let mut out = [0u64; 2];
         for (k, a) in words.chunks_exact(5).enumerate() {
-            let list = (k as u64 % SLOTS) / BUCKETS as u64;
+            // Camera, shadow, late: the late list counts for the camera.
+            let list = ((k as u64 % SLOTS) / BUCKETS as u64) % 2;
             out[list as usize] += a[0] as u64 / 3 * a[1] as u64;
         }
         Ok(out)

@@ -7,8 +7,9 @@
 //!   detail's element centre and rank, [`super::lod`]) and one index buffer per mesh,
 //!   elements of foliage meshes in rank order.
 //! * **Draws.** Per frame, [`super::culling`] (on the GPU) picks each instance's leaves
-//!   and writes two draw lists (camera: frustum-culled; shadow: every instance) and one
-//!   indirect draw per mesh, list and LOD bucket; a pass then draws each mesh with one
+//!   and writes three draw lists (camera: frustum-culled, and with occlusion culling those
+//!   seen last frame; shadow: every instance; late: in view, not hidden, not drawn yet)
+//!   and one indirect draw per mesh, list and LOD bucket; a pass then draws each mesh with one
 //!   `multi_draw_indexed_indirect`. The vertex shader finds its instance through the list
 //!   (`instance_index` = the draw's first instance + k). On a device without indirect first
 //!   instances, every instance of a mesh is drawn directly, at full detail (the lists then
@@ -58,6 +59,9 @@ pub(super) enum DrawList {
     Camera,
     /// Every instance (light views).
     Shadow,
+    /// With occlusion culling, those in view that the depth pyramid of the camera pass's
+    /// first part does not hide and that it did not draw (drawn in its second part).
+    Late,
 }
 
 /// One mesh on the GPU.
@@ -169,7 +173,7 @@ impl Geometry {
             bytemuck::cast_slice(&vec![[1.0f32, 1.0]; slots as usize]),
             storage,
         );
-        let identity: Vec<u32> = (0..slots as u32).chain(0..slots as u32).collect();
+        let identity: Vec<u32> = (0..3).flat_map(|_| 0..slots as u32).collect();
         let lists = init("draw lists", bytemuck::cast_slice(&identity), storage);
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("instances"),
@@ -237,6 +241,7 @@ impl Geometry {
                     let (buffer, offset) = c.args(k, list);
                     pass.multi_draw_indexed_indirect(buffer, offset, BUCKETS as u32);
                 }
+                None if list == DrawList::Late => {}
                 None => pass.draw_indexed(0..m.index_count, 0, m.instances.clone()),
             }
         }

@@ -20,7 +20,7 @@
 //! light).
 
 use super::bounds::SceneBounds;
-use super::culling::CullView;
+use super::culling::{CullView, Phase};
 use super::geometry::{DrawList, Geometry};
 use super::layout::{
     D2, D2_ARRAY, DEPTH_FORMAT, SHADOW_COLOR_FORMAT, buffer_entry, texture_2d, view_entry,
@@ -117,8 +117,9 @@ impl LocalShadows {
                     lod_pixels,
                     frustum: false,
                     ortho_px_per_m: ortho,
+                    phase: Phase::All,
                 };
-                c.encode(&ctx.queue, &mut encoder, &view, None);
+                c.encode(&ctx.queue, &mut encoder, &view, None, None);
             }
             match maps {
                 ShadowMaps::Cube { center } => {

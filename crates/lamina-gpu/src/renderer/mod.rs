@@ -47,6 +47,7 @@ mod camera;
 mod culling;
 mod geometry;
 mod half;
+mod hiz;
 mod layout;
 mod lights;
 mod local_shadows;
@@ -70,9 +71,11 @@ use crate::context::GpuContext;
 use crate::error::GpuError;
 use bounds::SceneBounds;
 use camera::CameraPass;
-use culling::CullView;
+use culling::{CullView, Phase};
+use geometry::DrawList;
 use geometry::Geometry;
 use glam::Vec3;
+use hiz::HiZPipelines;
 use lamina_image::Image;
 use lamina_scene::{Camera, Film, Light, Scene};
 use lights::{Globals, Lighting};
@@ -122,6 +125,11 @@ pub struct RenderSettings {
     /// many tiles as make it as sharp as the first sun's, at most 4x4: 96 MiB at 512 and a
     /// 2048 sun). 0 turns their shadows off (each such light is then named in a warning).
     pub local_shadow_size: u32,
+    /// Two-phase occlusion culling of instances in frame sequences ([`Renderer::encode_scene`]:
+    /// the viewer, benchmarks): what the last frame found hidden behind nearer surfaces is
+    /// not drawn unless this frame's depth shows it. Single images
+    /// ([`Renderer::render_image`]) draw every instance in view either way.
+    pub occlusion_culling: bool,
 }
 
 impl Default for RenderSettings {
@@ -133,6 +141,7 @@ impl Default for RenderSettings {
             sky_map_size: 512,
             lod_pixels: 1.0,
             local_shadow_size: 512,
+            occlusion_culling: true,
         }
     }
 }
@@ -161,6 +170,8 @@ pub struct Renderer {
     sky_visibility: SkyVisibility,
     local_shadows: LocalShadows,
     camera: CameraPass,
+    /// The depth pyramid's pipelines, where the device culls.
+    hiz_pipelines: Option<HiZPipelines>,
     post: PostProcess,
     lighting: Lighting,
     bounds: SceneBounds,
@@ -223,6 +234,10 @@ impl Renderer {
                 ctx.adapter_name()
             ));
         }
+        let hiz_pipelines = match geometry.culling {
+            Some(_) => Some(HiZPipelines::new(ctx)?),
+            None => None,
+        };
         let renderer = Renderer {
             ctx: ctx.clone(),
             settings,
@@ -233,6 +248,7 @@ impl Renderer {
             sky_visibility,
             local_shadows,
             camera,
+            hiz_pipelines,
             post: PostProcess::new(device, post_module),
             lighting,
             bounds: SceneBounds::of(scene),
@@ -294,7 +310,9 @@ impl Renderer {
                     lod_pixels: self.settings.lod_pixels,
                     frustum: false,
                     ortho_px_per_m: Some(texels / (2.0 * r.max(1e-6))),
+                    phase: Phase::All,
                 },
+                None,
                 None,
             );
             self.ctx.queue.submit([encoder.finish()]);
@@ -370,22 +388,32 @@ impl Renderer {
             .globals(view, &self.bounds, self.sun.size, self.local_shadows.size)
     }
 
-    /// Records the three scene passes for `view` into `encoder`, rendering into the
-    /// internal HDR target (resized to the view).
+    /// Records a frame's scene passes for `view` into `encoder`, rendering into the
+    /// internal HDR target (resized to the view). One of a sequence of frames: with
+    /// [`RenderSettings::occlusion_culling`] it skips what the last frame found hidden
+    /// (and draws, in the same frame, whatever this frame's depth does not hide).
     pub fn encode_scene(&mut self, encoder: &mut wgpu::CommandEncoder, view: &FrameView) {
-        self.encode_scene_lod(encoder, view, self.settings.lod_pixels);
+        let occlusion = self.settings.occlusion_culling;
+        self.encode_scene_lod(encoder, view, self.settings.lod_pixels, occlusion);
     }
 
     /// [`Renderer::encode_scene`] with leaves thinned out below `lod_pixels` pixels of
-    /// `view`'s target.
+    /// `view`'s target, with two-phase occlusion culling when `occlusion` (and the device
+    /// culls at all).
     fn encode_scene_lod(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         view: &FrameView,
         lod_pixels: f32,
+        occlusion: bool,
     ) {
+        let hiz = self
+            .hiz_pipelines
+            .as_ref()
+            .zip(self.geometry.culling.as_ref().map(|c| &c.hiz_layout));
         self.camera
-            .ensure_targets(&self.ctx.device, view.width, view.height);
+            .ensure_targets(&self.ctx.device, view.width, view.height, hiz);
+        let occlusion = occlusion && hiz.is_some();
         let globals = self.globals(view);
         self.ctx
             .queue
@@ -395,21 +423,19 @@ impl Renderer {
         if let Some(t) = timer.as_deref_mut() {
             t.begin_frame();
         }
+        let tan = (view.camera.fov_deg.to_radians() * 0.5).tan().max(1e-6);
+        let cull_view = CullView {
+            view_proj: glam::Mat4::from_cols_array_2d(&globals.view_proj),
+            position: view.camera.position,
+            focal_px: view.width as f32 / (2.0 * tan),
+            lod_pixels,
+            frustum: true,
+            ortho_px_per_m: None,
+            phase: if occlusion { Phase::Seen } else { Phase::All },
+        };
         if let Some(c) = &self.geometry.culling {
-            let tan = (view.camera.fov_deg.to_radians() * 0.5).tan().max(1e-6);
-            c.encode(
-                &self.ctx.queue,
-                encoder,
-                &CullView {
-                    view_proj: glam::Mat4::from_cols_array_2d(&globals.view_proj),
-                    position: view.camera.position,
-                    focal_px: view.width as f32 / (2.0 * tan),
-                    lod_pixels,
-                    frustum: true,
-                    ortho_px_per_m: None,
-                },
-                timer.as_deref_mut().and_then(|t| t.compute_writes()),
-            );
+            let writes = timer.as_deref_mut().and_then(|t| t.compute_writes());
+            c.encode(&self.ctx.queue, encoder, &cull_view, None, writes);
         }
         let (pipelines, geometry) = (&self.pipelines, &self.geometry);
         let materials = &self.materials.groups;
@@ -421,13 +447,61 @@ impl Renderer {
             has_sun,
             timer.as_deref_mut(),
         );
-        self.camera.encode(
+        let background = self.lighting.background;
+        let first = if occlusion {
+            Pass::MainFirst
+        } else {
+            Pass::Main
+        };
+        let writes = timer.as_deref_mut().and_then(|t| t.writes(first));
+        let camera = &self.camera;
+        camera.encode(
             encoder,
-            self.lighting.background,
+            background,
             pipelines,
             geometry,
             materials,
-            timer.and_then(|t| t.writes(Pass::Main)),
+            DrawList::Camera,
+            writes,
+        );
+        if !occlusion {
+            return;
+        }
+        // The late part: the pyramid of what was drawn, then the instances it does not
+        // hide that were not drawn yet.
+        let (Some(hp), Some(c), Some(t)) =
+            (&self.hiz_pipelines, &geometry.culling, &camera.targets)
+        else {
+            return;
+        };
+        let Some(pyramid) = &t.hiz else {
+            return;
+        };
+        pyramid.encode(encoder, hp);
+        let late = CullView {
+            phase: Phase::Late {
+                width: t.width,
+                height: t.height,
+                levels: pyramid.level_count(),
+            },
+            ..cull_view
+        };
+        c.encode(
+            &self.ctx.queue,
+            encoder,
+            &late,
+            Some(&pyramid.cull_group),
+            None,
+        );
+        let writes = timer.and_then(|t| t.writes(Pass::MainLate));
+        camera.encode(
+            encoder,
+            background,
+            pipelines,
+            geometry,
+            materials,
+            DrawList::Late,
+            writes,
         );
     }
 
@@ -436,6 +510,18 @@ impl Renderer {
     /// leaves thinned out at the maps' own resolution, which keeps their coverage).
     pub fn set_lod_pixels(&mut self, lod_pixels: f32) {
         self.settings.lod_pixels = lod_pixels.max(0.0);
+    }
+
+    /// Turns [`RenderSettings::occlusion_culling`] on or off for the frames drawn from now
+    /// on.
+    pub fn set_occlusion_culling(&mut self, on: bool) {
+        self.settings.occlusion_culling = on;
+    }
+
+    /// Whether frames skip instances hidden in the last one: the setting, where the device
+    /// can (it needs the culling pass, [`Renderer::drawn_triangles`] is `None` without).
+    pub fn occlusion_culling(&self) -> bool {
+        self.settings.occlusion_culling && self.hiz_pipelines.is_some()
     }
 
     /// The current [`RenderSettings::lod_pixels`].
@@ -504,9 +590,10 @@ impl Renderer {
             ..*view
         };
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        // LOD's leaf area is in pixels of the image: ss² pixels of the target.
+        // LOD's leaf area is in pixels of the image: ss² pixels of the target. A single
+        // image draws every instance in view (no history: the same view, the same image).
         let lod = self.settings.lod_pixels * (ss * ss) as f32;
-        self.encode_scene_lod(&mut encoder, &big, lod);
+        self.encode_scene_lod(&mut encoder, &big, lod, false);
         let hdr = &self
             .camera
             .targets

@@ -21,7 +21,8 @@ pub struct PassTimes {
     pub cull_ms: Option<f64>,
     /// The sun's two light-view passes (layer 1 and the peeled layer 2) together.
     pub shadows_ms: f64,
-    /// The camera pass.
+    /// The camera pass (with occlusion culling, from its first part's beginning to its
+    /// second part's end: the depth pyramid and the late culling pass included).
     pub main_ms: f64,
     /// The tone-map and overlay pass, when the frame had one.
     pub post_ms: Option<f64>,
@@ -42,6 +43,10 @@ pub(super) enum Pass {
     ShadowFirst,
     ShadowPeel,
     Main,
+    /// With occlusion culling, the camera pass's first part (its beginning) and its
+    /// second part (its end): `main` then spans the depth pyramid and the late culling.
+    MainFirst,
+    MainLate,
     Post,
 }
 
@@ -146,6 +151,8 @@ impl Timer {
             Pass::ShadowFirst => (Some(2), None),
             Pass::ShadowPeel => (None, Some(3)),
             Pass::Main => (Some(4), Some(5)),
+            Pass::MainFirst => (Some(4), None),
+            Pass::MainLate => (None, Some(5)),
             Pass::Post => {
                 self.post = true;
                 (Some(6), Some(7))

@@ -1,11 +1,20 @@
 // Culling and level of detail, once per frame before the light-view and camera passes
 // (Rust: renderer/culling.rs). One workgroup per group of instances (a prototype with its
 // instances, or a world mesh with its one): each instance gets the fraction of its leaves
-// kept (lod.wgsl) and a bucket, and goes into two draw lists: the shadow list (every
-// instance drawn) and the camera list (those whose bounding sphere meets the view
-// frustum). Each list is ordered by bucket, instance order kept within one, so frames are
-// deterministic; then the indirect draw arguments of the group's meshes are written per
-// list and bucket.
+// kept (lod.wgsl) and a bucket, and goes into three draw lists: the shadow list (every
+// instance drawn), the camera list (those whose bounding sphere meets the view frustum)
+// and the late camera list. Each list is ordered by bucket, instance order kept within
+// one, so frames are deterministic; then the indirect draw arguments of the group's
+// meshes are written per list and bucket.
+//
+// Occlusion culling, two-phase (after Hill & Collin 2011 and GPU-driven pipelines since):
+// phase 0 puts every instance in view into the camera list (single images, light views);
+// phase 1 only those that were visible last frame (the shadow list as in phase 0); the
+// camera pass draws them, a max-depth pyramid is built from its depth (hiz.wgsl), and
+// phase 2 tests every instance in view against the pyramid: those not hidden and not
+// drawn in phase 1 go into the late camera list, drawn on top, and every instance's
+// visibility is kept for the next frame. Nothing in view is ever missed: what phase 1
+// did not draw is tested against depth that only holds nearer surfaces drawn this frame.
 
 struct Params {
     // World -> clip of the camera (depth 0..1).
@@ -16,8 +25,12 @@ struct Params {
     // y: 1 = frustum culling of the camera list; z: the smallest fraction kept;
     // w: pixels per metre of an orthographic view (0: perspective, from cam.w).
     lod: vec4<f32>,
-    // x: groups; y: instance slots (the shadow list starts there); z: workgroups per row.
+    // x: groups; y: instance slots (the shadow list starts there, the late camera list at
+    // twice that); z: workgroups per row.
     counts: vec4<u32>,
+    // x: phase (0, 1, 2, see above); y, z: the camera's depth target (pixels); w: levels
+    // of the depth pyramid.
+    occl: vec4<f32>,
 }
 
 struct Group {
@@ -55,12 +68,18 @@ struct DrawArgs {
 @group(0) @binding(4) var<storage, read_write> inst_lod: array<vec2<f32>>;
 // Camera list (slots 0..counts.y), then shadow list.
 @group(0) @binding(5) var<storage, read_write> draw_list: array<u32>;
-// Per mesh: camera list buckets, then shadow list buckets.
+// Per mesh: camera list buckets, shadow list buckets, late camera list buckets.
 @group(0) @binding(6) var<storage, read_write> args: array<DrawArgs>;
+// Per instance slot: 1 when the camera saw it (not hidden) in the last frame.
+@group(0) @binding(7) var<storage, read_write> visible: array<u32>;
+// The depth pyramid: level m texel (x, y) is the farthest depth of the camera's pixels
+// [2^(m+1) x, 2^(m+1) (x + 1)) per axis (hiz.wgsl).
+@group(1) @binding(0) var hiz: texture_2d<f32>;
 
 const THREADS: u32 = 64u;
-// List and bucket slots: camera list buckets 0..LOD_BUCKETS, then the shadow list's.
-const SLOTS: u32 = 2u * LOD_BUCKETS;
+// List and bucket slots: camera list buckets 0..LOD_BUCKETS, then the shadow list's, then
+// the late camera list's.
+const SLOTS: u32 = 3u * LOD_BUCKETS;
 // counts[t * SLOTS + s]: thread t's instances in slot s; after the scan, their offset.
 var<workgroup> counts: array<u32, THREADS * SLOTS>;
 // Per slot: instances in the group, and where the slot starts in the group's region.
@@ -71,9 +90,13 @@ struct State {
     f: f32,
     scale: f32,
     bucket: u32,
-    // Drawn at all (shadow list), and seen by the camera (camera list).
+    // Drawn at all (the shadow list in phases 0 and 1), in the camera list, in the late
+    // camera list (phase 2).
     drawn: bool,
     seen: bool,
+    late: bool,
+    // Phase 2: in view and not hidden (kept in `visible`).
+    visible: bool,
 }
 
 // A uniform number in (0, 1) from an integer (PCG hash).
@@ -101,12 +124,51 @@ fn in_frustum(c: vec3<f32>, r: f32) -> bool {
     return true;
 }
 
+// Whether the sphere (c, r), in front of the camera, lies behind the depth pyramid
+// everywhere it covers: the nearest depth of its bounding box against the farthest depth
+// of the pyramid texels under its footprint (a level where that is at most 2x2 texels).
+fn hidden(c: vec3<f32>, r: f32) -> bool {
+    var lo = vec3<f32>(1e30);
+    var hi = vec2<f32>(-1e30);
+    for (var k = 0u; k < 8u; k++) {
+        let o = vec3<f32>(f32(k & 1u), f32((k >> 1u) & 1u), f32((k >> 2u) & 1u)) * 2.0 - 1.0;
+        let h = p.view_proj * vec4<f32>(c + o * r, 1.0);
+        if (h.w <= 1e-6) {
+            return false;
+        }
+        let n = h.xyz / h.w;
+        lo = min(lo, n);
+        hi = max(hi, n.xy);
+    }
+    if (lo.z <= 0.0) {
+        return false;
+    }
+    let size = p.occl.yz;
+    // Pixels, y down; clamped to the target.
+    let a = clamp(vec2<f32>(lo.x * 0.5 + 0.5, 0.5 - hi.y * 0.5) * size, vec2<f32>(0.0), size - 1.0);
+    let b = clamp(vec2<f32>(hi.x * 0.5 + 0.5, 0.5 - lo.y * 0.5) * size, vec2<f32>(0.0), size - 1.0);
+    let extent = max(b.x - a.x, b.y - a.y);
+    let levels = i32(p.occl.w);
+    let m = clamp(i32(ceil(log2(max(extent, 1.0)))) - 1, 0, levels - 1);
+    let texel = exp2(f32(m + 1));
+    let dims = vec2<i32>(textureDimensions(hiz, m)) - 1;
+    let t0 = min(vec2<i32>(floor(a / texel)), dims);
+    let t1 = min(vec2<i32>(floor(b / texel)), dims);
+    var far = 0.0;
+    for (var y = t0.y; y <= t1.y; y++) {
+        for (var x = t0.x; x <= t1.x; x++) {
+            far = max(far, textureLoad(hiz, vec2<i32>(x, y), m).r);
+        }
+    }
+    return lo.z > far;
+}
+
 fn state(i: u32, gr: Group) -> State {
     let x = instances[i];
     let s = gr.sphere;
     let c = x.m0.xyz * s.x + x.m1.xyz * s.y + x.m2.xyz * s.z + x.m3.xyz;
     let smax = max(length(x.m0.xyz), max(length(x.m1.xyz), length(x.m2.xyz)));
-    var st = State(1.0, 1.0, 0u, true, true);
+    var st = State(1.0, 1.0, 0u, true, true, false, false);
     var grow = 0.0;
     if (p.lod.x > 0.0 && gr.shape.x > 0.0) {
         let d = max(distance(c, p.cam.xyz), 1e-4);
@@ -124,7 +186,15 @@ fn state(i: u32, gr: Group) -> State {
         }
     }
     let r = smax * (s.w * max(st.scale, 1.0) + gr.shape.z * grow);
-    st.seen = st.drawn && (p.lod.y < 0.5 || in_frustum(c, r));
+    let in_view = st.drawn && (p.lod.y < 0.5 || in_frustum(c, r));
+    let phase = u32(p.occl.x);
+    st.seen = in_view && (phase == 0u || (phase == 1u && visible[i] != 0u));
+    if (phase == 2u) {
+        st.visible = in_view && !hidden(c, r);
+        st.late = st.visible && visible[i] == 0u;
+        st.seen = false;
+        st.drawn = false;
+    }
     return st;
 }
 
@@ -152,6 +222,9 @@ fn cull(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) t
         if (st.drawn) {
             counts[t * SLOTS + LOD_BUCKETS + st.bucket] += 1u;
         }
+        if (st.late) {
+            counts[t * SLOTS + 2u * LOD_BUCKETS + st.bucket] += 1u;
+        }
     }
     workgroupBarrier();
     // Each slot's column: exclusive offsets per thread, and the slot's total.
@@ -166,7 +239,7 @@ fn cull(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) t
     }
     workgroupBarrier();
     // Where each bucket starts in its list's region of the group.
-    if (t < 2u) {
+    if (t < 3u) {
         var sum = 0u;
         for (var b = 0u; b < LOD_BUCKETS; b++) {
             base[t * LOD_BUCKETS + b] = sum;
@@ -174,10 +247,17 @@ fn cull(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) t
         }
     }
     workgroupBarrier();
+    // The lists this phase writes: phase 0 all three (the late one empty), phase 1 the
+    // camera and shadow lists, phase 2 the late one.
+    let phase = u32(p.occl.x);
     let cells = gr.range.w * SLOTS;
     for (var c = t; c < cells; c += THREADS) {
         let m = gr.range.z + c / SLOTS;
         let s = c % SLOTS;
+        let late = s >= 2u * LOD_BUCKETS;
+        if ((phase == 1u && late) || (phase == 2u && !late)) {
+            continue;
+        }
         var a: DrawArgs;
         a.instance_count = total[s];
         a.index_count = select(0u, bucket_counts[m * LOD_BUCKETS + s % LOD_BUCKETS], total[s] > 0u);
@@ -189,6 +269,18 @@ fn cull(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) t
     // Each thread writes its own chunk's instances, in order, at its offsets.
     for (var i = lo; i < hi; i++) {
         let st = state(i, gr);
+        // What the camera saw (phase 2; phase 0 when it is the camera's view, not a
+        // light's), read above (state) before it is written: each instance by its own
+        // thread.
+        if (phase == 2u || (phase == 0u && p.lod.y > 0.5)) {
+            visible[i] = select(0u, 1u, select(st.seen, st.visible, phase == 2u));
+        }
+        if (st.late) {
+            let s = 2u * LOD_BUCKETS + st.bucket;
+            let k = t * SLOTS + s;
+            draw_list[2u * p.counts.y + first + base[s] + counts[k]] = i;
+            counts[k] += 1u;
+        }
         if (st.seen) {
             let k = t * SLOTS + st.bucket;
             draw_list[first + base[st.bucket] + counts[k]] = i;

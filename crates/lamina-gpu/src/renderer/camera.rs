@@ -122,14 +122,11 @@ impl CameraPass {
 
     /// Records the camera pass over `list` into the current targets: the camera list
     /// cleared to `background` (linear radiance) and depth 1 first, the late list on top.
-    #[allow(clippy::too_many_arguments)]
     pub fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         background: Vec3,
-        pipelines: &ScenePipelines,
-        geometry: &Geometry,
-        materials: &[wgpu::BindGroup],
+        (pipelines, geometry, materials): (&ScenePipelines, &Geometry, &[wgpu::BindGroup]),
         list: DrawList,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {

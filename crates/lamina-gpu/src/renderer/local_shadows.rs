@@ -21,18 +21,15 @@
 
 use super::bounds::SceneBounds;
 use super::culling::{CullView, Phase};
-use super::geometry::{DrawList, Geometry};
-use super::layout::{
-    D2, D2_ARRAY, DEPTH_FORMAT, SHADOW_COLOR_FORMAT, buffer_entry, texture_2d, view_entry,
-};
+use super::geometry::Geometry;
+use super::layout::{D2_ARRAY, DEPTH_FORMAT, SHADOW_COLOR_FORMAT, texture_2d};
 use super::lights::{Globals, ShadowMaps, shadow_range};
 use super::pipelines::ScenePipelines;
 use super::projection::{CUBE_FACES, cube_face_matrix, light_matrix};
-use super::sun::light_view_pass;
+use super::sun::{BakedView, encode_baked_view, layer_view};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use glam::{Mat4, Vec3};
-use wgpu::util::DeviceExt;
 
 /// The shadow maps baked at load of the lights besides the first sun.
 pub(super) struct LocalShadows {
@@ -152,7 +149,7 @@ impl LocalShadows {
         match pollster::block_on(scope.pop()) {
             None => Ok(()),
             Some(e) => Err(GpuError::Validation {
-                what: "baking the shadow maps of point, sphere and quad lights".into(),
+                what: "baking the shadow maps of the lights besides the first sun".into(),
                 message: e.to_string(),
             }),
         }
@@ -167,43 +164,16 @@ impl LocalShadows {
         first: u32,
         g: &Globals,
         pipelines: (&wgpu::RenderPipeline, &wgpu::RenderPipeline),
-        (scene, geometry, materials): (&ScenePipelines, &Geometry, &[wgpu::BindGroup]),
+        scene: (&ScenePipelines, &Geometry, &[wgpu::BindGroup]),
     ) {
-        let buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("light view"),
-            contents: bytemuck::bytes_of(g),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let view = |t: &wgpu::Texture, layer: u32| {
-            t.create_view(&wgpu::TextureViewDescriptor {
-                dimension: Some(D2),
-                base_array_layer: first + layer,
-                array_layer_count: Some(1),
-                ..Default::default()
-            })
+        let [d, c] = &self.textures;
+        let view = BakedView {
+            g,
+            depth: [layer_view(d, first), layer_view(d, first + 1)],
+            color: [layer_view(c, first), layer_view(c, first + 1)],
+            pipelines,
         };
-        let depth = [view(&self.textures[0], 0), view(&self.textures[0], 1)];
-        let color = [view(&self.textures[1], 0), view(&self.textures[1], 1)];
-        for layer in 0..2 {
-            let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("light view"),
-                layout: &scene.shadow_layout,
-                // Layer 1 reads nothing (it binds layer 2's depth only because the layout
-                // wants a depth texture); layer 2 peels behind layer 1's depth.
-                entries: &[buffer_entry(0, &buf), view_entry(1, &depth[1 - layer])],
-            });
-            let pipeline = if layer == 0 { pipelines.0 } else { pipelines.1 };
-            let mut pass = light_view_pass(
-                encoder,
-                "local light view",
-                &color[layer],
-                &depth[layer],
-                None,
-            );
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &bg, &[]);
-            geometry.draw(&mut pass, materials, DrawList::Shadow);
-        }
+        encode_baked_view(device, encoder, &view, scene);
     }
 }
 

@@ -11,10 +11,14 @@
 //!    a point unattenuated, through one leaf (`c1`), or through two (`c1 c2`), each leaf's
 //!    share scaled by the form factor `a² / (a² + d²)` of its card (radius `a`) seen from
 //!    `d` behind it, since a leaf passes light on diffusely.
-//! 3. **Camera** (`fs_main`): every mesh and instance with the alpha test, shaded with the
-//!    baked leaf model ([`crate::bake`]), the sun through the transmittance map, the other
-//!    lights through their maps baked at load, and the SH sky ([`crate::sky`]) scaled by
-//!    the sky visibility baked at load. Output: linear radiance in an RGBA16F target.
+//! 3. **Camera** (`fs_main`): every mesh and instance in view with the alpha test, shaded
+//!    with the baked leaf model ([`crate::bake`]), the sun through the transmittance map,
+//!    the other lights through their maps baked at load, and the SH sky ([`crate::sky`])
+//!    scaled by the sky visibility baked at load. Output: linear radiance in an RGBA16F target.
+//!    With occlusion culling (frame sequences, [`RenderSettings::occlusion_culling`]) the
+//!    pass comes in two parts: the instances the last frame saw; then, after a max-depth
+//!    pyramid of that depth (`hiz.rs`) and a second culling dispatch against it, the
+//!    instances in view it does not hide that were not drawn yet.
 //!
 //! Quad lights are shaded by their exact irradiance (one-sided unless `two_sided`), sphere
 //! lights as point lights (exact outside them), see [`lights`]. The first
@@ -35,7 +39,8 @@
 //! * `sun`: the sun's two-layer maps, redrawn every frame;
 //! * `sky_visibility`: the sky's two-layer maps per direction, baked once;
 //! * `local_shadows`: the two-layer maps of the lights besides the first sun, baked once;
-//! * `camera`: the globals buffer, the camera pass and its HDR/depth targets;
+//! * `camera`: the globals buffer, the camera pass and its HDR/depth targets, with `hiz`
+//!   (the depth pyramid for occlusion culling, made with the targets);
 //! * `post`: tone map and overlay;
 //! * `lights`: scene lights and sky as the per-frame uniforms, and the light warnings;
 //! * `timing`: GPU time per pass (timestamp queries);
@@ -455,15 +460,8 @@ impl Renderer {
         };
         let writes = timer.as_deref_mut().and_then(|t| t.writes(first));
         let camera = &self.camera;
-        camera.encode(
-            encoder,
-            background,
-            pipelines,
-            geometry,
-            materials,
-            DrawList::Camera,
-            writes,
-        );
+        let scene = (pipelines, geometry, materials.as_slice());
+        camera.encode(encoder, background, scene, DrawList::Camera, writes);
         if !occlusion {
             return;
         }
@@ -494,15 +492,7 @@ impl Renderer {
             None,
         );
         let writes = timer.and_then(|t| t.writes(Pass::MainLate));
-        camera.encode(
-            encoder,
-            background,
-            pipelines,
-            geometry,
-            materials,
-            DrawList::Late,
-            writes,
-        );
+        camera.encode(encoder, background, scene, DrawList::Late, writes);
     }
 
     /// Sets [`RenderSettings::lod_pixels`] for the frames drawn from now on (0: every leaf).

@@ -3,19 +3,15 @@
 //! transmittance maps as the sun's, so the camera pass can tell how much of the sky each
 //! surface sees and through how many leaves (see `sky_visibility` in scene.wgsl).
 
-use super::geometry::{DrawList, Geometry};
-use super::layout::{
-    D2, D2_ARRAY, DEPTH_FORMAT, SHADOW_COLOR_FORMAT, buffer_entry, texture_2d, uniform_buffer,
-    view_entry,
-};
+use super::geometry::Geometry;
+use super::layout::{D2_ARRAY, DEPTH_FORMAT, SHADOW_COLOR_FORMAT, texture_2d, uniform_buffer};
 use super::lights::Globals;
 use super::pipelines::ScenePipelines;
 use super::projection::{light_matrix, sphere_directions};
-use super::sun::light_view_pass;
+use super::sun::{BakedView, encode_baked_view, layer_view};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use glam::Vec3;
-use wgpu::util::DeviceExt;
 
 /// Most sky-visibility directions.
 pub const MAX_SKY_DIRS: usize = 16;
@@ -122,43 +118,16 @@ impl SkyVisibility {
         encoder: &mut wgpu::CommandEncoder,
         k: usize,
         g: &Globals,
-        (pipelines, geometry, materials): (&ScenePipelines, &Geometry, &[wgpu::BindGroup]),
+        scene: (&ScenePipelines, &Geometry, &[wgpu::BindGroup]),
     ) {
-        let buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("sky direction"),
-            contents: bytemuck::bytes_of(g),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let views = self.textures.each_ref().map(|t| {
-            t.create_view(&wgpu::TextureViewDescriptor {
-                dimension: Some(D2),
-                base_array_layer: k as u32,
-                array_layer_count: Some(1),
-                ..Default::default()
-            })
-        });
-        for layer in 0..2 {
-            let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("sky direction"),
-                layout: &pipelines.shadow_layout,
-                // Layer 1 reads nothing; layer 2 peels behind layer 1's depth.
-                entries: &[buffer_entry(0, &buf), view_entry(1, &views[1 - layer])],
-            });
-            let pipeline = if layer == 0 {
-                &pipelines.shadow_first
-            } else {
-                &pipelines.shadow_peel
-            };
-            let mut pass = light_view_pass(
-                encoder,
-                "sky visibility",
-                &views[2 + layer],
-                &views[layer],
-                None,
-            );
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &bg, &[]);
-            geometry.draw(&mut pass, materials, DrawList::Shadow);
-        }
+        let [d1, d2, c1, c2] = &self.textures;
+        let k = k as u32;
+        let view = BakedView {
+            g,
+            depth: [layer_view(d1, k), layer_view(d2, k)],
+            color: [layer_view(c1, k), layer_view(c2, k)],
+            pipelines: (&scene.0.shadow_first, &scene.0.shadow_peel),
+        };
+        encode_baked_view(device, encoder, &view, scene);
     }
 }

@@ -5,8 +5,10 @@
 
 use super::geometry::{DrawList, Geometry};
 use super::layout::{DEPTH_FORMAT, SHADOW_COLOR_FORMAT, buffer_entry, texture_2d, view_entry};
+use super::lights::Globals;
 use super::pipelines::ScenePipelines;
 use super::timing::{Pass, Timer};
+use wgpu::util::DeviceExt;
 
 /// The sun's light-view maps and the bind groups of its two passes.
 pub(super) struct SunShadow {
@@ -118,5 +120,63 @@ pub(super) fn light_view_pass<'e>(
         timestamp_writes: timestamps,
         occlusion_query_set: None,
         multiview_mask: None,
+    })
+}
+
+/// One view of a light baked at load (a sky-visibility direction, a further sun's tile, a
+/// cube face): globals `g` (its matrix) and the single-layer views of its two layers,
+/// depth `[d1, d2]` and transmittance `[c1, c2]`, drawn by `pipelines` (layer 1, layer 2).
+pub(super) struct BakedView<'a> {
+    pub g: &'a Globals,
+    pub depth: [wgpu::TextureView; 2],
+    pub color: [wgpu::TextureView; 2],
+    pub pipelines: (&'a wgpu::RenderPipeline, &'a wgpu::RenderPipeline),
+}
+
+/// Records both layers of `view` (every instance drawn, as the light views' list has it).
+pub(super) fn encode_baked_view(
+    device: &wgpu::Device,
+    encoder: &mut wgpu::CommandEncoder,
+    view: &BakedView<'_>,
+    (scene, geometry, materials): (&ScenePipelines, &Geometry, &[wgpu::BindGroup]),
+) {
+    let buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("light view"),
+        contents: bytemuck::bytes_of(view.g),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    for layer in 0..2 {
+        let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("light view"),
+            layout: &scene.shadow_layout,
+            // Layer 1 reads nothing (it binds layer 2's depth only because the layout
+            // wants a depth texture); layer 2 peels behind layer 1's depth.
+            entries: &[buffer_entry(0, &buf), view_entry(1, &view.depth[1 - layer])],
+        });
+        let pipeline = if layer == 0 {
+            view.pipelines.0
+        } else {
+            view.pipelines.1
+        };
+        let mut pass = light_view_pass(
+            encoder,
+            "light view",
+            &view.color[layer],
+            &view.depth[layer],
+            None,
+        );
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bg, &[]);
+        geometry.draw(&mut pass, materials, DrawList::Shadow);
+    }
+}
+
+/// The view of array layer `layer` of `t` as a single 2D texture (a render target).
+pub(super) fn layer_view(t: &wgpu::Texture, layer: u32) -> wgpu::TextureView {
+    t.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(super::layout::D2),
+        base_array_layer: layer,
+        array_layer_count: Some(1),
+        ..Default::default()
     })
 }

@@ -462,6 +462,8 @@ fn task(dir: &Path, index: u32) -> Result<()> {
             seed: plan.seed,
             time_limit: None,
             quiet: false,
+            // Workers trace with the default engine, the one every build has.
+            accel: Default::default(),
         },
     })
 }

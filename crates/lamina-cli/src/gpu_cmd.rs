@@ -21,6 +21,12 @@ pub fn check_flags(flags: &crate::render_cmd::RenderFlags) -> Result<()> {
              path tracer's CPU threads)"
         );
     }
+    if flags.accel != lamina_render::accel::Backend::Lamina {
+        anyhow::bail!(
+            "--accel does not apply to --gpu: the GPU rasterises (--accel picks the path \
+             tracer's ray-casting engine)"
+        );
+    }
     if flags.time_limit.is_some() {
         anyhow::bail!(
             "--time-limit does not apply to --gpu: a GPU frame is drawn whole, not in \

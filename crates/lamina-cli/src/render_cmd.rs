@@ -30,6 +30,16 @@ pub struct RenderFlags {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+    /// The ray-casting engine: `lamina` (its own, the default) or `embree` (Intel Embree 3,
+    /// for comparison; in builds with the `embree` feature).
+    #[arg(long, value_name = "ENGINE", default_value = "lamina", value_parser = parse_accel)]
+    pub accel: lamina_render::accel::Backend,
+}
+
+/// Parses `--accel ENGINE`.
+fn parse_accel(s: &str) -> Result<lamina_render::accel::Backend, String> {
+    lamina_render::accel::Backend::parse(s)
+        .ok_or_else(|| format!("'{s}' is not a ray-casting engine: use lamina or embree"))
 }
 
 /// `lamina render SCENE`.
@@ -219,6 +229,7 @@ pub fn options(
         time_limit,
         cancel: Some(interrupt::flag()),
         progress: Some(progress),
+        accel: flags.accel,
         ..Default::default()
     };
     Ok((opts, bar))

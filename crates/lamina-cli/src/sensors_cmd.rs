@@ -118,6 +118,7 @@ pub fn run(
             sample_scale,
             cancel: Some(interrupt::flag()),
             progress: Some(progress),
+            accel: flags.accel,
         };
         let r = match sensors::measure(target, &opts) {
             Err(lamina_render::RenderError::Cancelled) => {

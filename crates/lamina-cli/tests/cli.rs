@@ -146,6 +146,29 @@ fn same_seed_same_image() {
     );
 }
 
+/// `--accel`: a name that is no engine is refused by the parser (exit 2); `embree` renders
+/// the same image as lamina's engine in a build with the `embree` feature, and is refused
+/// with the feature named (exit 1, nothing written) in one without.
+#[test]
+fn accel_engine_is_checked() {
+    let d = scratch("accel");
+    let s = write(&d, "s.toml", GOOD);
+    let o = render(&d, &s, &["--accel", "optix"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("lamina or embree"), "{}", stderr(&o));
+    let o = render(&d, &s, &["--accel", "embree", "--seed", "4"]);
+    if cfg!(feature = "embree") {
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::rename(d.join("out.png"), d.join("embree.png")).unwrap();
+        let o = render(&d, &s, &["--accel", "lamina", "--seed", "4"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let (a, b) = (image::open(d.join("out.png")), image::open(d.join("embree.png")));
+        assert_eq!(a.unwrap().to_rgb8(), b.unwrap().to_rgb8());
+    } else {
+        assert_fails(&o, &["accel embree", "`embree` feature"], &d, &["s.toml"]);
+    }
+}
+
 #[test]
 fn missing_scene_file() {
     let d = scratch("missing");

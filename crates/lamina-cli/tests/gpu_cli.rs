@@ -213,6 +213,7 @@ fn render_gpu_refuses_flags_that_do_not_apply() {
         ("--seed", "3", "no random numbers"),
         ("--threads", "2", "CPU threads"),
         ("--time-limit", "1", "progressive"),
+        ("--accel", "embree", "ray-casting engine"),
     ] {
         let stderr = refused(&d, &["render", "--gpu", flag, value]);
         assert!(

@@ -276,6 +276,7 @@ pub fn measure<'py>(
         sample_scale,
         cancel: Some(cancel.clone()),
         progress: None,
+        ..Default::default()
     };
     let groups_w = groups.clone();
     let work = move || -> Result<Vec<Vec<SensorOutput>>, String> {

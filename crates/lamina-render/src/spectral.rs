@@ -108,7 +108,7 @@ pub(crate) fn render_visible(
     let sets = build_sets(scene, &band_groups, Illuminant::D65, &job.pool)?;
     // The two sets of a path side by side in the sky's texels.
     let slot = (0..2 * s).map(|j| 2 * (j % s) + j / s).collect();
-    let ctx = SceneContext::new(scene)?.with_sets(sets, slot)?;
+    let ctx = SceneContext::new(scene, opts.accel)?.with_sets(sets, slot)?;
     let spectral_setup = setup.elapsed().saturating_sub(ctx.accel_build);
     let est = VisibleEstimator {
         max_depth,
@@ -201,7 +201,7 @@ pub fn render_bands(
     let setup = Instant::now();
     let sets = build_sets(scene, &band_groups, Illuminant::Solar, &job.pool)?;
     let slot = (0..sets.len()).collect();
-    let ctx = SceneContext::new(scene)?.with_sets(sets, slot)?;
+    let ctx = SceneContext::new(scene, opts.accel)?.with_sets(sets, slot)?;
     let spectral_setup = setup.elapsed().saturating_sub(ctx.accel_build);
     let chunks: Vec<std::ops::Range<usize>> = (0..groups.len())
         .step_by(MAX_SETS_PER_PATH)

@@ -43,15 +43,19 @@
 
 mod alpha;
 mod blas;
+mod core;
 mod prims;
 #[cfg(test)]
 mod tests;
 
+use self::core::Core;
 use crate::error::RenderError;
 use alpha::AlphaTest;
 use blas::{Blas, BlasBuilder};
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
 use lamina_accel::{AccelError, Geometry, Instance, SceneDesc, Sphere};
+
+pub use self::core::Backend;
 use lamina_core::{Light, Material, Scene};
 use lamina_leaf::frame::Frame;
 
@@ -156,7 +160,7 @@ pub use lamina_accel::AccelMemory;
 /// every level.
 #[derive(Clone, Debug)]
 pub struct Accel {
-    core: lamina_accel::Accel,
+    core: Core,
     world: Blas,
     prototypes: Vec<Blas>,
     alpha: Vec<AlphaTest>,
@@ -308,12 +312,27 @@ impl Accel {
         Self::build_for(scene, merge_cards, lamina_accel::Kernel::best())
     }
 
+    /// [`Accel::build`] on ray-casting engine `backend` (an error naming the missing
+    /// feature for [`Backend::Embree`] in a build without it).
+    pub fn build_on(scene: &Scene, backend: Backend) -> Result<Self, RenderError> {
+        Self::build_engine(scene, true, lamina_accel::Kernel::best(), backend)
+    }
+
     /// [`Accel::build_with`] for traversal kernel `kernel` (an error if this CPU lacks it):
     /// for tests and benchmarks of each kernel.
     pub fn build_for(
         scene: &Scene,
         merge_cards: bool,
         kernel: lamina_accel::Kernel,
+    ) -> Result<Self, RenderError> {
+        Self::build_engine(scene, merge_cards, kernel, Backend::Lamina)
+    }
+
+    fn build_engine(
+        scene: &Scene,
+        merge_cards: bool,
+        kernel: lamina_accel::Kernel,
+        backend: Backend,
     ) -> Result<Self, RenderError> {
         let alpha: Vec<AlphaTest> = scene
             .materials
@@ -427,14 +446,7 @@ impl Accel {
             spheres,
             masks: alpha.iter().map(AlphaTest::mask).collect(),
         };
-        let core = lamina_accel::Accel::build_with(
-            &desc,
-            lamina_accel::BuildOptions {
-                kernel,
-                ..Default::default()
-            },
-        )
-        .map_err(accel_error)?;
+        let core = Core::build(&desc, backend, kernel).map_err(accel_error)?;
         let measuring = scene.radiometry != lamina_core::Radiometry::default();
         let origins = measuring.then(|| Origins {
             meshes: mesh_origins,
@@ -465,9 +477,15 @@ impl Accel {
         })
     }
 
-    /// The kernel lamina-accel traverses with (AVX2 8-wide, SSE 4-wide or scalar).
-    pub fn kernel(&self) -> lamina_accel::Kernel {
+    /// The kernel lamina-accel traverses with (AVX2 8-wide, SSE 4-wide or scalar); `None`
+    /// on Embree.
+    pub fn kernel(&self) -> Option<lamina_accel::Kernel> {
         self.core.kernel()
+    }
+
+    /// The ray-casting engine it traces with.
+    pub fn backend(&self) -> Backend {
+        self.core.backend()
     }
 
     /// Number of primitives stored: triangles, plus parallelograms for leaf cards (pairs of
@@ -689,23 +707,32 @@ impl Accel {
     }
 
     /// [`Accel::intersect`], counting lamina-accel's traversal steps into `stats` (for
-    /// benchmarks: nodes and packs per ray, alpha lookups the masks saved).
+    /// benchmarks: nodes and packs per ray, alpha lookups the masks saved; Embree counts
+    /// nothing).
     pub fn intersect_counted(&self, ray: &Ray, stats: &lamina_accel::TraversalStats) -> bool {
-        self.core
-            .intersect_counted(ray, PrimRef::NONE, &self.filter(), stats)
-            .is_some()
+        let f = self.filter();
+        match self.core.lamina() {
+            Some(a) => a.intersect_counted(ray, PrimRef::NONE, &f, stats).is_some(),
+            None => self.core.intersect(ray, PrimRef::NONE, &f).is_some(),
+        }
     }
 
     /// [`Accel::occluded`], counting lamina-accel's traversal steps into `stats`.
     pub fn occluded_counted(&self, ray: &Ray, stats: &lamina_accel::TraversalStats) -> bool {
-        self.core
-            .occluded_counted(ray, PrimRef::NONE, &self.filter(), stats)
+        let f = self.filter();
+        match self.core.lamina() {
+            Some(a) => a.occluded_counted(ray, PrimRef::NONE, &f, stats),
+            None => self.core.occluded(ray, PrimRef::NONE, &f),
+        }
     }
 
-    /// The SAH cost, wide nodes and leaf packs of the world level's tree.
+    /// The SAH cost, wide nodes and leaf packs of the world level's tree (zeros on Embree,
+    /// whose tree is not exposed).
     pub fn world_tree(&self) -> (f64, usize, usize) {
-        let (n, p) = self.core.world_counts();
-        (self.core.world_sah_cost(), n, p)
+        self.core.lamina().map_or((0.0, 0, 0), |a| {
+            let (n, p) = a.world_counts();
+            (a.world_sah_cost(), n, p)
+        })
     }
 
     /// [`Accel::occluded`], ignoring primitive `skip` (the one the ray leaves).

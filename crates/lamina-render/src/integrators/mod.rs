@@ -35,11 +35,11 @@ pub struct SceneContext<'a> {
 }
 
 impl<'a> SceneContext<'a> {
-    /// Builds everything a render needs from `scene`.
-    pub fn new(scene: &'a Scene) -> Result<Self, RenderError> {
+    /// Builds everything a render needs from `scene`, tracing with `backend`.
+    pub fn new(scene: &'a Scene, backend: crate::accel::Backend) -> Result<Self, RenderError> {
         let camera = CameraModel::new(&scene.camera, &scene.film)?;
         let start = std::time::Instant::now();
-        let accel = Accel::build(scene)?;
+        let accel = Accel::build_on(scene, backend)?;
         let accel_build = start.elapsed();
         Ok(SceneContext {
             scene,

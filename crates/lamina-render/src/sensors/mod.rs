@@ -54,6 +54,8 @@ pub struct MeasureOptions {
     pub cancel: Option<Arc<AtomicBool>>,
     /// Called as work completes: sensor index, its name, fraction of its work done.
     pub progress: Option<SensorProgress>,
+    /// The ray-casting engine (see [`crate::RenderOptions::accel`]).
+    pub accel: crate::accel::Backend,
 }
 
 /// One sensor's result.
@@ -248,7 +250,8 @@ pub fn measure(scene: &Scene, opts: &MeasureOptions) -> Result<Vec<SensorOutput>
         .num_threads(threads)
         .build()
         .map_err(|source| RenderError::ThreadPool { threads, source })?;
-    let ctx = SceneContext::new(scene)?;
+    crate::render::check_backend(opts.accel)?;
+    let ctx = SceneContext::new(scene, opts.accel)?;
     let mut out = Vec::new();
     for (si, sensor) in scene.radiometry.sensors.iter().enumerate() {
         let start = Instant::now();

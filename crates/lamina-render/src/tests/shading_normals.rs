@@ -75,7 +75,7 @@ fn sphere_line_error(smooth: bool) -> (f32, f32) {
         vec![sun(wsun, e)],
         None,
     );
-    let ctx = SceneContext::new(&scene).unwrap();
+    let ctx = SceneContext::new(&scene, Default::default()).unwrap();
     let (mut sum, mut max, mut n) = (0.0f32, 0.0f32, 0);
     for k in 0..=200 {
         let x = -0.9 + 1.8 * k as f32 / 200.0;

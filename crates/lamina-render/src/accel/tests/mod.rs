@@ -98,7 +98,8 @@ pub(crate) trait Backend: Sized {
 }
 
 /// [`Accel`] (lamina-accel's wide BVHs) as a [`Backend`], built for kernel `K`: 0 the
-/// best this CPU runs (AVX2 8-wide here), 1 SSE 4-wide, 2 scalar 4-wide. A kernel the CPU
+/// best this CPU runs (AVX2 8-wide here), 1 SSE 4-wide, 2 scalar 4-wide; 3 on Embree
+/// (lamina-render's `embree` feature). A kernel the CPU
 /// lacks falls back to the best one (the suite then checks that one twice).
 pub(crate) struct CurrentAccel<const K: u8 = 0> {
     accel: Accel,
@@ -110,6 +111,7 @@ impl<const K: u8> Backend for CurrentAccel<K> {
     const NAME: &'static str = match K {
         0 => "lamina-accel (best kernel)",
         1 => "lamina-accel (SSE kernel)",
+        3 => "Embree 3",
         _ => "lamina-accel (scalar kernel)",
     };
     type Prim = PrimRef;
@@ -126,7 +128,11 @@ impl<const K: u8> Backend for CurrentAccel<K> {
         } else {
             Kernel::best()
         };
-        let accel = Accel::build_for(scene, true, kernel)?;
+        let accel = if K == 3 {
+            Accel::build_on(scene, crate::accel::Backend::Embree)?
+        } else {
+            Accel::build_for(scene, true, kernel)?
+        };
         // lamina-accel stores the inverse transform as `Instance::transform.inverse()`
         // computes it: the same computation here finds each id's instance, bit for bit.
         let mut taken = vec![false; scene.instances.len()];
@@ -231,4 +237,6 @@ macro_rules! backend_suite {
 backend_suite!(current, super::CurrentAccel);
 backend_suite!(current_sse, super::CurrentAccel<1>);
 backend_suite!(current_scalar, super::CurrentAccel<2>);
+#[cfg(feature = "embree")]
+backend_suite!(embree, super::CurrentAccel<3>);
 backend_suite!(brute_force, super::reference::BruteForce);

@@ -31,6 +31,9 @@ if [[ $what == all ]]; then
   rm -rf "$out"
   # The GPU path next to a converged offline render (GPU left), for the README's GPU section.
   cargo run --release -q -p lamina-gpu --example compare -- docs/images/gpu 192 1024
+  # Lamps at night: the quad lamp's and the bulb's soft shadows, offline and on the GPU.
+  $lamina render examples/lamps.toml --spp 256 -o docs/images/gpu/lamps-offline.png --quiet --force
+  $lamina render --gpu examples/lamps.toml -o docs/images/gpu/lamps-gpu.png --force
 fi
 
 if [[ $what == all || $what == rami ]]; then

@@ -162,7 +162,10 @@ fn accel_engine_is_checked() {
         std::fs::rename(d.join("out.png"), d.join("embree.png")).unwrap();
         let o = render(&d, &s, &["--accel", "lamina", "--seed", "4"]);
         assert!(o.status.success(), "{}", stderr(&o));
-        let (a, b) = (image::open(d.join("out.png")), image::open(d.join("embree.png")));
+        let (a, b) = (
+            image::open(d.join("out.png")),
+            image::open(d.join("embree.png")),
+        );
         assert_eq!(a.unwrap().to_rgb8(), b.unwrap().to_rgb8());
     } else {
         assert_fails(&o, &["accel embree", "`embree` feature"], &d, &["s.toml"]);

@@ -272,3 +272,33 @@ fn lights_without_shadow_maps_are_named() {
     );
     assert_eq!(r.local_shadow_bytes(), 2 * 6 * 2 * 512 * 512 * 12);
 }
+
+/// Nine suns past the first: each takes 32 array layers (4x4 tiles, two layers each), so
+/// eight fill the device's 256 layers and the ninth is named as casting no shadows; the
+/// frame renders (small maps keep the memory low).
+#[test]
+fn many_suns_fill_the_array_layers_and_the_rest_are_named() {
+    let Some(ctx) = context() else {
+        return;
+    };
+    let sun = |k: usize| Light::Sun {
+        direction: Vec3::new(0.1 * k as f32, 1.0, 0.3).normalize(),
+        irradiance: Vec3::splat(0.2),
+        angular_diameter_deg: 0.53,
+    };
+    let scene = flat_leaf_under((0..10).map(sun).collect(), 32);
+    let settings = RenderSettings {
+        local_shadow_size: 64,
+        ..Default::default()
+    };
+    let mut r = Renderer::new(&ctx, &scene, settings).expect("renderer");
+    let w = r.warnings().join("\n");
+    eprintln!("{w}");
+    assert!(
+        w.contains("light 10 (sun) casts no shadows") && !w.contains("light 9 (sun)"),
+        "{w}"
+    );
+    assert_eq!(r.local_shadow_bytes(), 256 * 64 * 64 * 12);
+    let img = r.render_image().expect("frame");
+    assert!(img.pixels.iter().any(|p| p.max_element() > 0.0));
+}

@@ -166,7 +166,7 @@ fn to_array<'py>(py: Python<'py>, r: Rendered) -> PyResult<Bound<'py, PyArray3<f
 /// after every pass. The GIL is released while rendering; Ctrl-C raises KeyboardInterrupt
 /// within a second. With `stats=True` returns `(image, stats_dict)`.
 #[pyfunction]
-#[pyo3(signature = (scene, *, spp=None, seed=0, threads=None, time_limit=None, progress=None, stats=false))]
+#[pyo3(signature = (scene, *, spp=None, seed=0, threads=None, time_limit=None, progress=None, stats=false, accel="lamina"))]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
     py: Python<'py>,
@@ -177,7 +177,13 @@ pub fn render<'py>(
     time_limit: Option<f64>,
     progress: Option<Py<PyAny>>,
     stats: bool,
+    accel: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let Some(accel) = lamina_render::accel::Backend::parse(accel) else {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "accel must be 'lamina' or 'embree', got '{accel}'"
+        )));
+    };
     if spp == Some(0) {
         return Err(pyo3::exceptions::PyValueError::new_err(
             "spp must be at least 1",
@@ -209,6 +215,7 @@ pub fn render<'py>(
         threads,
         seed,
         time_limit,
+        accel,
         ..Default::default()
     };
     let scene_owned = scene.clone();

@@ -93,6 +93,21 @@ def test_bad_options(small_dict):
         lamina.render("scene.toml")
     with pytest.raises(TypeError, match="callable"):
         lamina.render(s, spp=1, progress=42)
+    with pytest.raises(ValueError, match="accel must be 'lamina' or 'embree'"):
+        lamina.render(s, spp=1, accel="optix")
+
+
+def test_accel_picks_the_engine(small_dict):
+    s = lamina.Scene.from_dict(small_dict)
+    a = lamina.render(s, spp=2, seed=3, accel="lamina")
+    assert np.array_equal(a, lamina.render(s, spp=2, seed=3))
+    try:
+        b = lamina.render(s, spp=2, seed=3, accel="embree")
+    except lamina.RenderError as e:
+        # A build without Embree says which feature it lacks.
+        assert "`embree` feature" in str(e)
+    else:
+        assert np.abs(b - a).mean() <= 1e-3 * a.mean()
 
 
 def test_time_limit_returns_a_partial_image(small_dict):

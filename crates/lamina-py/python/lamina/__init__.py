@@ -98,6 +98,7 @@ def render(
     time_limit: Optional[float] = None,
     progress: Union[bool, Callable[[dict], Any], None] = None,
     stats: bool = False,
+    accel: str = "lamina",
 ):
     """Render ``scene`` with the offline path tracer.
 
@@ -113,7 +114,9 @@ def render(
     or a callable receiving a dict (``spp_done``, ``spp_total``, ``passes_done``,
     ``passes_total``, ``elapsed``, ``group``, ``groups``) after every pass; an exception it
     raises cancels the render and propagates. stats: also return a dict of counters
-    (``elapsed``, ``rays``, ``samples``, ...).
+    (``elapsed``, ``rays``, ``samples``, ...). accel: the ray-casting engine, ``"lamina"``
+    (its own) or ``"embree"`` (Intel Embree 3, for comparison, in a lamina built with the
+    ``embree`` feature; ``lamina.RenderError`` naming the feature otherwise).
 
     The GIL is released while rendering; Ctrl-C cancels the render and raises
     KeyboardInterrupt within a second.
@@ -134,6 +137,7 @@ def render(
             time_limit=time_limit,
             progress=callback,
             stats=stats,
+            accel=accel,
         )
     finally:
         if bar is not None:

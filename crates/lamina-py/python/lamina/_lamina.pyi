@@ -153,6 +153,7 @@ def render(
     time_limit: Optional[float] = None,
     progress: Optional[Callable[[Dict[str, Any]], Any]] = None,
     stats: bool = False,
+    accel: str = "lamina",
 ) -> Any:
     """The native render; use ``lamina.render``."""
 

@@ -120,32 +120,21 @@ pub fn write_spectrum_csv(
     Ok(())
 }
 
-/// Mean of `v` over the grid wavelengths in `[lo, hi]` nm.
-fn band_mean(v: &[f64], lo: u32, hi: u32) -> f64 {
-    let i0 = (lo - 400) as usize;
-    let i1 = (hi - 400) as usize;
-    v[i0..=i1].iter().sum::<f64>() / (i1 - i0 + 1) as f64
-}
-
-/// The band means a user checks a leaf spectrum by, printed as `name R T` rows.
+/// The band means a user checks a leaf spectrum by (those of the fit goal and of most leaf
+/// papers, `lamina_leaf::fit::FIT_BANDS`), of a spectrum on PROSPECT's 1 nm grid, printed as
+/// `name R T` rows.
 pub fn print_band_means(r: &[f64], t: &[f64]) {
-    for (name, lo, hi) in BANDS {
+    use lamina_leaf::fit::{FIT_BANDS, band_means};
+    let nm: Vec<f64> = (0..r.len()).map(LeafSpectrum::wavelength).collect();
+    let (mr, mt) = (band_means(&nm, r), band_means(&nm, t));
+    for (k, (name, _, _)) in FIT_BANDS.iter().enumerate() {
         eprintln!(
             "  {name:<22} R {:.4}  T {:.4}",
-            band_mean(r, lo, hi),
-            band_mean(t, lo, hi)
+            mr[k].unwrap_or(f64::NAN),
+            mt[k].unwrap_or(f64::NAN)
         );
     }
 }
-
-/// The bands of the fit goal (and of most leaf papers), nm.
-pub const BANDS: [(&str, u32, u32); 5] = [
-    ("blue 450-500 nm", 450, 500),
-    ("green 500-570 nm", 500, 570),
-    ("red 620-700 nm", 620, 700),
-    ("NIR 800-900 nm", 800, 900),
-    ("SWIR 1550-1750 nm", 1550, 1750),
-];
 
 /// `lamina leaf prospect`.
 pub fn run_prospect(args: &PigmentArgs, out: &Path, force: bool) -> anyhow::Result<()> {
@@ -414,6 +403,20 @@ pub struct FitArgs {
     /// fit.png, keeping every other file).
     #[arg(long)]
     pub force: bool,
+    /// How much the band means (blue 450-500, green 500-570, red 620-700, NIR 800-900, SWIR
+    /// 1550-1750 nm) weigh: each band mean's error counts W times its band's width of
+    /// spectrum. 0 fits per nanometre alone (the lowest RMSE; band means may be 0.01-0.03 off).
+    #[arg(long, value_name = "W", default_value_t = lamina_leaf::fit::BAND_WEIGHT,
+          value_parser = parse_band_weight, allow_hyphen_values = true)]
+    pub band_weight: f64,
+}
+
+/// `--band-weight`: a number from 0 to 1000.
+fn parse_band_weight(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(w) if (0.0..=1000.0).contains(&w) => Ok(w),
+        _ => Err(format!("'{s}' is not a weight from 0 to 1000")),
+    }
 }
 
 /// `x` rounded to four significant digits.
@@ -430,44 +433,17 @@ fn owns_fit_file(name: &str) -> bool {
     matches!(name, "leaf.toml" | "fit.csv" | "fit.png")
 }
 
-/// `lamina leaf fit`.
-pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
+/// A PROSPECT fit with its pigments rounded to four significant digits (far below what a
+/// measurement resolves) and the rendered leaf's R and T at `m`'s samples: the BSDF's
+/// directional-hemispherical R and T at 8°, integrated as `lamina leaf albedo` does, at the
+/// measured wavelengths (or every 5 nm and interpolated, for densely sampled spectra).
+fn rendered_fit(
+    mut fit: lamina_leaf::fit::ProspectFit,
+    m: &lamina_leaf::measured::MeasuredSpectrum,
+) -> anyhow::Result<(lamina_leaf::fit::ProspectFit, Vec<f64>, Vec<f64>)> {
     use lamina_leaf::albedo::AlbedoOptions;
-    use lamina_leaf::fit::fit_prospect;
-    use lamina_leaf::measured::MeasuredSpectrum;
-    use lamina_leaf::{LeafDescription, LeafMaps, LeafParams, PigmentLeaf};
-    let inputs = vec![a.spectrum.clone()];
-    let spec = lamina_io::FolderSpec {
-        kind: "leaf folder",
-        owns: &owns_fit_file,
-        marker: "leaf.toml",
-        is_marked: &lamina_leafmaps::written_by_lamina,
-        inputs: &inputs,
-    };
-    let mode = crate::output_file::replace_mode(a.force);
-    lamina_io::check_folder(&a.out, &spec, mode)
-        .with_context(|| format!("writing leaf folder '{}'", a.out.display()))?;
-    let t0 = std::time::Instant::now();
-    let m = MeasuredSpectrum::read(&a.spectrum)?;
-    if m.dropped > 0 {
-        eprintln!(
-            "warning: {} sample(s) outside 400-2500 nm ignored",
-            m.dropped
-        );
-    }
-    if m.t.is_none() {
-        eprintln!(
-            "warning: '{}' has no transmittance column: fitting reflectance only; T is predicted by PROSPECT, not fitted",
-            a.spectrum.display()
-        );
-    }
-    let mut fit = fit_prospect(&m);
-    // Four significant digits: far below what a measurement resolves.
+    use lamina_leaf::{LeafMaps, LeafParams, PigmentLeaf};
     fit.pigments = Pigments::from_values(fit.pigments.values().map(round4));
-    let t_fit = t0.elapsed().as_secs_f64();
-    // The model as the renderer sees it: the BSDF's directional-hemispherical R and T at 8°,
-    // integrated as `lamina leaf albedo` does, at the measured wavelengths (or every 5 nm
-    // and interpolated, for densely sampled spectra).
     let leaf = PigmentLeaf::new(fit.pigments, LeafParams::default(), LeafMaps::default())?;
     let lo = m.nm[0] as f32;
     let hi = m.nm[m.nm.len() - 1] as f32;
@@ -495,8 +471,49 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         let f = (l - a0.0 as f64) / (a1.0 as f64 - a0.0 as f64);
         pick(a0) as f64 + f * (pick(a1) as f64 - pick(a0) as f64)
     };
-    let model_r: Vec<f64> = m.nm.iter().map(|&l| interp(l, |x| x.1)).collect();
-    let model_t: Vec<f64> = m.nm.iter().map(|&l| interp(l, |x| x.2)).collect();
+    let model_r = m.nm.iter().map(|&l| interp(l, |x| x.1)).collect();
+    let model_t = m.nm.iter().map(|&l| interp(l, |x| x.2)).collect();
+    Ok((fit, model_r, model_t))
+}
+
+/// `lamina leaf fit`.
+pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
+    use lamina_leaf::LeafDescription;
+    use lamina_leaf::fit::{FitOptions, fit_prospect_with};
+    use lamina_leaf::measured::MeasuredSpectrum;
+    let inputs = vec![a.spectrum.clone()];
+    let spec = lamina_io::FolderSpec {
+        kind: "leaf folder",
+        owns: &owns_fit_file,
+        marker: "leaf.toml",
+        is_marked: &lamina_leafmaps::written_by_lamina,
+        inputs: &inputs,
+    };
+    let mode = crate::output_file::replace_mode(a.force);
+    lamina_io::check_folder(&a.out, &spec, mode)
+        .with_context(|| format!("writing leaf folder '{}'", a.out.display()))?;
+    let t0 = std::time::Instant::now();
+    let m = MeasuredSpectrum::read(&a.spectrum)?;
+    if m.dropped > 0 {
+        eprintln!(
+            "warning: {} sample(s) outside 400-2500 nm ignored",
+            m.dropped
+        );
+    }
+    if m.t.is_none() {
+        eprintln!(
+            "warning: '{}' has no transmittance column: fitting reflectance only; T is predicted by PROSPECT, not fitted",
+            a.spectrum.display()
+        );
+    }
+    let fit = fit_prospect_with(
+        &m,
+        &FitOptions {
+            band_weight: a.band_weight,
+        },
+    );
+    let t_fit = t0.elapsed().as_secs_f64();
+    let (fit, model_r, model_t) = rendered_fit(fit, &m)?;
     let rmse = |a: &[f64], b: &[f64]| {
         (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
     };
@@ -623,18 +640,16 @@ pub fn run_fit(a: &FitArgs) -> anyhow::Result<()> {
         fit.rmse_t.map_or(String::new(), |t| format!("  T {t:.4}"))
     );
     eprintln!("  band means (measured -> model, error):");
-    for (name, lo, hi) in BANDS {
-        let idx: Vec<usize> = (0..m.nm.len())
-            .filter(|&i| m.nm[i] >= lo as f64 && m.nm[i] <= hi as f64)
-            .collect();
-        if idx.is_empty() {
+    let bm = |v: &[f64]| lamina_leaf::fit::band_means(&m.nm, v);
+    let (mr, gr) = (bm(&m.r), bm(&model_r));
+    let mt = m.t.as_ref().map(|t| (bm(t), bm(&model_t)));
+    for (k, (name, _, _)) in lamina_leaf::fit::FIT_BANDS.iter().enumerate() {
+        let (Some(mr), Some(gr)) = (mr[k], gr[k]) else {
             eprintln!("    {name:<20} no samples");
             continue;
-        }
-        let mean = |v: &[f64]| idx.iter().map(|&i| v[i]).sum::<f64>() / idx.len() as f64;
-        let (mr, gr) = (mean(&m.r), mean(&model_r));
-        let t_part = m.t.as_ref().map_or(String::new(), |t| {
-            let (mt, gt) = (mean(t), mean(&model_t));
+        };
+        let t_part = mt.map_or(String::new(), |(mt, gt)| {
+            let (mt, gt) = (mt[k].unwrap_or(0.0), gt[k].unwrap_or(0.0));
             format!("   T {mt:.4} -> {gt:.4} ({:+.4})", gt - mt)
         });
         eprintln!(

@@ -238,6 +238,25 @@ fn fit_refuses_bad_spectra_naming_file_and_line() {
         &lamina(&["leaf", "fit", "--spectrum", "none.csv", "-o", "out"], &d),
         &["none.csv"],
     );
+    for w in ["-1", "nan", "heavy"] {
+        fails(
+            &lamina(
+                &[
+                    "leaf",
+                    "fit",
+                    "--spectrum",
+                    "sum.csv",
+                    "-o",
+                    "out",
+                    "--band-weight",
+                    w,
+                ],
+                &d,
+            ),
+            &["--band-weight", w, "0 to 1000"],
+        );
+        assert!(!d.join("out").exists());
+    }
     // Reflectance only: fitted with a warning.
     let r_only: String = (0..30)
         .map(|i| format!("{},{}\n", 400 + 70 * i, if i < 5 { 0.05 } else { 0.45 }))

@@ -101,18 +101,27 @@ pub fn prospect<'py>(
 /// a measured leaf: `wavelengths` (nm, increasing, at least 10 inside 400-2500), `r` and
 /// optionally `t` (directional-hemispherical, in [0, 1]). The same checks and fit as
 /// `lamina leaf fit`; without `t`, T is predicted (and a `UserWarning` says so).
+/// `band_weight` (default 8, as the CLI's `--band-weight`): how many times its band's width
+/// of spectrum each band mean's error (450-500, 500-570, 620-700, 800-900, 1550-1750 nm)
+/// weighs in the cost; 0 fits per nanometre alone.
 ///
 /// Returns a dict: `pigments` (a dict, usable as `Leaf.from_dict({"pigments": ...})`),
 /// `wavelengths`, `model_r`, `model_t` (PROSPECT at the measured wavelengths), `rmse_r`,
 /// `rmse_t` (`None` without `t`), `iterations`.
 #[pyfunction]
-#[pyo3(signature = (wavelengths, r, t=None))]
+#[pyo3(signature = (wavelengths, r, t=None, band_weight=lamina_leaf::fit::BAND_WEIGHT))]
 pub fn fit_leaf<'py>(
     py: Python<'py>,
     wavelengths: PyArrayLike1<'py, f64, AllowTypeChange>,
     r: PyArrayLike1<'py, f64, AllowTypeChange>,
     t: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
+    band_weight: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
+    if !(0.0..=1000.0).contains(&band_weight) {
+        return Err(leaf_error(format!(
+            "band_weight {band_weight} is not a weight from 0 to 1000"
+        )));
+    }
     let nm = wavelengths.as_array().to_vec();
     let rv = r.as_array().to_vec();
     let tv = t.as_ref().map(|t| t.as_array().to_vec());
@@ -155,7 +164,8 @@ pub fn fit_leaf<'py>(
             1,
         )?;
     }
-    let fit = py.detach(|| lamina_leaf::fit::fit_prospect(&m));
+    let opts = lamina_leaf::fit::FitOptions { band_weight };
+    let fit = py.detach(|| lamina_leaf::fit::fit_prospect_with(&m, &opts));
     let d = PyDict::new(py);
     d.set_item("pigments", pigments_dict(py, &fit.pigments)?)?;
     d.set_item("wavelengths", PyArray1::from_vec(py, m.nm.clone()))?;

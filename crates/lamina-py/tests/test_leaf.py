@@ -130,6 +130,24 @@ def test_fit_recovers_a_prospect_leaf():
     assert lamina.Leaf.from_dict({"pigments": {k: v for k, v in p.items() if k != "model"}})
 
 
+def test_fit_band_weight():
+    wl, r, t = lamina.prospect(n=1.8, cab=55, car=11, cw=0.015, cm=0.006)
+    # A SWIR unlike PROSPECT's: the band terms pull that band's mean in.
+    bump = 0.03 * np.exp(-(((wl - 1650.0) / 120.0) ** 2))
+    r = r - bump
+    swir = (wl >= 1550) & (wl <= 1750)
+    err = {}
+    for w in (0.0, 8.0):
+        with pytest.warns(UserWarning, match="transmittance"):
+            fit = lamina.fit_leaf(wl[::4], r[::4], band_weight=w)
+        model = np.interp(wl[swir], fit["wavelengths"], fit["model_r"])
+        err[w] = abs(model.mean() - r[swir].mean())
+    assert err[8.0] < 0.01 and err[8.0] < 0.7 * err[0.0], err
+    for bad in (-1.0, float("nan"), 2000.0):
+        with pytest.raises(lamina.LeafError, match="band_weight"):
+            lamina.fit_leaf(wl[::10], r[::10], band_weight=bad)
+
+
 def test_fit_without_t_warns():
     wl, r, t = lamina.prospect(cab=30)
     with pytest.warns(UserWarning, match="transmittance"):

@@ -193,10 +193,11 @@ def prospect(
     """PROSPECT-D or -PRO: ``(wavelength_nm, R, T)`` over 400-2500 nm at 1 nm."""
 
 def fit_leaf(
-    wavelengths: _Vec, r: _Vec, t: Optional[_Vec] = None
+    wavelengths: _Vec, r: _Vec, t: Optional[_Vec] = None, band_weight: float = 8.0
 ) -> Dict[str, Any]:
     """PROSPECT-D fitted to a measured R (and T): ``pigments``, ``model_r``, ``model_t``,
-    ``rmse_r``, ``rmse_t``, ``iterations``, ``wavelengths``."""
+    ``rmse_r``, ``rmse_t``, ``iterations``, ``wavelengths``. ``band_weight``: how much the
+    five band means weigh (0: a per-nanometre fit alone)."""
 
 def read_exr(path: _Path) -> Tuple[npt.NDArray[np.float32], List[str]]:
     """An EXR's first layer as ``(H, W, C)`` float32 and its channel names."""

@@ -15,7 +15,9 @@
 //! pass from timestamp queries (where the adapter has them; else `-`), the wall-clock frame
 //! time (submit to GPU finished) and its fps, and the geometry's GPU memory.
 //!
-//! `cargo run --release -p lamina-gpu --example frame_bench -- [leaves...]`
+//! `cargo run --release -p lamina-gpu --example frame_bench -- [--frames N] [leaves...]`
+//! (`--frames`: timed frames per row; by default 5, 3 from 500k leaves and 1 from 5M, which
+//! suits software Vulkan; a real GPU wants more, e.g. 60).
 
 use lamina_gpu::renderer::PassTimes;
 use lamina_gpu::{FrameView, GpuContext, RenderSettings, Renderer};
@@ -25,8 +27,22 @@ use std::time::Instant;
 const FOREST_TREE: u32 = 100_000;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let counts: Vec<u32> = std::env::args()
-        .skip(1)
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let mut frames_override = None;
+    if let Some(k) = args.iter().position(|a| a == "--frames") {
+        let v = args
+            .get(k + 1)
+            .ok_or("--frames needs a number of frames")?
+            .parse::<u32>()
+            .map_err(|e| format!("--frames: not a whole number: {e}"))?;
+        if v == 0 {
+            return Err("--frames: at least one frame".into());
+        }
+        frames_override = Some(v);
+        args.drain(k..k + 2);
+    }
+    let counts: Vec<u32> = args
+        .iter()
         .map(|s| {
             s.parse()
                 .map_err(|e| format!("'{s}' is not a leaf count (a whole number): {e}"))
@@ -97,11 +113,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.render_and_wait(&view, Some(&scene.film))?;
             r.render_and_wait(&view, Some(&scene.film))?;
             let drawn = r.drawn_triangles()?.map_or(r.triangles(), |d| d[0]);
-            let frames = match n {
+            let frames = frames_override.unwrap_or(match n {
                 5_000_000.. => 1,
                 500_000.. => 3,
                 _ => 5,
-            };
+            });
             let (mut wall, mut gpu) = (Vec::new(), Vec::<PassTimes>::new());
             for _ in 0..frames {
                 let t = Instant::now();

@@ -187,3 +187,39 @@ fn pbr_pdf(bencher: Bencher, metallic: f32) {
         acc
     });
 }
+
+/// A pigment leaf's materials at 16 wavelength triples (a visible render's channel sets),
+/// with thickness and extinction maps: one by one, and together (the albedo quadratures'
+/// slab geometry shared).
+#[divan::bench(args = [false, true], sample_count = 3)]
+fn pigment_materials_16(bencher: Bencher, together: bool) {
+    let ramp = |f: fn(f32, f32) -> f32| {
+        let (w, h) = (64u32, 64u32);
+        let texels = (0..w * h)
+            .map(|i| {
+                let v = f((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
+                Vec4::new(v, v, v, 1.0)
+            })
+            .collect();
+        Some(Texture::from_texels(w, h, texels, Wrap::Repeat))
+    };
+    let maps = LeafMaps {
+        thickness: ramp(|x, y| 0.3 + 0.4 * x * y),
+        extinction: ramp(|x, y| 0.2 + 0.7 * (1.0 - x) * y),
+        ..LeafMaps::default()
+    };
+    let leaf = PigmentLeaf::new(Pigments::default(), LeafParams::default(), maps).unwrap();
+    let like = leaf.material([550.0, 560.0, 570.0]).unwrap();
+    let nms: Vec<[f32; 3]> = (0..16)
+        .map(|j| [0, 1, 2].map(|c| 400.0 + 10.0 * (j + 16 * c) as f32))
+        .collect();
+    bencher.counter(ItemsCount::new(nms.len())).bench_local(|| {
+        if together {
+            leaf.materials_like(&nms, &like).unwrap()
+        } else {
+            nms.iter()
+                .map(|nm| leaf.material_like(*nm, &like).unwrap())
+                .collect()
+        }
+    });
+}

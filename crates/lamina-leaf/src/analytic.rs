@@ -238,6 +238,34 @@ pub(crate) fn single_scatter_and_surface_sets<const G: usize>(
     wo: Vec3,
     wi: Vec3,
 ) -> ([Vec3; G], [f32; 2]) {
+    let mut ss = [Vec3::ZERO; G];
+    let t = single_scatter_and_surface_each(G, |k| stacks[k], wo, wi, |k, v, _| ss[k] = v);
+    (ss, t)
+}
+
+/// Whether slabs `a` and `b` share what [`Geometry`] takes from a slab (indices and phase
+/// asymmetry), so that one geometry serves both.
+#[inline]
+pub(crate) fn same_slab_geometry(a: &LayerStack, b: &LayerStack) -> bool {
+    a.g == b.g && a.layers.map(|l| l.ior) == b.layers.map(|l| l.ior)
+}
+
+/// [`single_scatter_and_surface`] of `n` slabs `stack(0..n)` that share their indices and
+/// `g` ([`same_slab_geometry`]; their thicknesses and coefficients may differ), for one pair
+/// of directions (`wo.z`, `wi.z` nonzero): each slab's single scattering goes to
+/// `out(k, value, t)` with the outer surfaces' transmissions `t`, which they share, and
+/// which are also returned.
+/// The geometry is computed once; bit for bit each slab's own value. What the albedo
+/// quadratures of several channel sets of one leaf use.
+#[inline]
+pub(crate) fn single_scatter_and_surface_each<'a>(
+    n: usize,
+    stack: impl Fn(usize) -> &'a LayerStack,
+    wo: Vec3,
+    wi: Vec3,
+    mut out: impl FnMut(usize, Vec3, [f32; 2]),
+) -> [f32; 2] {
+    debug_assert!((1..n).all(|k| same_slab_geometry(stack(0), stack(k))));
     let transmit = wo.z * wi.z < 0.0;
     if transmit {
         let m = Vec3::new(1.0, 1.0, -1.0);
@@ -246,21 +274,52 @@ pub(crate) fn single_scatter_and_surface_sets<const G: usize>(
         } else {
             (wo * m, wi * m)
         };
-        let g = Geometry::new(stacks[0], wo, wi);
-        (
-            std::array::from_fn(|k| g.paths(stacks[k]).mirror_average()),
-            [g.to[3], g.ti[0]],
-        )
+        let g = Geometry::new(stack(0), wo, wi);
+        let t = [g.to[3], g.ti[0]];
+        for k in 0..n {
+            out(k, g.paths(stack(k)).mirror_average(), t);
+        }
+        t
     } else {
         let flip = wi.z <= 0.0;
         let orient = |s: &LayerStack| if flip { s.flipped() } else { *s };
         let f = Vec3::new(1.0, 1.0, -1.0);
         let (wo, wi) = if flip { (wo * f, wi * f) } else { (wo, wi) };
-        let g = Geometry::new(&orient(stacks[0]), wo, wi);
-        (
-            std::array::from_fn(|k| g.paths(&orient(stacks[k])).term()),
-            [g.to[0], g.ti[0]],
-        )
+        let g = Geometry::new(&orient(stack(0)), wo, wi);
+        let t = [g.to[0], g.ti[0]];
+        for k in 0..n {
+            out(k, g.paths(&orient(stack(k))).term(), t);
+        }
+        t
+    }
+}
+
+/// [`single_scatter`] of `n` slabs `stack(0..n)` that share their indices and `g`
+/// ([`same_slab_geometry`]), each value to `out(k, value)`: the geometry computed once, bit
+/// for bit each slab's own value.
+#[inline]
+pub(crate) fn single_scatter_each<'a>(
+    n: usize,
+    stack: impl Fn(usize) -> &'a LayerStack,
+    wo: Vec3,
+    wi: Vec3,
+    mut out: impl FnMut(usize, Vec3),
+) {
+    debug_assert!((1..n).all(|k| same_slab_geometry(stack(0), stack(k))));
+    if wo.z == 0.0 || wi.z == 0.0 {
+        for k in 0..n {
+            out(k, Vec3::ZERO);
+        }
+        return;
+    }
+    // As `oriented`, for every slab alike.
+    let flip = wi.z <= 0.0;
+    let orient = |s: &LayerStack| if flip { s.flipped() } else { *s };
+    let f = Vec3::new(1.0, 1.0, -1.0);
+    let (wo, wi) = if flip { (wo * f, wi * f) } else { (wo, wi) };
+    let g = Geometry::new(&orient(stack(0)), wo, wi);
+    for k in 0..n {
+        out(k, g.paths(&orient(stack(k))).term());
     }
 }
 

@@ -23,7 +23,8 @@
 //! mixture density, so `sample`'s weight is exactly `eval / pdf`.
 
 use crate::analytic::{
-    single_scatter, single_scatter_and_surface, single_scatter_and_surface_sets,
+    same_slab_geometry, single_scatter, single_scatter_and_surface,
+    single_scatter_and_surface_each, single_scatter_and_surface_sets, single_scatter_each,
     single_scatter_mirrored,
 };
 use crate::bsdf::{Bsdf, BsdfSample};
@@ -201,6 +202,64 @@ impl LeafBsdf {
     /// scattering is reciprocal.
     pub(crate) fn subsurface_one_way(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         self.subsurface_with(wo, wi, || single_scatter(&self.stack, wo, wi))
+    }
+
+    /// Whether [`Self::subsurface_each`] shares the geometry of `b`: layered texels whose
+    /// layers have the same indices, `g` and outer-surface normalisation (one leaf's
+    /// texel in several channel sets, or at several thickness and extinction values).
+    pub(crate) fn share_subsurface_geometry(b: &[LeafBsdf]) -> bool {
+        b.iter().all(|x| {
+            x.mode == LeafMode::Layered
+                && same_slab_geometry(&b[0].stack, &x.stack)
+                && x.inv_t_out == b[0].inv_t_out
+        })
+    }
+
+    /// [`Self::subsurface`] (or, with `one_way`, [`Self::subsurface_one_way`]) of every
+    /// texel of `b` for one pair of directions, `out(k, value)` for `b[k]`: bit for bit each
+    /// one's own value, the slab geometry computed once where
+    /// [`Self::share_subsurface_geometry`] holds. The white-sky and directional albedo
+    /// quadratures of [`crate::LeafMaterial`]'s precomputation evaluate all the channel
+    /// sets of a spectral render this way.
+    pub(crate) fn subsurface_each(
+        b: &[LeafBsdf],
+        share: bool,
+        wo: Vec3,
+        wi: Vec3,
+        one_way: bool,
+        mut out: impl FnMut(usize, Vec3),
+    ) {
+        if !share || b.len() < 2 || wo.z == 0.0 || wi.z == 0.0 {
+            for (k, x) in b.iter().enumerate() {
+                let v = if one_way {
+                    x.subsurface_one_way(wo, wi)
+                } else {
+                    x.subsurface(wo, wi)
+                };
+                out(k, v);
+            }
+            return;
+        }
+        let n = b.len();
+        let stack = |k: usize| &b[k].stack;
+        if one_way {
+            // `subsurface_with`'s layered case: single scattering plus `diffusion_term`,
+            // whose surface factors depend on the shared indices alone.
+            let s = b[0].surface_t(wo) * b[0].surface_t(wi) * FRAC_1_PI;
+            single_scatter_each(n, stack, wo, wi, |k, ss| {
+                out(k, ss + b[k].diffuse_lobe(wo, wi) * s)
+            });
+        } else {
+            // `layered`, with the surface transmissions of the shared geometry.
+            let side = |w: Vec3| if w.z > 0.0 { 0 } else { 1 };
+            let norm = b[0].inv_t_out[side(wo)] * b[0].inv_t_out[side(wi)];
+            single_scatter_and_surface_each(n, stack, wo, wi, |k, ss, [t_wo, t_wi]| {
+                out(
+                    k,
+                    ss + b[k].diffuse_lobe(wo, wi) * (t_wo * t_wi * norm * FRAC_1_PI),
+                )
+            });
+        }
     }
 
     /// Closed-form single scattering; transmission is averaged over the slab and its

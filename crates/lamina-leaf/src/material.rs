@@ -71,15 +71,31 @@ const RATIO_PHI: usize = 6;
 /// subsurface lobes are reciprocal, so the white-sky transmittance is the same from below
 /// (and single scattering needs no mirror average).
 fn white_sky_albedos(b: &LeafBsdf) -> [Vec3; 3] {
-    if b.mode == LeafMode::Diffuse {
-        let d = &b.diffusion;
-        return [d.r_top, d.r_bottom, d.t];
+    white_sky_albedos_each(std::slice::from_ref(b))[0]
+}
+
+/// [`white_sky_albedos`] of every texel BSDF of `b`, bit for bit, their shared slab
+/// geometry computed once per pair of directions ([`LeafBsdf::subsurface_each`]).
+fn white_sky_albedos_each(b: &[LeafBsdf]) -> Vec<[Vec3; 3]> {
+    if b.iter().any(|x| x.mode == LeafMode::Diffuse) {
+        return b
+            .iter()
+            .map(|x| {
+                if x.mode == LeafMode::Diffuse {
+                    let d = &x.diffusion;
+                    [d.r_top, d.r_bottom, d.t]
+                } else {
+                    white_sky_albedos(x)
+                }
+            })
+            .collect();
     }
+    let share = LeafBsdf::share_subsurface_geometry(b);
     let node = |i: usize| {
         let x = (i as f32 + 0.5) / RATIO_MU as f32;
         (x * x, 2.0 * x / RATIO_MU as f32)
     };
-    let mut acc = [Vec3::ZERO; 3];
+    let mut acc = vec![[Vec3::ZERO; 3]; b.len()];
     for io in 0..RATIO_MU {
         let (mo, wmo) = node(io);
         let so = (1.0 - mo * mo).max(0.0).sqrt();
@@ -95,9 +111,9 @@ fn white_sky_albedos(b: &LeafBsdf) -> [Vec3; 3] {
                 let (sp, cp) = phi.sin_cos();
                 let i_up = Vec3::new(si * cp, si * sp, mi);
                 let i_dn = Vec3::new(si * cp, si * sp, -mi);
-                acc[0] += b.subsurface(o_up, i_up) * w;
-                acc[1] += b.subsurface(o_dn, i_dn) * w;
-                acc[2] += b.subsurface_one_way(o_dn, i_up) * w;
+                LeafBsdf::subsurface_each(b, share, o_up, i_up, false, |j, v| acc[j][0] += v * w);
+                LeafBsdf::subsurface_each(b, share, o_dn, i_dn, false, |j, v| acc[j][1] += v * w);
+                LeafBsdf::subsurface_each(b, share, o_dn, i_up, true, |j, v| acc[j][2] += v * w);
             }
         }
     }
@@ -279,19 +295,39 @@ fn mu_grid(k: usize) -> f32 {
 
 /// Directional albedos (adaxial R, abaxial R, T from above, T from below) of the physical
 /// model `b` for incidence cosine `mu`, integrated over the outgoing hemisphere.
+#[cfg(test)]
 fn directional_albedos(b: &LeafBsdf, mu: f32) -> [Vec3; 4] {
-    if b.mode == LeafMode::Diffuse {
-        // Lambertian lobes: the albedos are the Kubelka-Munk values, exactly.
-        let d = &b.diffusion;
-        return [d.r_top, d.r_bottom, d.t, d.t];
+    directional_albedos_each(std::slice::from_ref(b), mu)[0]
+}
+
+/// [`directional_albedos`] of every texel BSDF of `b`, bit for bit, their shared slab
+/// geometry computed once per pair of directions ([`LeafBsdf::subsurface_each`]).
+fn directional_albedos_each(b: &[LeafBsdf], mu: f32) -> Vec<[Vec3; 4]> {
+    // Diffuse mode: Lambertian lobes, whose albedos are the Kubelka-Munk values, exactly.
+    let diffuse = |x: &LeafBsdf| {
+        let d = &x.diffusion;
+        [d.r_top, d.r_bottom, d.t, d.t]
+    };
+    if b.iter().any(|x| x.mode == LeafMode::Diffuse) {
+        return b
+            .iter()
+            .map(|x| {
+                if x.mode == LeafMode::Diffuse {
+                    diffuse(x)
+                } else {
+                    directional_albedos_each(std::slice::from_ref(x), mu)[0]
+                }
+            })
+            .collect();
     }
+    let share = LeafBsdf::share_subsurface_geometry(b);
     // Midpoints; the integrand is smooth and periodic in phi, so few phi points suffice.
     const NM: usize = 24;
     const NP: usize = 12;
     let s = (1.0 - mu * mu).max(0.0).sqrt();
     let up = Vec3::new(s, 0.0, mu);
     let down = Vec3::new(s, 0.0, -mu);
-    let mut acc = [Vec3::ZERO; 4];
+    let mut acc = vec![[Vec3::ZERO; 4]; b.len()];
     for i in 0..NM {
         // Denser near grazing: mu_o = x^2 with x midpoints (dmu = 2x dx).
         let x = (i as f32 + 0.5) / NM as f32;
@@ -305,10 +341,12 @@ fn directional_albedos(b: &LeafBsdf, mu: f32) -> [Vec3; 4] {
             let (sp, cp) = phi.sin_cos();
             let o_up = Vec3::new(so * cp, so * sp, mo);
             let o_dn = Vec3::new(so * cp, so * sp, -mo);
-            acc[0] += b.subsurface(o_up, up) * w;
-            acc[1] += b.subsurface(o_dn, down) * w;
-            acc[2] += b.subsurface(o_dn, up) * w;
-            acc[3] += b.subsurface(o_up, down) * w;
+            for (lobe, (o, i)) in [(o_up, up), (o_dn, down), (o_dn, up), (o_up, down)]
+                .into_iter()
+                .enumerate()
+            {
+                LeafBsdf::subsurface_each(b, share, o, i, false, |k, v| acc[k][lobe] += v * w);
+            }
         }
     }
     acc
@@ -316,40 +354,77 @@ fn directional_albedos(b: &LeafBsdf, mu: f32) -> [Vec3; 4] {
 
 impl Precomputed {
     fn new(params: &LeafParams, t_range: (f32, f32), e_range: (f32, f32)) -> Self {
-        let nominal = LayerStack::at_texel(params, 0.5, 0.5);
-        let borders = BorderReflectances::new(&nominal);
-        let r_out = [borders.from_above[0], borders.from_below[3]];
-        let physical = |mode: LeafMode, stack: LayerStack| {
-            LeafBsdf::physical(mode, stack, diffusion(&stack, &borders), r_out)
+        let mut v = Self::new_each(std::slice::from_ref(params), t_range, e_range);
+        v.pop().expect("one precomputation per parameter set")
+    }
+
+    /// [`Self::new`] for each of `params` (one leaf in several channel sets: the same
+    /// layers, indices and map ranges, other coefficients), bit for bit, with the
+    /// quadratures of all of them run together so that each pair of directions'
+    /// slab geometry is computed once ([`LeafBsdf::subsurface_each`]).
+    fn new_each(params: &[LeafParams], t_range: (f32, f32), e_range: (f32, f32)) -> Vec<Self> {
+        let n = params.len();
+        if n > 1 && params.iter().any(|p| p.mode != params[0].mode) {
+            return params
+                .iter()
+                .map(|p| Self::new(p, t_range, e_range))
+                .collect();
+        }
+        let Some(mode) = params.first().map(|p| p.mode) else {
+            return Vec::new();
         };
-        let white_sky = |mode: LeafMode| -> ([Vec3; 3], [[Vec3; 4]; TABLE_N + 1]) {
-            let b = physical(mode, nominal);
-            let mut a = [Vec3::ZERO; 3];
-            let mut rows = [[Vec3::ZERO; 4]; TABLE_N + 1];
-            for (k, row) in rows.iter_mut().enumerate() {
+        let nominal: Vec<LayerStack> = params
+            .iter()
+            .map(|p| LayerStack::at_texel(p, 0.5, 0.5))
+            .collect();
+        let borders: Vec<BorderReflectances> =
+            nominal.iter().map(BorderReflectances::new).collect();
+        let r_out: Vec<[f32; 2]> = borders
+            .iter()
+            .map(|b| [b.from_above[0], b.from_below[3]])
+            .collect();
+        let physical = |j: usize, mode: LeafMode, stack: LayerStack| {
+            LeafBsdf::physical(mode, stack, diffusion(&stack, &borders[j]), r_out[j])
+        };
+        // Each leaf's physical BSDF at the map values (t, e) (the nominal texel at 0.5).
+        let at = |mode: LeafMode, t: f32, e: f32| -> Vec<LeafBsdf> {
+            (0..n)
+                .map(|j| physical(j, mode, LayerStack::at_texel(&params[j], t, e)))
+                .collect()
+        };
+        // White-sky albedos from the directional table, and the table.
+        let white_sky = |mode: LeafMode| -> (Vec<[Vec3; 3]>, Vec<[[Vec3; 4]; TABLE_N + 1]>) {
+            let b: Vec<LeafBsdf> = (0..n).map(|j| physical(j, mode, nominal[j])).collect();
+            let mut a = vec![[Vec3::ZERO; 3]; n];
+            let mut rows = vec![[[Vec3::ZERO; 4]; TABLE_N + 1]; n];
+            for k in 0..=TABLE_N {
                 let mu = mu_grid(k);
-                *row = directional_albedos(&b, mu);
-                if k < TABLE_N {
-                    let w = 2.0 * mu / TABLE_N as f32;
-                    a[0] += row[0] * w;
-                    a[1] += row[1] * w;
-                    a[2] += (row[2] + row[3]) * (0.5 * w);
+                for (j, row) in directional_albedos_each(&b, mu).into_iter().enumerate() {
+                    rows[j][k] = row;
+                    if k < TABLE_N {
+                        let w = 2.0 * mu / TABLE_N as f32;
+                        a[j][0] += row[0] * w;
+                        a[j][1] += row[1] * w;
+                        a[j][2] += (row[2] + row[3]) * (0.5 * w);
+                    }
                 }
             }
             if mode == LeafMode::Diffuse {
-                a = [rows[0][0], rows[0][1], rows[0][2]];
+                for (a, rows) in a.iter_mut().zip(&rows) {
+                    *a = [rows[0][0], rows[0][1], rows[0][2]];
+                }
             }
             (a, rows)
         };
-        let (a_mode, nominal_rows) = white_sky(params.mode);
-        let a_layered = if params.mode == LeafMode::Layered {
-            a_mode
+        let (a_mode, nominal_rows) = white_sky(mode);
+        let a_layered = if mode == LeafMode::Layered {
+            a_mode.clone()
         } else {
             white_sky(LeafMode::Layered).0
         };
         let safe = |v: Vec3| v.max(Vec3::splat(1e-30));
-        let a_mode = a_mode.map(safe);
-        let a_layered = a_layered.map(safe);
+        let a_mode: Vec<[Vec3; 3]> = a_mode.into_iter().map(|a| a.map(safe)).collect();
+        let a_layered: Vec<[Vec3; 3]> = a_layered.into_iter().map(|a| a.map(safe)).collect();
 
         // Corners of the map ranges (deduplicated; the nominal texel is always included).
         let mut corners: Vec<(f32, f32)> = Vec::with_capacity(4);
@@ -360,72 +435,140 @@ impl Precomputed {
                 }
             }
         }
-        let mut table = [[EnergyRow::default(); TABLE_N + 1]; 2];
-        for (k, nominal_row) in nominal_rows.iter().enumerate() {
+        let corner_bsdfs: Vec<Vec<LeafBsdf>> =
+            corners.iter().map(|&(t, e)| at(mode, t, e)).collect();
+        let mut table = vec![[[EnergyRow::default(); TABLE_N + 1]; 2]; n];
+        // The specular albedo per incidence and side depends on parameters that one leaf's
+        // channel sets share: computed once for each distinct set of them.
+        let spec_key = |p: &LeafParams| {
+            (
+                p.specular,
+                p.roughness_adaxial,
+                p.upper.ior,
+                p.roughness_abaxial,
+                p.lower.ior,
+            )
+        };
+        let mut spec_memo: Vec<((f32, f32, f32, f32, f32), [[f32; TABLE_N + 1]; 2])> = Vec::new();
+        for p in params {
+            let key = spec_key(p);
+            if !spec_memo.iter().any(|(k, _)| *k == key) {
+                let mut spec = [[0.0f32; TABLE_N + 1]; 2];
+                for k in 0..=TABLE_N {
+                    let mu = mu_grid(k);
+                    let s = (1.0 - mu * mu).max(0.0).sqrt();
+                    let wo = Vec3::new(s, 0.0, mu);
+                    for (side, spec) in spec.iter_mut().enumerate() {
+                        let (alpha, eta) = if side == 0 {
+                            (p.roughness_adaxial, p.upper.ior)
+                        } else {
+                            (p.roughness_abaxial, p.lower.ior)
+                        };
+                        spec[k] = if p.specular > 0.0 {
+                            p.specular * specular::albedo(wo, alpha, eta, 24)
+                        } else {
+                            0.0
+                        };
+                    }
+                }
+                spec_memo.push((key, spec));
+            }
+        }
+        for k in 0..=TABLE_N {
             let mu = mu_grid(k);
-            let s = (1.0 - mu * mu).max(0.0).sqrt();
-            let wo = Vec3::new(s, 0.0, mu);
-            let ratio = |row: &[Vec3; 4]| {
+            let ratio = |j: usize, row: &[Vec3; 4]| {
                 [
-                    row[0] / a_mode[0],
-                    row[1] / a_mode[1],
-                    row[2] / a_mode[2],
-                    row[3] / a_mode[2],
+                    row[0] / a_mode[j][0],
+                    row[1] / a_mode[j][1],
+                    row[2] / a_mode[j][2],
+                    row[3] / a_mode[j][2],
                 ]
             };
-            let mut best = ratio(nominal_row);
-            for &(t, e) in &corners {
-                let b = physical(params.mode, LayerStack::at_texel(params, t, e));
-                let r = ratio(&directional_albedos(&b, mu));
-                for i in 0..4 {
-                    best[i] = best[i].max(r[i]);
+            let mut best: Vec<[Vec3; 4]> = (0..n).map(|j| ratio(j, &nominal_rows[j][k])).collect();
+            for b in &corner_bsdfs {
+                for (j, row) in directional_albedos_each(b, mu).iter().enumerate() {
+                    let r = ratio(j, row);
+                    for i in 0..4 {
+                        best[j][i] = best[j][i].max(r[i]);
+                    }
                 }
             }
-            for side in 0..2 {
-                let (alpha, eta) = if side == 0 {
-                    (params.roughness_adaxial, params.upper.ior)
-                } else {
-                    (params.roughness_abaxial, params.lower.ior)
-                };
-                let spec = if params.specular > 0.0 {
-                    params.specular * specular::albedo(wo, alpha, eta, 24)
-                } else {
-                    0.0
-                };
-                table[side][k] = EnergyRow {
-                    spec,
-                    refl: best[side],
-                    trans: best[2 + side],
-                };
+            for j in 0..n {
+                let key = spec_key(&params[j]);
+                let spec = &spec_memo
+                    .iter()
+                    .find(|(m, _)| *m == key)
+                    .expect("memoised above")
+                    .1;
+                for side in 0..2 {
+                    table[j][side][k] = EnergyRow {
+                        spec: spec[side][k],
+                        refl: best[j][side],
+                        trans: best[j][2 + side],
+                    };
+                }
             }
         }
-        let margin = if params.mode == LeafMode::Diffuse && params.specular == 0.0 {
-            1.0
+        let ratios: Vec<AlbedoRatios> = if mode == LeafMode::Diffuse {
+            (0..n)
+                .map(|_| {
+                    AlbedoRatios::new([Vec3::ONE; 3], (0.5, 0.5), (0.5, 0.5), |_, _| {
+                        [Vec3::ONE; 3]
+                    })
+                })
+                .collect()
         } else {
-            ENERGY_MARGIN
-        };
-        let ratios = if params.mode == LeafMode::Diffuse {
-            AlbedoRatios::new([Vec3::ONE; 3], (0.5, 0.5), (0.5, 0.5), |_, _| {
-                [Vec3::ONE; 3]
-            })
-        } else {
-            let ws = |t: f32, e: f32| {
-                white_sky_albedos(&physical(params.mode, LayerStack::at_texel(params, t, e)))
+            // The white-sky albedos at the table's nodes and at the nominal texel, all
+            // leaves together.
+            let mut points: Vec<(f32, f32)> = vec![(0.5, 0.5)];
+            for &t in &ratio_nodes(t_range) {
+                for &e in &ratio_nodes(e_range) {
+                    if !points.contains(&(t, e)) {
+                        points.push((t, e));
+                    }
+                }
+            }
+            let ws: Vec<Vec<[Vec3; 3]>> = points
+                .iter()
+                .map(|&(t, e)| white_sky_albedos_each(&at(mode, t, e)))
+                .collect();
+            let lookup = |j: usize, t: f32, e: f32| {
+                let i = points
+                    .iter()
+                    .position(|&q| q == (t, e))
+                    .expect("a node of the table");
+                ws[i][j]
             };
-            AlbedoRatios::new(ws(0.5, 0.5), t_range, e_range, ws)
+            (0..n)
+                .map(|j| {
+                    AlbedoRatios::new(lookup(j, 0.5, 0.5), t_range, e_range, |t, e| {
+                        lookup(j, t, e)
+                    })
+                })
+                .collect()
         };
-        Precomputed {
-            borders,
-            r_out,
-            a_mode,
-            a_layered,
-            binding: [0, 1].map(|side| binding_rows(&table[side], margin)),
-            table,
-            margin,
-            ratios,
-            nominal_diffusion: diffusion(&nominal, &borders),
-            inv_blend: 1.0 / params.blend_width_deg.to_radians().sin(),
-        }
+        (0..n)
+            .map(|j| {
+                let p = &params[j];
+                let margin = if p.mode == LeafMode::Diffuse && p.specular == 0.0 {
+                    1.0
+                } else {
+                    ENERGY_MARGIN
+                };
+                Precomputed {
+                    borders: borders[j],
+                    r_out: r_out[j],
+                    a_mode: a_mode[j],
+                    a_layered: a_layered[j],
+                    binding: [0, 1].map(|side| binding_rows(&table[j][side], margin)),
+                    table: table[j],
+                    margin,
+                    ratios: ratios[j].clone(),
+                    nominal_diffusion: diffusion(&nominal[j], &borders[j]),
+                    inv_blend: 1.0 / p.blend_width_deg.to_radians().sin(),
+                }
+            })
+            .collect()
     }
 
     /// Largest `lambda <= 1` per channel keeping every tabulated incidence within the bound.
@@ -608,32 +751,7 @@ impl LeafMaterial {
         like: &LeafMaterial,
     ) -> Result<Self, LeafError> {
         params.validate()?;
-        let same = |a: &Option<Texture>, b: &Option<Texture>| match (a, b) {
-            (None, None) => true,
-            (Some(a), Some(b)) => a.is_same_image(b),
-            _ => false,
-        };
-        let ranges = [
-            if same(&maps.thickness, &like.maps.thickness) {
-                like.ranges[0]
-            } else {
-                map_range(&maps.thickness)
-            },
-            if same(&maps.extinction, &like.maps.extinction) {
-                like.ranges[1]
-            } else {
-                map_range(&maps.extinction)
-            },
-        ];
-        let alpha_from_channel = if same(&maps.alpha, &like.maps.alpha) {
-            like.alpha_from_channel
-        } else {
-            alpha_in_channel(&maps)
-        };
-        let packed = match &like.packed {
-            Some(p) => PackedMaps::new_like(&maps, p, &like.maps),
-            None => PackedMaps::new(&maps),
-        };
+        let (alpha_from_channel, ranges, packed) = like.parts_for(&maps);
         Ok(Self::assemble(
             maps,
             params,
@@ -641,6 +759,83 @@ impl LeafMaterial {
             ranges,
             packed,
         ))
+    }
+
+    /// [`Self::new_like`] for each of `items` (maps and parameters of one leaf in several
+    /// channel sets, as a pigment leaf's wavelength triples of a spectral render): each
+    /// material bit for bit `new_like`'s, their precomputations run together where their
+    /// map ranges agree, so that the slab geometry of every pair of directions of the
+    /// albedo quadratures is computed once for all of them (several times faster than
+    /// one by one for a visible render's sixteen sets).
+    pub fn new_like_each(
+        items: Vec<(LeafMaps, LeafParams)>,
+        like: &LeafMaterial,
+    ) -> Result<Vec<Self>, LeafError> {
+        let mut parts = Vec::with_capacity(items.len());
+        for (maps, params) in items {
+            params.validate()?;
+            let (alpha_from_channel, ranges, packed) = like.parts_for(&maps);
+            parts.push((maps, params, alpha_from_channel, ranges, packed));
+        }
+        let params: Vec<LeafParams> = parts.iter().map(|p| p.1).collect();
+        let pre: Vec<Precomputed> = match parts.first() {
+            Some(first) if parts.iter().all(|p| p.3 == first.3) => {
+                Precomputed::new_each(&params, first.3[0], first.3[1])
+            }
+            _ => parts
+                .iter()
+                .map(|p| Precomputed::new(&p.1, p.3[0], p.3[1]))
+                .collect(),
+        };
+        Ok(parts
+            .into_iter()
+            .zip(pre)
+            .map(
+                |((maps, params, alpha_from_channel, ranges, packed), pre)| LeafMaterial {
+                    maps,
+                    params,
+                    alpha_from_channel,
+                    pre: Box::new(pre),
+                    packed,
+                    pigment: None,
+                    ranges,
+                    channels: None,
+                },
+            )
+            .collect())
+    }
+
+    /// What [`Self::new_like`] takes from `self` for `maps` that may share data maps with
+    /// this material's: whether the matte is in the alpha channel, the map ranges and the
+    /// interleaved texel grid.
+    fn parts_for(&self, maps: &LeafMaps) -> (bool, [(f32, f32); 2], Option<PackedMaps>) {
+        let same = |a: &Option<Texture>, b: &Option<Texture>| match (a, b) {
+            (None, None) => true,
+            (Some(a), Some(b)) => a.is_same_image(b),
+            _ => false,
+        };
+        let ranges = [
+            if same(&maps.thickness, &self.maps.thickness) {
+                self.ranges[0]
+            } else {
+                map_range(&maps.thickness)
+            },
+            if same(&maps.extinction, &self.maps.extinction) {
+                self.ranges[1]
+            } else {
+                map_range(&maps.extinction)
+            },
+        ];
+        let alpha_from_channel = if same(&maps.alpha, &self.maps.alpha) {
+            self.alpha_from_channel
+        } else {
+            alpha_in_channel(maps)
+        };
+        let packed = match &self.packed {
+            Some(p) => PackedMaps::new_like(maps, p, &self.maps),
+            None => PackedMaps::new(maps),
+        };
+        (alpha_from_channel, ranges, packed)
     }
 
     /// This leaf in other channels (three spectral bands, say): the same maps, shared, not
@@ -653,22 +848,39 @@ impl LeafMaterial {
     /// [`crate::spectrum::bands::BandBasis::reflectance_matrix`] does. The normalisation
     /// (white-sky albedos, energy bound) is computed for the new channels.
     pub fn variant(&self, params: LeafParams, matrix: Mat3) -> Result<Self, LeafError> {
-        params.validate()?;
-        let pre = Precomputed::new(&params, self.ranges[0], self.ranges[1]);
-        let channels = match self.channels {
-            Some((m, rgb)) => (matrix * m, rgb),
-            None => (matrix, self.pre.a_layered),
-        };
-        Ok(LeafMaterial {
-            maps: self.maps.clone(),
-            params,
-            alpha_from_channel: self.alpha_from_channel,
-            pre: Box::new(pre),
-            packed: self.packed.clone(),
-            pigment: None,
-            ranges: self.ranges,
-            channels: Some(channels),
-        })
+        let mut v = self.variant_each(vec![(params, matrix)])?;
+        Ok(v.pop().expect("one variant per item"))
+    }
+
+    /// [`Self::variant`] for each of `items` (this leaf in several channel sets): each bit
+    /// for bit `variant`'s, their precomputations run together (see
+    /// [`Self::new_like_each`]).
+    pub fn variant_each(&self, items: Vec<(LeafParams, Mat3)>) -> Result<Vec<Self>, LeafError> {
+        for (params, _) in &items {
+            params.validate()?;
+        }
+        let params: Vec<LeafParams> = items.iter().map(|i| i.0).collect();
+        let pre = Precomputed::new_each(&params, self.ranges[0], self.ranges[1]);
+        Ok(items
+            .into_iter()
+            .zip(pre)
+            .map(|((params, matrix), pre)| {
+                let channels = match self.channels {
+                    Some((m, rgb)) => (matrix * m, rgb),
+                    None => (matrix, self.pre.a_layered),
+                };
+                LeafMaterial {
+                    maps: self.maps.clone(),
+                    params,
+                    alpha_from_channel: self.alpha_from_channel,
+                    pre: Box::new(pre),
+                    packed: self.packed.clone(),
+                    pigment: None,
+                    ranges: self.ranges,
+                    channels: Some(channels),
+                }
+            })
+            .collect())
     }
 
     /// A material from maps, parameters and optional PROSPECT pigments: without pigments
@@ -776,17 +988,21 @@ impl LeafMaterial {
     /// its maps) at the same `uv`: the shared maps are read once. Bit for bit each one's
     /// `bsdf`.
     pub fn bsdf_sets<const G: usize>(m: [&LeafMaterial; G], uv: Vec2) -> [LeafBsdf; G] {
-        Self::bsdf_sets_into(m, uv, |b| b)
+        let mut out = [const { None }; G];
+        Self::bsdf_sets_each(m, uv, |k, b| out[k] = Some(b));
+        out.map(|b| b.expect("one BSDF per set"))
     }
 
-    /// [`Self::bsdf_sets`], each BSDF handed to `wrap` as it is made (so that a caller's
-    /// enum of BSDFs is built in place rather than copied from an array of these).
+    /// [`Self::bsdf_sets`], the BSDF of set `k` handed to `put(k, bsdf)` as it is made, so
+    /// that a caller stores it in place (an array of a caller's enum of BSDFs built through
+    /// an array of these, or through `from_fn`, was copied whole, a measured few per cent
+    /// of a spectral render).
     #[inline]
-    pub fn bsdf_sets_into<T, const G: usize>(
+    pub fn bsdf_sets_each<const G: usize>(
         m: [&LeafMaterial; G],
         uv: Vec2,
-        wrap: impl Fn(LeafBsdf) -> T,
-    ) -> [T; G] {
+        mut put: impl FnMut(usize, LeafBsdf),
+    ) {
         let with_bump = m[0].params.bump_scale > 0.0;
         let shared = G > 1
             && m.iter().all(|x| {
@@ -799,15 +1015,19 @@ impl LeafMaterial {
         match (&m[0].packed, shared) {
             (Some(p), true) => {
                 let l = p.lookup(uv, with_bump);
-                std::array::from_fn(|k| {
-                    let v = match &m[k].packed {
+                for (k, x) in m.iter().enumerate() {
+                    let v = match &x.packed {
                         Some(q) => q.values(&l),
-                        None => MapValues::read(&m[k].maps, uv, with_bump),
+                        None => MapValues::read(&x.maps, uv, with_bump),
                     };
-                    wrap(m[k].bsdf_from(&v))
-                })
+                    put(k, x.bsdf_from(&v));
+                }
             }
-            _ => std::array::from_fn(|k| wrap(m[k].bsdf(uv))),
+            _ => {
+                for (k, x) in m.iter().enumerate() {
+                    put(k, x.bsdf(uv));
+                }
+            }
         }
     }
 
@@ -1453,6 +1673,97 @@ mod tests {
     /// pigment-like variants with their own constant colours): `bsdf_sets` and
     /// `LeafBsdf::eval_sets` equal each variant's own `bsdf` and `eval` bit for bit, and
     /// `LeafBsdf::pdf_mean` the mean of their `pdf`s.
+    /// Parameters of one leaf in other channels: the same layers and indices, other
+    /// absorption and scattering (as a pigment leaf at other wavelengths, or an RGB leaf
+    /// through a band basis).
+    fn channel_params(p: LeafParams) -> Vec<LeafParams> {
+        [
+            (Vec3::ONE, Vec3::ONE),
+            (Vec3::new(0.5, 2.0, 3.0), Vec3::ONE),
+            (Vec3::new(40.0, 0.01, 1.0), Vec3::new(0.5, 1.5, 1.0)),
+            (Vec3::ZERO, Vec3::new(2.0, 0.1, 1.0)),
+        ]
+        .into_iter()
+        .map(|(a, sc)| {
+            let mut q = p;
+            for l in [&mut q.upper, &mut q.mesophyll, &mut q.lower] {
+                l.absorption = l.absorption * a + Vec3::new(0.0, 0.3, 0.0) * a;
+                l.scattering *= sc;
+            }
+            q
+        })
+        .collect()
+    }
+
+    #[test]
+    fn precomputations_together_equal_one_by_one() {
+        for (name, m) in materials() {
+            let ps = channel_params(m.params);
+            let each = Precomputed::new_each(&ps, m.ranges[0], m.ranges[1]);
+            assert_eq!(each.len(), ps.len());
+            for (p, got) in ps.iter().zip(&each) {
+                let one = Precomputed::new(p, m.ranges[0], m.ranges[1]);
+                assert_eq!(format!("{got:?}"), format!("{one:?}"), "{name}");
+            }
+            // The layered ones share their geometry (what makes them faster together).
+            let b: Vec<LeafBsdf> = ps
+                .iter()
+                .map(|p| {
+                    let s = LayerStack::at_texel(p, 0.3, 0.7);
+                    let borders = BorderReflectances::new(&s);
+                    let r_out = [borders.from_above[0], borders.from_below[3]];
+                    LeafBsdf::physical(p.mode, s, diffusion(&s, &borders), r_out)
+                })
+                .collect();
+            assert_eq!(
+                LeafBsdf::share_subsurface_geometry(&b),
+                m.params.mode == LeafMode::Layered,
+                "{name}"
+            );
+        }
+        // Mixed modes fall back to one by one.
+        let mut ps = channel_params(LeafParams::default());
+        ps[1].mode = LeafMode::Eq1;
+        let each = Precomputed::new_each(&ps, (0.2, 0.9), (0.1, 0.6));
+        for (p, got) in ps.iter().zip(&each) {
+            let one = Precomputed::new(p, (0.2, 0.9), (0.1, 0.6));
+            assert_eq!(format!("{got:?}"), format!("{one:?}"));
+        }
+        assert!(Precomputed::new_each(&[], (0.5, 0.5), (0.5, 0.5)).is_empty());
+    }
+
+    #[test]
+    fn variants_and_materials_together_equal_one_by_one() {
+        let m =
+            LeafMaterial::new(maps([(48, 40); 7], Wrap::Repeat), LeafParams::default()).unwrap();
+        let items: Vec<(LeafParams, Mat3)> = channel_params(m.params)
+            .into_iter()
+            .enumerate()
+            .map(|(k, p)| (p, Mat3::from_diagonal(Vec3::splat(1.0 - 0.1 * k as f32))))
+            .collect();
+        let together = m.variant_each(items.clone()).unwrap();
+        let with_maps: Vec<(LeafMaps, LeafParams)> =
+            items.iter().map(|&(p, _)| (m.maps.clone(), p)).collect();
+        let like = LeafMaterial::new_like_each(with_maps, &m).unwrap();
+        for (k, (p, mat)) in items.into_iter().enumerate() {
+            let one = m.variant(p, mat).unwrap();
+            let one_like = LeafMaterial::new_like(m.maps.clone(), p, &m).unwrap();
+            for uv in uvs() {
+                assert_eq!(together[k].bsdf(uv), one.bsdf(uv), "variant {k} at {uv}");
+                assert_eq!(like[k].bsdf(uv), one_like.bsdf(uv), "new_like {k} at {uv}");
+            }
+            assert_eq!(format!("{:?}", together[k].pre), format!("{:?}", one.pre));
+            assert_eq!(format!("{:?}", like[k].pre), format!("{:?}", one_like.pre));
+        }
+        // A bad parameter set is named, as one by one.
+        let mut bad = m.params;
+        bad.thickness_mm = -1.0;
+        assert!(
+            m.variant_each(vec![(m.params, Mat3::IDENTITY), (bad, Mat3::IDENTITY)])
+                .is_err()
+        );
+    }
+
     #[test]
     fn channel_sets_equal_each_variant() {
         use crate::bsdf::Bsdf;

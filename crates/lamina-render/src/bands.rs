@@ -52,12 +52,32 @@ pub fn band_values_with(
     illuminant: Illuminant,
     sky_map: Option<Texture>,
 ) -> Result<BandValues, RenderError> {
+    band_values_prebuilt(scene, bands, illuminant, sky_map, |_| None)
+}
+
+/// [`band_values_with`], with the scene's leaf materials in these bands taken from
+/// `prebuilt(i)` (material `i`) where it has them ([`band_leaves`] makes them for many
+/// band triples at once).
+pub fn band_values_prebuilt(
+    scene: &Scene,
+    bands: [&Band; 3],
+    illuminant: Illuminant,
+    sky_map: Option<Texture>,
+    prebuilt: impl Fn(usize) -> Option<Arc<LeafMaterial>>,
+) -> Result<BandValues, RenderError> {
     let basis = BandBasis::with_illuminant(bands, illuminant);
     let centres = bands.map(|b| b.center());
     let materials = scene
         .materials
         .iter()
-        .map(|m| band_material(m, &basis, centres))
+        .enumerate()
+        .map(|(i, m)| match (m, prebuilt(i)) {
+            (Material::Leaf { name, .. }, Some(leaf)) => Ok(Material::Leaf {
+                name: name.clone(),
+                leaf,
+            }),
+            _ => band_material(m, &basis, centres),
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let mut lights = scene.lights.clone();
     for l in &mut lights {
@@ -209,6 +229,11 @@ fn band_rgb_leaf(
     leaf: &LeafMaterial,
     basis: &BandBasis,
 ) -> Result<LeafMaterial, lamina_leaf::LeafError> {
+    leaf.variant(band_rgb_params(leaf, basis), basis.reflectance_matrix())
+}
+
+/// The layer parameters of [`band_rgb_leaf`].
+fn band_rgb_params(leaf: &LeafMaterial, basis: &BandBasis) -> lamina_leaf::LeafParams {
     let mut params = *leaf.params();
     let thickness = params.thickness_mm;
     for layer in [&mut params.upper, &mut params.mesophyll, &mut params.lower] {
@@ -218,7 +243,61 @@ fn band_rgb_leaf(
         layer.absorption = (-tb.ln() / d).max(Vec3::ZERO);
         layer.scattering = basis.reflectance(layer.scattering).max(Vec3::ZERO);
     }
-    leaf.variant(params, basis.reflectance_matrix())
+    params
+}
+
+/// Every leaf material of `scene` in each band triple of `groups`, as [`band_values_with`]
+/// makes them (bit for bit), built together per leaf so that their precomputations share
+/// the work the channel sets have in common ([`lamina_leaf::PigmentLeaf::materials_like`],
+/// [`LeafMaterial::variant_each`]), `threads` batches per leaf run in parallel on the
+/// current rayon pool. `result[i][j]`: material `i` in group `j` (empty for materials that
+/// are not leaves).
+pub fn band_leaves(
+    scene: &Scene,
+    groups: &[[&Band; 3]],
+    illuminant: Illuminant,
+    threads: usize,
+) -> Result<Vec<Vec<Arc<LeafMaterial>>>, RenderError> {
+    use rayon::prelude::*;
+    let chunk = groups.len().div_ceil(threads.max(1)).max(1);
+    let jobs: Vec<(usize, usize)> = scene
+        .materials
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| matches!(m, Material::Leaf { .. }))
+        .flat_map(|(i, _)| (0..groups.len()).step_by(chunk).map(move |j| (i, j)))
+        .collect();
+    let built = jobs
+        .par_iter()
+        .map(|&(i, j0)| {
+            let Material::Leaf { name, leaf } = &scene.materials[i] else {
+                unreachable!("only leaves have jobs")
+            };
+            let part = &groups[j0..(j0 + chunk).min(groups.len())];
+            let made = match leaf.pigment_leaf() {
+                Some(p) => {
+                    let nms: Vec<[f32; 3]> = part.iter().map(|g| g.map(|b| b.center())).collect();
+                    p.materials_like(&nms, leaf)
+                }
+                None => leaf.variant_each(
+                    part.iter()
+                        .map(|g| {
+                            let basis = BandBasis::with_illuminant(*g, illuminant);
+                            (band_rgb_params(leaf, &basis), basis.reflectance_matrix())
+                        })
+                        .collect(),
+                ),
+            };
+            made.map_err(|e| {
+                RenderError::InvalidScene(format!("leaf material '{name}' in bands: {e}"))
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut out: Vec<Vec<Arc<LeafMaterial>>> = vec![Vec::new(); scene.materials.len()];
+    for (&(i, _), made) in jobs.iter().zip(built) {
+        out[i].extend(made.into_iter().map(Arc::new));
+    }
+    Ok(out)
 }
 
 #[cfg(test)]

@@ -23,7 +23,7 @@
 //! [`crate::RenderStats::spectral_setup`].
 
 use crate::accel::Ray;
-use crate::bands::{band_groups, band_values_with, group_scene};
+use crate::bands::{band_groups, band_leaves, band_values_prebuilt, group_scene};
 use crate::error::RenderError;
 use crate::film::Accumulator;
 use crate::integrators::SceneContext;
@@ -60,11 +60,17 @@ fn build_sets(
             }) => sp.band_maps(groups).into_iter().map(Some).collect(),
             _ => vec![None; groups.len()],
         };
+        // Every leaf in every set, built together per leaf (their precomputations share
+        // the slab geometry), then each set around them.
+        let leaves = band_leaves(scene, groups, illuminant, pool.current_num_threads())?;
         groups
             .par_iter()
             .zip(sky_maps)
-            .map(|(g, sky_map)| {
-                let v = band_values_with(scene, *g, illuminant, sky_map)?;
+            .enumerate()
+            .map(|(j, (g, sky_map))| {
+                let v = band_values_prebuilt(scene, *g, illuminant, sky_map, |i| {
+                    leaves[i].get(j).cloned()
+                })?;
                 Ok(ChannelSet {
                     lights: LightSet::from_parts(&v.lights, v.sky.as_ref())?,
                     materials: v.materials,

@@ -254,72 +254,80 @@ pub(crate) fn same_slab_geometry(a: &LayerStack, b: &LayerStack) -> bool {
 /// `g` ([`same_slab_geometry`]; their thicknesses and coefficients may differ), for one pair
 /// of directions (`wo.z`, `wi.z` nonzero): each slab's single scattering goes to
 /// `out(k, value, t)` with the outer surfaces' transmissions `t`, which they share, and
-/// which are also returned.
-/// The geometry is computed once; bit for bit each slab's own value. What the albedo
-/// quadratures of several channel sets of one leaf use.
+/// which are also returned. The geometry is computed once; bit for bit each slab's own
+/// value. What the albedo quadratures of several channel sets of one leaf use.
 #[inline]
 pub(crate) fn single_scatter_and_surface_each<'a>(
     n: usize,
     stack: impl Fn(usize) -> &'a LayerStack,
     wo: Vec3,
     wi: Vec3,
+    out: impl FnMut(usize, Vec3, [f32; 2]),
+) -> [f32; 2] {
+    let geometry = |s: &LayerStack, mirror: bool| {
+        let m = Vec3::new(1.0, 1.0, -1.0);
+        if mirror {
+            Geometry::new(s, wo * m, wi * m)
+        } else {
+            Geometry::new(s, wo, wi)
+        }
+    };
+    scatter_each(n, stack, (wo.z, wi.z), false, geometry, out)
+}
+
+/// Azimuthal quadratures of [`single_scatter_and_surface_each`] (`one_way` false) or
+/// [`single_scatter`] (`one_way` true), for `n` slabs as there: `out(k, sum_j c_j f_k(wo_j, wi_j), t)` over
+/// `pairs` `(wo_j, wi_j, c_j)`, which share `wo.z` and `wi.z` (both nonzero) and differ in
+/// azimuth. Only the phase function depends on the azimuth, and the single scattering is
+/// linear in it, so the sum costs one evaluation ([`Geometry::summed`]); equal to the sum
+/// of the separate values up to rounding (tested). The surface transmissions `t` depend on
+/// the cosines alone.
+pub(crate) fn single_scatter_summed_each<'a>(
+    n: usize,
+    stack: impl Fn(usize) -> &'a LayerStack,
+    pairs: &[(Vec3, Vec3, f32)],
+    one_way: bool,
+    out: impl FnMut(usize, Vec3, [f32; 2]),
+) -> [f32; 2] {
+    let (wo, wi, _) = pairs[0];
+    debug_assert!(wo.z != 0.0 && wi.z != 0.0);
+    let geometry = |s: &LayerStack, mirror: bool| Geometry::summed(s, pairs, mirror);
+    scatter_each(n, stack, (wo.z, wi.z), one_way, geometry, out)
+}
+
+/// The orientation logic shared by the functions above: the slabs and directions turned
+/// as [`single_scatter_and_surface`] (`one_way` false: transmission mirror-averaged) or
+/// [`single_scatter`] (`one_way` true) turn them, `geometry(slab, mirror)` the geometry of
+/// the directions (mirrored in the leaf plane where `mirror`) through the turned first
+/// slab, then each slab's paths.
+#[inline(always)]
+fn scatter_each<'a>(
+    n: usize,
+    stack: impl Fn(usize) -> &'a LayerStack,
+    (wo_z, wi_z): (f32, f32),
+    one_way: bool,
+    geometry: impl Fn(&LayerStack, bool) -> Geometry,
     mut out: impl FnMut(usize, Vec3, [f32; 2]),
 ) -> [f32; 2] {
     debug_assert!((1..n).all(|k| same_slab_geometry(stack(0), stack(k))));
-    let transmit = wo.z * wi.z < 0.0;
-    if transmit {
-        let m = Vec3::new(1.0, 1.0, -1.0);
-        let (wo, wi) = if wi.z > 0.0 {
-            (wo, wi)
-        } else {
-            (wo * m, wi * m)
-        };
-        let g = Geometry::new(stack(0), wo, wi);
+    if wo_z * wi_z < 0.0 && !one_way {
+        // `mirrored_paths`: the directions mirrored when the light is abaxial, the slab not.
+        let g = geometry(stack(0), wi_z <= 0.0);
         let t = [g.to[3], g.ti[0]];
         for k in 0..n {
             out(k, g.paths(stack(k)).mirror_average(), t);
         }
         t
     } else {
-        let flip = wi.z <= 0.0;
+        // `oriented`: slab and directions flipped when the light is abaxial.
+        let flip = wi_z <= 0.0;
         let orient = |s: &LayerStack| if flip { s.flipped() } else { *s };
-        let f = Vec3::new(1.0, 1.0, -1.0);
-        let (wo, wi) = if flip { (wo * f, wi * f) } else { (wo, wi) };
-        let g = Geometry::new(&orient(stack(0)), wo, wi);
+        let g = geometry(&orient(stack(0)), flip);
         let t = [g.to[0], g.ti[0]];
         for k in 0..n {
             out(k, g.paths(&orient(stack(k))).term(), t);
         }
         t
-    }
-}
-
-/// [`single_scatter`] of `n` slabs `stack(0..n)` that share their indices and `g`
-/// ([`same_slab_geometry`]), each value to `out(k, value)`: the geometry computed once, bit
-/// for bit each slab's own value.
-#[inline]
-pub(crate) fn single_scatter_each<'a>(
-    n: usize,
-    stack: impl Fn(usize) -> &'a LayerStack,
-    wo: Vec3,
-    wi: Vec3,
-    mut out: impl FnMut(usize, Vec3),
-) {
-    debug_assert!((1..n).all(|k| same_slab_geometry(stack(0), stack(k))));
-    if wo.z == 0.0 || wi.z == 0.0 {
-        for k in 0..n {
-            out(k, Vec3::ZERO);
-        }
-        return;
-    }
-    // As `oriented`, for every slab alike.
-    let flip = wi.z <= 0.0;
-    let orient = |s: &LayerStack| if flip { s.flipped() } else { *s };
-    let f = Vec3::new(1.0, 1.0, -1.0);
-    let (wo, wi) = if flip { (wo * f, wi * f) } else { (wo, wi) };
-    let g = Geometry::new(&orient(stack(0)), wo, wi);
-    for k in 0..n {
-        out(k, g.paths(&orient(stack(k))).term());
     }
 }
 
@@ -425,9 +433,99 @@ struct Geometry {
     w: [f32; 3],
 }
 
+/// What [`Geometry`]'s phase-function weights take besides the azimuths of the two
+/// directions: the same for every pair of directions with the same `wo.z` and `wi.z`.
+#[derive(Clone, Copy, Debug)]
+struct PhaseParts {
+    transmit: bool,
+    g: f32,
+    /// `(1 - g^2) / (4 pi)`.
+    hg: f32,
+    n: [f32; 3],
+    inv_n: [f32; 3],
+    mu_i: [f32; 3],
+    mu_o: [f32; 3],
+    ri: [f32; 3],
+    ro: [f32; 3],
+    /// `c_o^2 - c_i^2`.
+    c2: f32,
+}
+
+impl PhaseParts {
+    /// Per layer the Henyey-Greenstein phase function between the refracted directions
+    /// `u` (the light's propagation direction) and `v` (toward the viewer) of `wo`, `wi`,
+    /// over `n^2 mu_i mu_o`. Its denominator `1 + g^2 - 2 g cos` is written
+    /// `(1 - g)^2 + g |u - v|^2` for `g >= 0` and `(1 + g)^2 - g |u + v|^2` for `g < 0`:
+    /// sums of positive terms, which keep their precision where a strongly peaked lobe
+    /// looks along its peak. The `z` difference `mu_o - mu_i` is
+    /// `(c_o^2 - c_i^2) / (n^2 (mu_i + mu_o))` for the same reason.
+    #[inline(always)]
+    fn weights(&self, wo: Vec3, wi: Vec3) -> [f32; 3] {
+        let (n, inv_n, g) = (&self.n, &self.inv_n, self.g);
+        let (sx, sy) = (wi.x + wo.x, wi.y + wo.y);
+        let (dx, dy) = (wo.x - wi.x, wo.y - wi.y);
+        let (sxy, dxy) = (sx * sx + sy * sy, dx * dx + dy * dy);
+        let weight = |k: usize| {
+            let inv_n2 = inv_n[k] * inv_n[k];
+            let zsum = self.mu_i[k] + self.mu_o[k];
+            let zdiff = self.c2 * inv_n2 / zsum;
+            // |u - v|^2 and |u + v|^2.
+            let (minus, plus) = if self.transmit {
+                (sxy * inv_n2 + zdiff * zdiff, dxy * inv_n2 + zsum * zsum)
+            } else {
+                (sxy * inv_n2 + zsum * zsum, dxy * inv_n2 + zdiff * zdiff)
+            };
+            let denom = if g >= 0.0 {
+                (1.0 - g) * (1.0 - g) + g * minus
+            } else {
+                (1.0 + g) * (1.0 + g) - g * plus
+            };
+            self.hg * inv_n2 * self.ri[k] * self.ro[k] / (denom * denom.sqrt())
+        };
+        let w0 = weight(0);
+        let w1 = if n[1] == n[0] { w0 } else { weight(1) };
+        let w2 = if n[2] == n[1] { w1 } else { weight(2) };
+        [w0, w1, w2]
+    }
+}
+
 impl Geometry {
     #[inline(always)]
     fn new(stack: &LayerStack, wo: Vec3, wi: Vec3) -> Geometry {
+        let (mut geometry, phase) = Geometry::without_phase(stack, wo, wi);
+        geometry.w = phase.weights(wo, wi);
+        geometry
+    }
+
+    /// The geometry of the pairs of directions `pairs` (`wo`, `wi`, weight `c`), which
+    /// share `wo.z` and `wi.z` and differ in azimuth, summed: the phase-function weights
+    /// are `sum c w`, everything else depends on the cosines alone. Since [`Paths`] is
+    /// linear in those weights, `summed.paths(s).term()` is `sum c paths(s).term()` up to
+    /// rounding: an azimuthal quadrature for the price of one pair. With `mirror`, every
+    /// direction mirrored in the leaf plane first.
+    fn summed(stack: &LayerStack, pairs: &[(Vec3, Vec3, f32)], mirror: bool) -> Geometry {
+        let m = if mirror {
+            Vec3::new(1.0, 1.0, -1.0)
+        } else {
+            Vec3::ONE
+        };
+        let (wo, wi, _) = pairs[0];
+        let (mut geometry, phase) = Geometry::without_phase(stack, wo * m, wi * m);
+        let mut w = [0.0f32; 3];
+        for &(wo, wi, c) in pairs {
+            debug_assert!(wo.z == pairs[0].0.z && wi.z == pairs[0].1.z);
+            let x = phase.weights(wo * m, wi * m);
+            for k in 0..3 {
+                w[k] += c * x[k];
+            }
+        }
+        geometry.w = w;
+        geometry
+    }
+
+    /// Everything but the phase-function weights (zero), and what they need.
+    #[inline(always)]
+    fn without_phase(stack: &LayerStack, wo: Vec3, wi: Vec3) -> (Geometry, PhaseParts) {
         let l = &stack.layers;
         let transmit = wo.z < 0.0;
         let (ci, co) = (wi.z, wo.z.abs());
@@ -444,47 +542,29 @@ impl Geometry {
             ]
         };
         let (ti, to) = (borders(ci, &mu_i), borders(co, &mu_o));
-        // Henyey-Greenstein phase function between the refracted directions `u` (the
-        // light's propagation direction) and `v` (toward the viewer), over n^2 mu_i mu_o.
-        // Its denominator `1 + g^2 - 2 g cos` is written `(1 - g)^2 + g |u - v|^2` for
-        // `g >= 0` and `(1 + g)^2 - g |u + v|^2` for `g < 0`: sums of positive terms, which
-        // keep their precision where a strongly peaked lobe looks along its peak. The `z`
-        // difference `mu_o - mu_i` is `(c_o^2 - c_i^2) / (n^2 (mu_i + mu_o))` for the same
-        // reason.
         let g = stack.g;
-        let hg = (1.0 - g * g) * (0.25 * std::f32::consts::FRAC_1_PI);
-        let (sx, sy) = (wi.x + wo.x, wi.y + wo.y);
-        let (dx, dy) = (wo.x - wi.x, wo.y - wi.y);
-        let (sxy, dxy) = (sx * sx + sy * sy, dx * dx + dy * dy);
-        let c2 = (co - ci) * (co + ci);
-        let weight = |k: usize| {
-            let inv_n2 = inv_n[k] * inv_n[k];
-            let zsum = mu_i[k] + mu_o[k];
-            let zdiff = c2 * inv_n2 / zsum;
-            // |u - v|^2 and |u + v|^2.
-            let (minus, plus) = if transmit {
-                (sxy * inv_n2 + zdiff * zdiff, dxy * inv_n2 + zsum * zsum)
-            } else {
-                (sxy * inv_n2 + zsum * zsum, dxy * inv_n2 + zdiff * zdiff)
-            };
-            let denom = if g >= 0.0 {
-                (1.0 - g) * (1.0 - g) + g * minus
-            } else {
-                (1.0 + g) * (1.0 + g) - g * plus
-            };
-            hg * inv_n2 * ri[k] * ro[k] / (denom * denom.sqrt())
-        };
-        let w0 = weight(0);
-        let w1 = if n[1] == n[0] { w0 } else { weight(1) };
-        let w2 = if n[2] == n[1] { w1 } else { weight(2) };
-        Geometry {
-            transmit,
-            ti,
-            to,
-            ri,
-            ro,
-            w: [w0, w1, w2],
-        }
+        (
+            Geometry {
+                transmit,
+                ti,
+                to,
+                ri,
+                ro,
+                w: [0.0; 3],
+            },
+            PhaseParts {
+                transmit,
+                g,
+                hg: (1.0 - g * g) * (0.25 * std::f32::consts::FRAC_1_PI),
+                n,
+                inv_n,
+                mu_i,
+                mu_o,
+                ri,
+                ro,
+                c2: (co - ci) * (co + ci),
+            },
+        )
     }
 
     /// The paths through `stack`, whose thicknesses, indices and `g` are those this

@@ -24,8 +24,7 @@
 
 use crate::analytic::{
     same_slab_geometry, single_scatter, single_scatter_and_surface,
-    single_scatter_and_surface_each, single_scatter_and_surface_sets, single_scatter_each,
-    single_scatter_mirrored,
+    single_scatter_and_surface_sets, single_scatter_mirrored, single_scatter_summed_each,
 };
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::diffusion::Diffusion;
@@ -204,7 +203,7 @@ impl LeafBsdf {
         self.subsurface_with(wo, wi, || single_scatter(&self.stack, wo, wi))
     }
 
-    /// Whether [`Self::subsurface_each`] shares the geometry of `b`: layered texels whose
+    /// Whether [`Self::subsurface_summed_each`] shares the geometry of `b`: layered texels whose
     /// layers have the same indices, `g` and outer-surface normalisation (one leaf's
     /// texel in several channel sets, or at several thickness and extinction values).
     pub(crate) fn share_subsurface_geometry(b: &[LeafBsdf]) -> bool {
@@ -215,49 +214,49 @@ impl LeafBsdf {
         })
     }
 
-    /// [`Self::subsurface`] (or, with `one_way`, [`Self::subsurface_one_way`]) of every
-    /// texel of `b` for one pair of directions, `out(k, value)` for `b[k]`: bit for bit each
-    /// one's own value, the slab geometry computed once where
-    /// [`Self::share_subsurface_geometry`] holds. The white-sky and directional albedo
-    /// quadratures of [`crate::LeafMaterial`]'s precomputation evaluate all the channel
-    /// sets of a spectral render this way.
-    pub(crate) fn subsurface_each(
+    /// Azimuthal quadratures of [`Self::subsurface`] for several texels: `out(k, sum_j c_j
+    /// f_k(wo_j, wi_j))` over `pairs` `(wo_j, wi_j, c_j)`, which share `wo.z` and `wi.z` and differ
+    /// in azimuth, `f_k` the subsurface BSDF of `b[k]` (with `one_way`,
+    /// [`Self::subsurface_one_way`]'s). Where `share` ([`Self::share_subsurface_geometry`]
+    /// of `b`) holds, the whole sum costs one evaluation per texel
+    /// ([`single_scatter_summed_each`]: only the phase function sees the azimuth, and the
+    /// diffusion lobe does not), equal to the separate evaluations' sum up to rounding.
+    pub(crate) fn subsurface_summed_each(
         b: &[LeafBsdf],
         share: bool,
-        wo: Vec3,
-        wi: Vec3,
+        pairs: &[(Vec3, Vec3, f32)],
         one_way: bool,
         mut out: impl FnMut(usize, Vec3),
     ) {
-        if !share || b.len() < 2 || wo.z == 0.0 || wi.z == 0.0 {
+        let (wo, wi, _) = pairs[0];
+        if !share || wo.z == 0.0 || wi.z == 0.0 {
             for (k, x) in b.iter().enumerate() {
-                let v = if one_way {
-                    x.subsurface_one_way(wo, wi)
-                } else {
-                    x.subsurface(wo, wi)
-                };
-                out(k, v);
+                let mut sum = Vec3::ZERO;
+                for &(wo, wi, c) in pairs {
+                    let v = if one_way {
+                        x.subsurface_one_way(wo, wi)
+                    } else {
+                        x.subsurface(wo, wi)
+                    };
+                    sum += v * c;
+                }
+                out(k, sum);
             }
             return;
         }
-        let n = b.len();
+        let c: f32 = pairs.iter().map(|p| p.2).sum();
         let stack = |k: usize| &b[k].stack;
+        let lobe = |k: usize| b[k].diffuse_lobe(wo, wi);
         if one_way {
-            // `subsurface_with`'s layered case: single scattering plus `diffusion_term`,
-            // whose surface factors depend on the shared indices alone.
-            let s = b[0].surface_t(wo) * b[0].surface_t(wi) * FRAC_1_PI;
-            single_scatter_each(n, stack, wo, wi, |k, ss| {
-                out(k, ss + b[k].diffuse_lobe(wo, wi) * s)
+            let s = b[0].surface_t(wo) * b[0].surface_t(wi) * FRAC_1_PI * c;
+            single_scatter_summed_each(b.len(), stack, pairs, true, |k, ss, _| {
+                out(k, ss + lobe(k) * s)
             });
         } else {
-            // `layered`, with the surface transmissions of the shared geometry.
             let side = |w: Vec3| if w.z > 0.0 { 0 } else { 1 };
             let norm = b[0].inv_t_out[side(wo)] * b[0].inv_t_out[side(wi)];
-            single_scatter_and_surface_each(n, stack, wo, wi, |k, ss, [t_wo, t_wi]| {
-                out(
-                    k,
-                    ss + b[k].diffuse_lobe(wo, wi) * (t_wo * t_wi * norm * FRAC_1_PI),
-                )
+            single_scatter_summed_each(b.len(), stack, pairs, false, |k, ss, [t_wo, t_wi]| {
+                out(k, ss + lobe(k) * (t_wo * t_wi * norm * FRAC_1_PI * c))
             });
         }
     }

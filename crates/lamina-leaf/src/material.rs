@@ -75,7 +75,7 @@ fn white_sky_albedos(b: &LeafBsdf) -> [Vec3; 3] {
 }
 
 /// [`white_sky_albedos`] of every texel BSDF of `b`, bit for bit, their shared slab
-/// geometry computed once per pair of directions ([`LeafBsdf::subsurface_each`]).
+/// geometry computed once per pair of cosines ([`LeafBsdf::subsurface_summed_each`]).
 fn white_sky_albedos_each(b: &[LeafBsdf]) -> Vec<[Vec3; 3]> {
     if b.iter().any(|x| x.mode == LeafMode::Diffuse) {
         return b
@@ -106,15 +106,26 @@ fn white_sky_albedos_each(b: &[LeafBsdf]) -> Vec<[Vec3; 3]> {
             let si = (1.0 - mi * mi).max(0.0).sqrt();
             // (1/pi) * 2 pi (outgoing azimuth) * 2 pi / RATIO_PHI (incoming, doubled).
             let w = 4.0 * std::f32::consts::PI / RATIO_PHI as f32 * wmo * mo * wmi * mi;
-            for k in 0..RATIO_PHI {
+            // The azimuths of the incoming direction, summed in one evaluation per lobe
+            // (`subsurface_summed_each`).
+            let dirs: [(Vec3, Vec3); RATIO_PHI] = std::array::from_fn(|k| {
                 let phi = std::f32::consts::PI * (k as f32 + 0.5) / RATIO_PHI as f32;
                 let (sp, cp) = phi.sin_cos();
-                let i_up = Vec3::new(si * cp, si * sp, mi);
-                let i_dn = Vec3::new(si * cp, si * sp, -mi);
-                LeafBsdf::subsurface_each(b, share, o_up, i_up, false, |j, v| acc[j][0] += v * w);
-                LeafBsdf::subsurface_each(b, share, o_dn, i_dn, false, |j, v| acc[j][1] += v * w);
-                LeafBsdf::subsurface_each(b, share, o_dn, i_up, true, |j, v| acc[j][2] += v * w);
-            }
+                (
+                    Vec3::new(si * cp, si * sp, mi),
+                    Vec3::new(si * cp, si * sp, -mi),
+                )
+            });
+            let pairs = |o: Vec3, up: bool| dirs.map(|(u, d)| (o, if up { u } else { d }, w));
+            LeafBsdf::subsurface_summed_each(b, share, &pairs(o_up, true), false, |j, v| {
+                acc[j][0] += v
+            });
+            LeafBsdf::subsurface_summed_each(b, share, &pairs(o_dn, false), false, |j, v| {
+                acc[j][1] += v
+            });
+            LeafBsdf::subsurface_summed_each(b, share, &pairs(o_dn, true), true, |j, v| {
+                acc[j][2] += v
+            });
         }
     }
     acc
@@ -301,7 +312,7 @@ fn directional_albedos(b: &LeafBsdf, mu: f32) -> [Vec3; 4] {
 }
 
 /// [`directional_albedos`] of every texel BSDF of `b`, bit for bit, their shared slab
-/// geometry computed once per pair of directions ([`LeafBsdf::subsurface_each`]).
+/// geometry computed once per pair of cosines ([`LeafBsdf::subsurface_summed_each`]).
 fn directional_albedos_each(b: &[LeafBsdf], mu: f32) -> Vec<[Vec3; 4]> {
     // Diffuse mode: Lambertian lobes, whose albedos are the Kubelka-Munk values, exactly.
     let diffuse = |x: &LeafBsdf| {
@@ -334,19 +345,23 @@ fn directional_albedos_each(b: &[LeafBsdf], mu: f32) -> Vec<[Vec3; 4]> {
         let mo = x * x;
         let w_mu = 2.0 * x / NM as f32;
         let so = (1.0 - mo * mo).max(0.0).sqrt();
-        for j in 0..NP {
-            // phi in [0, pi], doubled (the physical lobes are symmetric in phi).
+        // phi in [0, pi], doubled (the physical lobes are symmetric in phi); the azimuths
+        // summed in one evaluation per lobe (`subsurface_summed_each`).
+        let w = 2.0 * std::f32::consts::PI / NP as f32 * w_mu * mo;
+        let outs: [(Vec3, Vec3); NP] = std::array::from_fn(|j| {
             let phi = std::f32::consts::PI * (j as f32 + 0.5) / NP as f32;
-            let w = 2.0 * std::f32::consts::PI / NP as f32 * w_mu * mo;
             let (sp, cp) = phi.sin_cos();
-            let o_up = Vec3::new(so * cp, so * sp, mo);
-            let o_dn = Vec3::new(so * cp, so * sp, -mo);
-            for (lobe, (o, i)) in [(o_up, up), (o_dn, down), (o_dn, up), (o_up, down)]
-                .into_iter()
-                .enumerate()
-            {
-                LeafBsdf::subsurface_each(b, share, o, i, false, |k, v| acc[k][lobe] += v * w);
-            }
+            (
+                Vec3::new(so * cp, so * sp, mo),
+                Vec3::new(so * cp, so * sp, -mo),
+            )
+        });
+        for (lobe, (o_is_up, i)) in [(true, up), (false, down), (false, up), (true, down)]
+            .into_iter()
+            .enumerate()
+        {
+            let pairs = outs.map(|(u, d)| (if o_is_up { u } else { d }, i, w));
+            LeafBsdf::subsurface_summed_each(b, share, &pairs, false, |k, v| acc[k][lobe] += v);
         }
     }
     acc
@@ -361,7 +376,7 @@ impl Precomputed {
     /// [`Self::new`] for each of `params` (one leaf in several channel sets: the same
     /// layers, indices and map ranges, other coefficients), bit for bit, with the
     /// quadratures of all of them run together so that each pair of directions'
-    /// slab geometry is computed once ([`LeafBsdf::subsurface_each`]).
+    /// slab geometry is computed once ([`LeafBsdf::subsurface_summed_each`]).
     fn new_each(params: &[LeafParams], t_range: (f32, f32), e_range: (f32, f32)) -> Vec<Self> {
         let n = params.len();
         if n > 1 && params.iter().any(|p| p.mode != params[0].mode) {
@@ -397,6 +412,8 @@ impl Precomputed {
             let b: Vec<LeafBsdf> = (0..n).map(|j| physical(j, mode, nominal[j])).collect();
             let mut a = vec![[Vec3::ZERO; 3]; n];
             let mut rows = vec![[[Vec3::ZERO; 4]; TABLE_N + 1]; n];
+            // `k` is the incidence of the table: its cosine and a row of every leaf's table.
+            #[allow(clippy::needless_range_loop)]
             for k in 0..=TABLE_N {
                 let mu = mu_grid(k);
                 for (j, row) in directional_albedos_each(&b, mu).into_iter().enumerate() {
@@ -449,7 +466,8 @@ impl Precomputed {
                 p.lower.ior,
             )
         };
-        let mut spec_memo: Vec<((f32, f32, f32, f32, f32), [[f32; TABLE_N + 1]; 2])> = Vec::new();
+        type SpecKey = (f32, f32, f32, f32, f32);
+        let mut spec_memo: Vec<(SpecKey, [[f32; TABLE_N + 1]; 2])> = Vec::new();
         for p in params {
             let key = spec_key(p);
             if !spec_memo.iter().any(|(k, _)| *k == key) {
@@ -1673,6 +1691,113 @@ mod tests {
     /// pigment-like variants with their own constant colours): `bsdf_sets` and
     /// `LeafBsdf::eval_sets` equal each variant's own `bsdf` and `eval` bit for bit, and
     /// `LeafBsdf::pdf_mean` the mean of their `pdf`s.
+    /// [`white_sky_albedos`] as it was written before the azimuths were summed in one
+    /// evaluation: one BSDF evaluation per pair of directions.
+    fn per_direction_white_sky(b: &LeafBsdf) -> [Vec3; 3] {
+        let node = |i: usize| {
+            let x = (i as f32 + 0.5) / RATIO_MU as f32;
+            (x * x, 2.0 * x / RATIO_MU as f32)
+        };
+        let mut acc = [Vec3::ZERO; 3];
+        for io in 0..RATIO_MU {
+            let (mo, wmo) = node(io);
+            let so = (1.0 - mo * mo).max(0.0).sqrt();
+            for ii in 0..RATIO_MU {
+                let (mi, wmi) = node(ii);
+                let si = (1.0 - mi * mi).max(0.0).sqrt();
+                let w = 4.0 * std::f32::consts::PI / RATIO_PHI as f32 * wmo * mo * wmi * mi;
+                for k in 0..RATIO_PHI {
+                    let phi = std::f32::consts::PI * (k as f32 + 0.5) / RATIO_PHI as f32;
+                    let (sp, cp) = phi.sin_cos();
+                    let i_up = Vec3::new(si * cp, si * sp, mi);
+                    let i_dn = Vec3::new(si * cp, si * sp, -mi);
+                    acc[0] += b.subsurface(Vec3::new(so, 0.0, mo), i_up) * w;
+                    acc[1] += b.subsurface(Vec3::new(so, 0.0, -mo), i_dn) * w;
+                    acc[2] += b.subsurface_one_way(Vec3::new(so, 0.0, -mo), i_up) * w;
+                }
+            }
+        }
+        acc
+    }
+
+    /// [`directional_albedos`] one BSDF evaluation per pair of directions.
+    fn per_direction_directional(b: &LeafBsdf, mu: f32) -> [Vec3; 4] {
+        let (nm, np) = (24, 12);
+        let s = (1.0 - mu * mu).max(0.0).sqrt();
+        let (up, down) = (Vec3::new(s, 0.0, mu), Vec3::new(s, 0.0, -mu));
+        let mut acc = [Vec3::ZERO; 4];
+        for i in 0..nm {
+            let x = (i as f32 + 0.5) / nm as f32;
+            let mo = x * x;
+            let so = (1.0 - mo * mo).max(0.0).sqrt();
+            for j in 0..np {
+                let phi = std::f32::consts::PI * (j as f32 + 0.5) / np as f32;
+                let w = 2.0 * std::f32::consts::PI / np as f32 * (2.0 * x / nm as f32) * mo;
+                let (sp, cp) = phi.sin_cos();
+                let o_up = Vec3::new(so * cp, so * sp, mo);
+                let o_dn = Vec3::new(so * cp, so * sp, -mo);
+                acc[0] += b.subsurface(o_up, up) * w;
+                acc[1] += b.subsurface(o_dn, down) * w;
+                acc[2] += b.subsurface(o_dn, up) * w;
+                acc[3] += b.subsurface(o_up, down) * w;
+            }
+        }
+        acc
+    }
+
+    #[test]
+    fn summed_azimuths_equal_the_per_direction_quadratures() {
+        let close =
+            |a: Vec3, b: Vec3| (a - b).abs().max_element() <= 2e-6 * b.abs().max_element() + 1e-9;
+        let mut params = vec![LeafParams::default()];
+        for g in [-0.6, 0.0, 0.95] {
+            let mut p = LeafParams {
+                phase_g: g,
+                ..Default::default()
+            };
+            p.mesophyll.absorption *= 7.0;
+            params.push(p);
+        }
+        params.push(LeafParams {
+            mode: LeafMode::Eq1,
+            ..Default::default()
+        });
+        for p in params {
+            for (t, e) in [(0.5, 0.5), (0.05, 0.95), (1.0, 0.0)] {
+                let s = LayerStack::at_texel(&p, t, e);
+                let borders = BorderReflectances::new(&s);
+                let r_out = [borders.from_above[0], borders.from_below[3]];
+                let b = LeafBsdf::physical(p.mode, s, diffusion(&s, &borders), r_out);
+                let (got, want) = (white_sky_albedos(&b), per_direction_white_sky(&b));
+                for x in 0..3 {
+                    assert!(
+                        close(got[x], want[x]),
+                        "{:?} g {} ({t}, {e}) lobe {x}: {} vs {}",
+                        p.mode,
+                        p.phase_g,
+                        got[x],
+                        want[x]
+                    );
+                }
+                for mu in [0.01, 0.3, 0.99, 1.0] {
+                    let (got, want) = (
+                        directional_albedos(&b, mu),
+                        per_direction_directional(&b, mu),
+                    );
+                    for x in 0..4 {
+                        assert!(
+                            close(got[x], want[x]),
+                            "{:?} mu {mu} lobe {x}: {} vs {}",
+                            p.mode,
+                            got[x],
+                            want[x]
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     /// Parameters of one leaf in other channels: the same layers and indices, other
     /// absorption and scattering (as a pigment leaf at other wavelengths, or an RGB leaf
     /// through a band basis).

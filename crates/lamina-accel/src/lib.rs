@@ -201,18 +201,45 @@ pub enum Kernel {
 
 impl Kernel {
     /// The fastest kernel this CPU runs, unless `LAMINA_ACCEL_KERNEL` (`avx2`, `sse`,
-    /// `scalar`) names another one it runs.
+    /// `scalar`) names another one it runs. A value that names no kernel, or one this CPU
+    /// cannot run, is said once on standard error and the fastest kernel is used.
     pub fn best() -> Kernel {
-        let forced = std::env::var("LAMINA_ACCEL_KERNEL")
-            .ok()
-            .and_then(|s| Kernel::parse(&s));
-        if let Some(k) = forced.filter(|k| k.available()) {
-            return k;
+        let value = std::env::var("LAMINA_ACCEL_KERNEL").ok();
+        let (kernel, warning) = Kernel::chosen(value.as_deref());
+        if let Some(w) = warning {
+            static WARNED: std::sync::Once = std::sync::Once::new();
+            WARNED.call_once(|| eprintln!("warning: {w}"));
         }
-        [Kernel::Avx2, Kernel::Sse, Kernel::Scalar]
+        kernel
+    }
+
+    /// The kernel [`Self::best`] picks for the value of `LAMINA_ACCEL_KERNEL` (`None`:
+    /// unset), and what is wrong with the value, if anything.
+    pub fn chosen(value: Option<&str>) -> (Kernel, Option<String>) {
+        let fastest = [Kernel::Avx2, Kernel::Sse, Kernel::Scalar]
             .into_iter()
             .find(|k| k.available())
-            .unwrap_or(Kernel::Scalar)
+            .unwrap_or(Kernel::Scalar);
+        let Some(v) = value.filter(|v| !v.trim().is_empty()) else {
+            return (fastest, None);
+        };
+        match Kernel::parse(v) {
+            Some(k) if k.available() => (k, None),
+            Some(k) => (
+                fastest,
+                Some(format!(
+                    "LAMINA_ACCEL_KERNEL={v}: this CPU cannot run the {k:?} kernel; using \
+                     {fastest:?}"
+                )),
+            ),
+            None => (
+                fastest,
+                Some(format!(
+                    "LAMINA_ACCEL_KERNEL={v}: not a kernel (avx2, sse or scalar); using \
+                     {fastest:?}"
+                )),
+            ),
+        }
     }
 
     /// `"avx2"`, `"sse"` or `"scalar"`.

@@ -436,3 +436,20 @@ fn sphere_ids_are_scene_indices() {
     );
     assert!((h.t - 4.0).abs() < 1e-5);
 }
+
+#[test]
+fn kernel_choice_names_a_bad_override() {
+    let (fastest, none) = Kernel::chosen(None);
+    assert!(fastest.available() && none.is_none());
+    assert_eq!(Kernel::chosen(Some("  ")), (fastest, None));
+    assert_eq!(Kernel::chosen(Some("Scalar")), (Kernel::Scalar, None));
+    let (k, w) = Kernel::chosen(Some("avx512"));
+    assert_eq!(k, fastest);
+    let w = w.expect("a warning");
+    assert!(w.contains("avx512") && w.contains("not a kernel"), "{w}");
+    if !Kernel::Avx2.available() {
+        let (k, w) = Kernel::chosen(Some("avx2"));
+        assert_eq!(k, fastest);
+        assert!(w.expect("a warning").contains("cannot run"));
+    }
+}

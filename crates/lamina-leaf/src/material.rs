@@ -747,6 +747,21 @@ impl LeafMaterial {
         ))
     }
 
+    /// [`Self::new`] for each of `items` (one leaf's maps and parameters in several channel
+    /// sets): each bit for bit `new`'s, their precomputations run together where their map
+    /// ranges agree (see [`Self::new_like_each`]).
+    pub fn new_each(items: Vec<(LeafMaps, LeafParams)>) -> Result<Vec<Self>, LeafError> {
+        let mut parts = Vec::with_capacity(items.len());
+        for (maps, params) in items {
+            params.validate()?;
+            let alpha_from_channel = alpha_in_channel(&maps);
+            let ranges = [map_range(&maps.thickness), map_range(&maps.extinction)];
+            let packed = PackedMaps::new(&maps);
+            parts.push((maps, params, alpha_from_channel, ranges, packed));
+        }
+        Ok(Self::assemble_each(parts))
+    }
+
     /// The material from its parts, with the precomputation its parameters and map ranges
     /// need.
     fn assemble(
@@ -805,6 +820,21 @@ impl LeafMaterial {
             let (alpha_from_channel, ranges, packed) = like.parts_for(&maps);
             parts.push((maps, params, alpha_from_channel, ranges, packed));
         }
+        Ok(Self::assemble_each(parts))
+    }
+
+    /// [`Self::assemble`] for each of `parts`, their precomputations run together where
+    /// their map ranges agree.
+    #[allow(clippy::type_complexity)]
+    fn assemble_each(
+        parts: Vec<(
+            LeafMaps,
+            LeafParams,
+            bool,
+            [(f32, f32); 2],
+            Option<PackedMaps>,
+        )>,
+    ) -> Vec<Self> {
         let params: Vec<LeafParams> = parts.iter().map(|p| p.1).collect();
         let pre: Vec<Precomputed> = match parts.first() {
             Some(first) if parts.iter().all(|p| p.3 == first.3) => {
@@ -815,7 +845,7 @@ impl LeafMaterial {
                 .map(|p| Precomputed::new(&p.1, p.3[0], p.3[1]))
                 .collect(),
         };
-        Ok(parts
+        parts
             .into_iter()
             .zip(pre)
             .map(
@@ -830,7 +860,7 @@ impl LeafMaterial {
                     channels: None,
                 },
             )
-            .collect())
+            .collect()
     }
 
     /// What [`Self::new_like`] takes from `self` for `maps` that may share data maps with
@@ -1879,7 +1909,13 @@ mod tests {
         let together = m.variant_each(items.clone()).unwrap();
         let with_maps: Vec<(LeafMaps, LeafParams)> =
             items.iter().map(|&(p, _)| (m.maps.clone(), p)).collect();
-        let like = LeafMaterial::new_like_each(with_maps, &m).unwrap();
+        let like = LeafMaterial::new_like_each(with_maps.clone(), &m).unwrap();
+        let fresh = LeafMaterial::new_each(with_maps.clone()).unwrap();
+        for ((maps, p), got) in with_maps.into_iter().zip(&fresh) {
+            let one = LeafMaterial::new(maps, p).unwrap();
+            assert_eq!(format!("{:?}", got.pre), format!("{:?}", one.pre));
+            assert_eq!(got.bsdf(Vec2::new(0.3, 0.6)), one.bsdf(Vec2::new(0.3, 0.6)));
+        }
         for (k, (p, mat)) in items.into_iter().enumerate() {
             let one = m.variant(p, mat).unwrap();
             let one_like = LeafMaterial::new_like(m.maps.clone(), p, &m).unwrap();

@@ -135,19 +135,22 @@ impl PigmentLeaf {
     /// `nm`, calibrated so that the nominal texel's directional R and T at 8° equal
     /// PROSPECT's (module docs).
     pub fn colours_at(&self, nm: [f32; 3]) -> Result<[Vec3; 3], LeafError> {
-        let mut physical = self.params_at(nm);
-        physical.specular = 0.0;
-        let bare = LeafMaterial::new(LeafMaps::default(), physical)?;
-        let [a_r, a_b, a_t] = bare.physical_albedos();
-        let (rho_r, rho_t) = directional_albedo(
-            &bare,
-            &AlbedoOptions {
-                theta_deg: CALIBRATION_THETA_DEG,
-                side: Side::Adaxial,
-                samples: CALIBRATION_SAMPLES,
-                max_texels: 1,
-            },
-        );
+        let mut c = self.colours_each(&[nm])?;
+        Ok(c.pop().expect("one colour triple per wavelength triple"))
+    }
+
+    /// [`Self::colours_at`] at each wavelength triple of `nms`, bit for bit, the bare
+    /// materials' precomputations run together ([`LeafMaterial::new_each`]).
+    fn colours_each(&self, nms: &[[f32; 3]]) -> Result<Vec<[Vec3; 3]>, LeafError> {
+        let items = nms
+            .iter()
+            .map(|&nm| {
+                let mut physical = self.params_at(nm);
+                physical.specular = 0.0;
+                (LeafMaps::default(), physical)
+            })
+            .collect();
+        let bare = LeafMaterial::new_each(items)?;
         let (s, c) = CALIBRATION_THETA_DEG.to_radians().sin_cos();
         let spec = self.params.specular
             * crate::specular::albedo(
@@ -156,19 +159,35 @@ impl PigmentLeaf {
                 self.params.upper.ior,
                 64,
             );
-        let mut cr = [0.0f32; 3];
-        let mut ct = [0.0f32; 3];
-        for ch in 0..3 {
-            let (r, t) = self.spectrum.at(nm[ch] as f64);
-            let (r, t) = (r as f32, t as f32);
-            cr[ch] = safe_div(a_r[ch] * (r - spec).max(0.0), rho_r[ch]);
-            ct[ch] = safe_div(a_t[ch] * t, rho_t[ch]);
-        }
-        let cr = Vec3::from(cr).clamp(Vec3::ZERO, Vec3::ONE);
-        let ct = Vec3::from(ct).clamp(Vec3::ZERO, Vec3::ONE);
-        let cb = Vec3::from_array([0, 1, 2].map(|ch| safe_div(cr[ch] * a_b[ch], a_r[ch])))
-            .clamp(Vec3::ZERO, Vec3::ONE);
-        Ok([cr, cb, ct])
+        Ok(nms
+            .iter()
+            .zip(&bare)
+            .map(|(nm, bare)| {
+                let [a_r, a_b, a_t] = bare.physical_albedos();
+                let (rho_r, rho_t) = directional_albedo(
+                    bare,
+                    &AlbedoOptions {
+                        theta_deg: CALIBRATION_THETA_DEG,
+                        side: Side::Adaxial,
+                        samples: CALIBRATION_SAMPLES,
+                        max_texels: 1,
+                    },
+                );
+                let mut cr = [0.0f32; 3];
+                let mut ct = [0.0f32; 3];
+                for ch in 0..3 {
+                    let (r, t) = self.spectrum.at(nm[ch] as f64);
+                    let (r, t) = (r as f32, t as f32);
+                    cr[ch] = safe_div(a_r[ch] * (r - spec).max(0.0), rho_r[ch]);
+                    ct[ch] = safe_div(a_t[ch] * t, rho_t[ch]);
+                }
+                let cr = Vec3::from(cr).clamp(Vec3::ZERO, Vec3::ONE);
+                let ct = Vec3::from(ct).clamp(Vec3::ZERO, Vec3::ONE);
+                let cb = Vec3::from_array([0, 1, 2].map(|ch| safe_div(cr[ch] * a_b[ch], a_r[ch])))
+                    .clamp(Vec3::ZERO, Vec3::ONE);
+                [cr, cb, ct]
+            })
+            .collect())
     }
 
     /// The leaf at three wavelengths `nm` (one per channel of the material): the renderer's
@@ -197,21 +216,30 @@ impl PigmentLeaf {
         nms: &[[f32; 3]],
         like: &LeafMaterial,
     ) -> Result<Vec<LeafMaterial>, LeafError> {
+        let colours = self.colours_each(nms)?;
         let items = nms
             .iter()
-            .map(|&nm| Ok((self.maps_at(nm)?, self.params_at(nm))))
-            .collect::<Result<Vec<_>, LeafError>>()?;
+            .zip(colours)
+            .map(|(&nm, c)| (self.maps_with(c), self.params_at(nm)))
+            .collect();
         LeafMaterial::new_like_each(items, like)
     }
 
     /// The data maps with the calibrated colours at `nm` as constant colour maps.
     fn maps_at(&self, nm: [f32; 3]) -> Result<LeafMaps, LeafError> {
-        let [cr, cb, ct] = self.colours_at(nm)?;
+        let [c] = self.colours_each(&[nm])?[..] else {
+            unreachable!("one colour triple per wavelength triple")
+        };
+        Ok(self.maps_with(c))
+    }
+
+    /// The data maps with the colours `[front, back, translucency]` as constant maps.
+    fn maps_with(&self, [cr, cb, ct]: [Vec3; 3]) -> LeafMaps {
         let mut maps = self.maps.clone();
         maps.front = Some(Texture::constant(cr.extend(1.0)));
         maps.back = Some(Texture::constant(cb.extend(1.0)));
         maps.translucency = Some(Texture::constant(ct.extend(1.0)));
-        Ok(maps)
+        maps
     }
 
     /// The leaf for an RGB render: colours are the linear Rec.709 colours (under D65) of the

@@ -771,17 +771,9 @@ impl LeafMaterial {
         ranges: [(f32, f32); 2],
         packed: Option<PackedMaps>,
     ) -> Self {
-        let pre = Precomputed::new(&params, ranges[0], ranges[1]);
-        LeafMaterial {
-            maps,
-            params,
-            alpha_from_channel,
-            pre: Box::new(pre),
-            packed,
-            pigment: None,
-            ranges,
-            channels: None,
-        }
+        let parts = vec![(maps, params, alpha_from_channel, ranges, packed)];
+        let mut m = Self::assemble_each(parts);
+        m.pop().expect("one material per part")
     }
 
     /// [`Self::new`] for maps that share their data maps (alpha, thickness, extinction,

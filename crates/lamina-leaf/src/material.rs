@@ -734,17 +734,8 @@ impl LeafMaterial {
     /// size and wrap mode of at most 2048 x 2048 texels (192 MiB); otherwise `bsdf` reads
     /// them one by one, with the same results.
     pub fn new(maps: LeafMaps, params: LeafParams) -> Result<Self, LeafError> {
-        params.validate()?;
-        let alpha_from_channel = alpha_in_channel(&maps);
-        let ranges = [map_range(&maps.thickness), map_range(&maps.extinction)];
-        let packed = PackedMaps::new(&maps);
-        Ok(Self::assemble(
-            maps,
-            params,
-            alpha_from_channel,
-            ranges,
-            packed,
-        ))
+        let mut m = Self::new_each(vec![(maps, params)])?;
+        Ok(m.pop().expect("one material per item"))
     }
 
     /// [`Self::new`] for each of `items` (one leaf's maps and parameters in several channel
@@ -762,20 +753,6 @@ impl LeafMaterial {
         Ok(Self::assemble_each(parts))
     }
 
-    /// The material from its parts, with the precomputation its parameters and map ranges
-    /// need.
-    fn assemble(
-        maps: LeafMaps,
-        params: LeafParams,
-        alpha_from_channel: bool,
-        ranges: [(f32, f32); 2],
-        packed: Option<PackedMaps>,
-    ) -> Self {
-        let parts = vec![(maps, params, alpha_from_channel, ranges, packed)];
-        let mut m = Self::assemble_each(parts);
-        m.pop().expect("one material per part")
-    }
-
     /// [`Self::new`] for maps that share their data maps (alpha, thickness, extinction,
     /// bump: clones of the same images) with `like`'s, as a pigment leaf's per-wavelength
     /// materials do: the interleaved grid and the map ranges are `like`'s, not copied or
@@ -785,15 +762,8 @@ impl LeafMaterial {
         params: LeafParams,
         like: &LeafMaterial,
     ) -> Result<Self, LeafError> {
-        params.validate()?;
-        let (alpha_from_channel, ranges, packed) = like.parts_for(&maps);
-        Ok(Self::assemble(
-            maps,
-            params,
-            alpha_from_channel,
-            ranges,
-            packed,
-        ))
+        let mut m = Self::new_like_each(vec![(maps, params)], like)?;
+        Ok(m.pop().expect("one material per item"))
     }
 
     /// [`Self::new_like`] for each of `items` (maps and parameters of one leaf in several
@@ -815,8 +785,8 @@ impl LeafMaterial {
         Ok(Self::assemble_each(parts))
     }
 
-    /// [`Self::assemble`] for each of `parts`, their precomputations run together where
-    /// their map ranges agree.
+    /// The materials from their parts, with the precomputations their parameters and map
+    /// ranges need, run together where their map ranges agree.
     #[allow(clippy::type_complexity)]
     fn assemble_each(
         parts: Vec<(

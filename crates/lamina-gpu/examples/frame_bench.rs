@@ -1,4 +1,4 @@
-//! Frame time of the GPU path at 1920x1080 for 10k, 100k, 1M and 10M leaves (or the counts
+//! Frame time of the GPU path at 1920x1080 (or `--size`) for 10k, 100k, 1M and 10M leaves (or the counts
 //! given), each without level of detail and with it (stochastic simplification below 1 and
 //! 4 px² per leaf: `lamina render --gpu`'s and `lamina view`'s defaults), as a window's
 //! frame draws it: the culling/LOD compute pass, the sun's two-layer
@@ -15,9 +15,11 @@
 //! pass from timestamp queries (where the adapter has them; else `-`), the wall-clock frame
 //! time (submit to GPU finished) and its fps, and the geometry's GPU memory.
 //!
-//! `cargo run --release -p lamina-gpu --example frame_bench -- [--frames N] [leaves...]`
-//! (`--frames`: timed frames per row; by default 5, 3 from 500k leaves and 1 from 5M, which
-//! suits software Vulkan; a real GPU wants more, e.g. 60).
+//! `cargo run --release -p lamina-gpu --example frame_bench -- [--frames N] [--size WxH]
+//! [leaves...]` (`--frames`: timed frames per row; by default 5, 3 from 500k leaves and 1
+//! from 5M, which suits software Vulkan; a real GPU wants more, e.g. 60. `--size`: the
+//! frame in pixels, 1920x1080 by default, the same view at another size: comparing sizes
+//! tells a pass bound by its pixels from one bound by its triangles).
 
 use lamina_gpu::renderer::PassTimes;
 use lamina_gpu::{FrameView, GpuContext, RenderSettings, Renderer};
@@ -41,6 +43,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         frames_override = Some(v);
         args.drain(k..k + 2);
     }
+    let (mut w, mut h) = (1920, 1080);
+    if let Some(k) = args.iter().position(|a| a == "--size") {
+        let v = args
+            .get(k + 1)
+            .ok_or("--size needs WIDTHxHEIGHT, e.g. 960x540")?;
+        let parsed = v
+            .split_once('x')
+            .and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?)))
+            .filter(|&(a, b)| a > 0 && b > 0);
+        (w, h) = parsed
+            .ok_or_else(|| format!("--size: '{v}' is not WIDTHxHEIGHT in pixels (e.g. 960x540)"))?;
+        args.drain(k..k + 2);
+    }
     let counts: Vec<u32> = args
         .iter()
         .map(|s| {
@@ -53,7 +68,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     } else {
         counts
     };
-    let (w, h) = (1920, 1080);
     let ctx = GpuContext::headless(&Default::default())?;
     println!("adapter: {}", ctx.adapter_name());
     println!(

@@ -668,6 +668,26 @@ impl DaylightSpectrum {
         self.raw(k).max(0.0)
     }
 
+    /// The relative spectral power at each basis row (300, 310, ..., 830 nm), clamped at
+    /// zero: the nodes between which [`Self::eval`] interpolates linearly.
+    pub fn nodes(&self) -> [f64; 54] {
+        std::array::from_fn(|k| self.node(k))
+    }
+
+    /// The weights of the basis rows in [`Self::eval`] at `nm`: `eval(nm) = Σ_k
+    /// nodes()[k] w_k`, at most two of them non-zero, `(row, weight)` pairs; none outside
+    /// 300–830 nm.
+    pub fn node_weights(nm: f64) -> Option<[(usize, f64); 2]> {
+        let u = (nm - DAYLIGHT_START_NM) / DAYLIGHT_STEP_NM;
+        let last = (S0.len() - 1) as f64;
+        if !(0.0..=last).contains(&u) {
+            return None;
+        }
+        let k = (u as usize).min(S0.len() - 2);
+        let f = u - k as f64;
+        Some([(k, 1.0 - f), (k + 1, f)])
+    }
+
     /// Whether the CIE basis had to be clamped: `S0 + M1 S1 + M2 S2 < 0` at some tabulated
     /// wavelength.
     pub fn is_clamped(&self) -> bool {
@@ -676,14 +696,10 @@ impl DaylightSpectrum {
 
     /// The relative spectral power at `nm`; zero outside 300–830 nm.
     pub fn eval(&self, nm: f64) -> f64 {
-        let u = (nm - DAYLIGHT_START_NM) / DAYLIGHT_STEP_NM;
-        let last = (S0.len() - 1) as f64;
-        if !(0.0..=last).contains(&u) {
-            return 0.0;
+        match Self::node_weights(nm) {
+            Some([(k, a), (k1, b)]) => self.node(k) * a + self.node(k1) * b,
+            None => 0.0,
         }
-        let k = (u as usize).min(S0.len() - 2);
-        let f = u - k as f64;
-        self.node(k) * (1.0 - f) + self.node(k + 1) * f
     }
 
     /// `(∫ S x̄ dλ, ∫ S ȳ dλ, ∫ S z̄ dλ)`, summed at 1 nm over 360–830 nm (the CIE
@@ -744,6 +760,12 @@ impl SkySpectrum {
     /// The spectral radiance at `nm`, W m⁻² sr⁻¹ nm⁻¹; zero outside 300–830 nm.
     pub fn eval(&self, nm: f64) -> f64 {
         self.scale * self.shape.eval(nm)
+    }
+
+    /// W m⁻² sr⁻¹ nm⁻¹ per unit of the relative spectrum: `eval(nm) = scale() ×
+    /// shape().eval(nm)`.
+    pub fn scale(&self) -> f64 {
+        self.scale
     }
 
     /// The relative daylight spectrum it scales.

@@ -19,7 +19,7 @@
 //!
 //! Directions are in lamina-sky's frame: x east, y up, z south.
 
-use crate::preetham::{PreethamSky, SkyError, xyz_to_linear_rec709};
+use crate::preetham::{DaylightSpectrum, PreethamSky, SkyError, xyz_to_linear_rec709};
 use crate::solar_position::LocalTime;
 use crate::solar_position::{Observer, SolarPosition, SolarQuery, solar_position};
 use crate::spectral2::{ResampledSpectrum, Spectral2Query, Spectral2Spectrum, UniformGrid};
@@ -253,27 +253,89 @@ impl SunSky {
     }
 
     /// [`Self::sky_band`] for each of `bands` into `out`, the sky's spectrum along `dir`
-    /// computed once: what maps in many bands at once are made with.
+    /// computed once. For many directions, make the [`SkyBandWeights`] once and call
+    /// [`Self::sky_bands_weighted`].
     pub fn sky_bands(&self, dir: DVec3, bands: &[&Band], out: &mut [f64]) {
+        self.sky_bands_weighted(dir, &self.sky_band_weights(bands), out);
+    }
+
+    /// The band means of `bands` as fixed weights on the sky spectrum's parts: what
+    /// [`Self::sky_bands_weighted`] needs, made once for all directions.
+    pub fn sky_band_weights(&self, bands: &[&Band]) -> SkyBandWeights {
+        let bands = bands
+            .iter()
+            .map(|band| {
+                // The band mean, as in `band_mean`: Σ w(λ) v(λ) / Σ w(λ) on the 1 nm
+                // midpoints; below 830 nm v is linear in the daylight nodes, above it a
+                // fixed spectrum times the direction's luminance.
+                let (lo, hi) = (band.lo_nm as f64, band.hi_nm as f64);
+                let n = ((hi - lo).ceil() as usize).max(1);
+                let step = (hi - lo) / n as f64;
+                let (mut nodes, mut nir, mut sw) = ([0.0; 54], 0.0, 0.0);
+                for k in 0..n {
+                    let nm = lo + (k as f64 + 0.5) * step;
+                    let w = band.weight(nm as f32) as f64;
+                    sw += w;
+                    if nm <= VISIBLE_END_NM {
+                        if let Some(hat) = DaylightSpectrum::node_weights(nm) {
+                            for (row, h) in hat {
+                                nodes[row] += w * h;
+                            }
+                        }
+                    } else if self.diffuse_y > 0.0 {
+                        nir += w * self.at(nm).1 / self.diffuse_y;
+                    }
+                }
+                if sw > 0.0 {
+                    nodes.iter_mut().for_each(|x| *x /= sw);
+                    nir /= sw;
+                } else {
+                    (nodes, nir) = ([0.0; 54], 0.0);
+                }
+                BandWeights { nodes, nir }
+            })
+            .collect();
+        SkyBandWeights { bands }
+    }
+
+    /// [`Self::sky_band`] for each band of `weights` (made by [`Self::sky_band_weights`])
+    /// into `out`, W m⁻² sr⁻¹ nm⁻¹: the sky's spectrum along `dir` computed once, each band
+    /// a dot product over the 54 daylight nodes. Equal to the band means of
+    /// [`Self::sky_band`] up to rounding.
+    pub fn sky_bands_weighted(&self, dir: DVec3, weights: &SkyBandWeights, out: &mut [f64]) {
         if dir.y <= 0.0 {
             out.fill(0.0);
             return;
         }
         let visible = self.preetham.spectrum(dir);
-        let y = self.preetham.xyz(dir).y;
-        for (o, band) in out.iter_mut().zip(bands) {
-            *o = Self::band_mean(band, |nm| {
-                if nm <= VISIBLE_END_NM {
-                    visible.eval(nm) * self.scale
-                } else if self.diffuse_y > 0.0 {
-                    y * self.scale * self.at(nm).1 / self.diffuse_y
-                } else {
-                    0.0
-                }
-            })
-            .max(0.0);
+        let nodes = visible.shape().nodes();
+        let (vis_scale, nir_scale) = (
+            visible.scale() * self.scale,
+            self.preetham.xyz(dir).y * self.scale,
+        );
+        for (o, band) in out.iter_mut().zip(&weights.bands) {
+            let v: f64 = nodes.iter().zip(&band.nodes).map(|(a, b)| a * b).sum();
+            *o = (v * vis_scale + nir_scale * band.nir).max(0.0);
         }
     }
+}
+
+/// Bands' means of the sky spectrum as fixed weights ([`SunSky::sky_band_weights`]): the
+/// sky's spectrum in a direction is linear in its 54 daylight nodes (300-830 nm) and, beyond
+/// 830 nm, its luminance times a fixed spectrum, so each band mean is a dot product.
+#[derive(Debug, Clone)]
+pub struct SkyBandWeights {
+    bands: Vec<BandWeights>,
+}
+
+#[derive(Debug, Clone)]
+struct BandWeights {
+    /// The weight of each daylight node in the band mean (the band's weights, divided by
+    /// their sum).
+    nodes: [f64; 54],
+    /// The band mean of `at(nm).1 / diffuse_y` beyond 830 nm (times the luminance `Y` of
+    /// the direction and the scale).
+    nir: f64,
 }
 
 /// `∫ f(ω) cos θ dω` over the upper hemisphere (y up) by the midpoint rule on
@@ -378,6 +440,52 @@ mod tests {
             let want = SunSky::band_mean(&b, |nm| s.at(nm).1);
             assert!((e / want - 1.0).abs() < tol, "{lo}-{hi} nm: {e} vs {want}");
         }
+    }
+
+    #[test]
+    fn band_weights_equal_the_per_wavelength_band_means() {
+        let s = paris_noon();
+        let response =
+            lamina_leaf::spectrum::bands::Response::parse("600 0.1\n650 1\n700 0.3\n").unwrap();
+        let bands = [
+            Band::flat("blue", 450.0, 500.0),
+            Band::flat("narrow", 512.3, 513.1),
+            Band::flat("visible", 380.0, 780.0),
+            Band::flat("across 830 nm", 780.0, 900.0),
+            Band::flat("swir", 2100.0, 2280.0),
+            Band::with_response("curve", response),
+        ];
+        let refs: Vec<&Band> = bands.iter().collect();
+        let weights = s.sky_band_weights(&refs);
+        let mut out = vec![0.0; bands.len()];
+        for (th, ph) in [(0.1, 0.0), (0.7, 1.3), (1.2, -2.0), (1.55, 3.0), (0.4, 2.2)] {
+            let dir = DVec3::new(
+                f64::sin(th) * f64::sin(ph),
+                f64::cos(th),
+                f64::sin(th) * f64::cos(ph),
+            );
+            s.sky_bands_weighted(dir, &weights, &mut out);
+            // The definition: the band mean of the spectrum evaluated at each wavelength.
+            let visible = s.preetham.spectrum(dir);
+            let y = s.preetham.xyz(dir).y;
+            for (b, got) in bands.iter().zip(&out) {
+                let want = SunSky::band_mean(b, |nm| {
+                    if nm <= VISIBLE_END_NM {
+                        visible.eval(nm) * s.scale
+                    } else {
+                        y * s.scale * s.at(nm).1 / s.diffuse_y
+                    }
+                });
+                assert!(want > 0.0, "{}: {want}", b.name);
+                assert!(
+                    (got / want - 1.0).abs() < 1e-12,
+                    "{} at ({th}, {ph}): {got} vs {want}",
+                    b.name
+                );
+            }
+        }
+        s.sky_bands_weighted(DVec3::new(0.0, -0.2, 1.0).normalize(), &weights, &mut out);
+        assert!(out.iter().all(|&x| x == 0.0), "below the horizon: {out:?}");
     }
 
     #[test]

@@ -100,7 +100,9 @@ impl PhysicalSky {
 
 impl lamina_core::SpectralSky for PhysicalSky {
     fn band_map(&self, bands: [&lamina_leaf::spectrum::bands::Band; 3]) -> lamina_leaf::Texture {
-        self.map(|v| bands.map(|b| self.model.sky_band(v, b) as f32))
+        self.band_maps(&[bands])
+            .pop()
+            .expect("one map per group of bands")
     }
 
     fn band_maps(
@@ -111,13 +113,14 @@ impl lamina_core::SpectralSky for PhysicalSky {
         let bands: Vec<&lamina_leaf::spectrum::bands::Band> =
             groups.iter().flat_map(|g| g.iter().copied()).collect();
         let n = bands.len();
+        let weights = self.model.sky_band_weights(&bands);
         let values = lamina_sky::sunsky::bake_values(
             self.width,
             n,
             |d| self.to_sky(d),
             |v, out| {
                 let mut f = vec![0.0f64; n];
-                self.model.sky_bands(v, &bands, &mut f);
+                self.model.sky_bands_weighted(v, &weights, &mut f);
                 for (o, x) in out.iter_mut().zip(f) {
                     *o = x as f32;
                 }

@@ -146,15 +146,24 @@ impl SkySets {
         })
     }
 
-    /// Set `j` (at `slot`)'s radiance in texel `t`, where the scene's sky map holds `base`.
+    /// The radiance of each set `sets[k]` (at `slots[k]`) in texel `t`, where the scene's
+    /// sky map holds `base`: the texel's coarse cell found once for all of them.
     #[inline]
-    fn at(&self, t: u32, base: Vec3, j: usize, slot: usize) -> Vec3 {
+    fn at<const G: usize>(
+        &self,
+        t: u32,
+        base: Vec3,
+        sets: &[usize; G],
+        slots: &[usize; G],
+    ) -> [Vec3; G] {
         let t = t as usize;
         let (x, y) = (t % self.width, t / self.width);
-        let c = (y / self.factor) * self.coarse_width + x / self.factor;
-        let v = self.ratios[c * self.sets + slot];
-        Vec3::new(v[0].to_f32(), v[1].to_f32(), v[2].to_f32())
-            * (self.scale[j] * base.element_sum() / 3.0)
+        let cell = ((y / self.factor) * self.coarse_width + x / self.factor) * self.sets;
+        let lum = base.element_sum() / 3.0;
+        from_fn(|k| {
+            let v = self.ratios[cell + slots[k]];
+            Vec3::new(v[0].to_f32(), v[1].to_f32(), v[2].to_f32()) * (self.scale[sets[k]] * lum)
+        })
     }
 }
 
@@ -181,10 +190,8 @@ pub fn radiance_sets<const G: usize>(
     // A sky map's texel in set `j` (the interleaved copy), or the light's own value.
     let sky = ctx.sky_sets.as_ref();
     let slots: [usize; G] = from_fn(|k| sky.map_or(0, |s| s.slot[set_ids[k]]));
-    let sky_texel = |i: usize, k: usize, texel: u32, base: Vec3| match sky {
-        Some(s) if s.light == i && texel != NO_TEXEL => {
-            Some(s.at(texel, base, set_ids[k], slots[k]))
-        }
+    let sky_texel = |i: usize, texel: u32, base: Vec3| match sky {
+        Some(s) if s.light == i && texel != NO_TEXEL => Some(s.at(texel, base, &set_ids, &slots)),
         _ => None,
     };
     let weight = |camera_ray: bool, prev: f32, pdf: f32| {
@@ -203,11 +210,11 @@ pub fn radiance_sets<const G: usize>(
                 }
                 let (base, pdf, texel) = light.escaped_texel(ray.dir);
                 let w = weight(camera_ray, prev_pdf, pdf);
+                let le = sky_texel(i, texel, base).unwrap_or_else(|| {
+                    from_fn(|k| sets[k].lights.lights[i].escaped_radiance(ray.dir, texel))
+                });
                 for k in 0..G {
-                    let le = sky_texel(i, k, texel, base).unwrap_or_else(|| {
-                        sets[k].lights.lights[i].escaped_radiance(ray.dir, texel)
-                    });
-                    l[k] += beta[k] * le * w;
+                    l[k] += beta[k] * le[k] * w;
                 }
             }
             break;
@@ -249,10 +256,8 @@ pub fn radiance_sets<const G: usize>(
             if !(ls.pdf > 0.0) || !frame.consistent(ls.wi) {
                 continue;
             }
-            let li: [Vec3; G] = from_fn(|k| {
-                sky_texel(i, k, ls.texel, ls.li)
-                    .unwrap_or_else(|| sets[k].lights.lights[i].li_along(&ls))
-            });
+            let li: [Vec3; G] = sky_texel(i, ls.texel, ls.li)
+                .unwrap_or_else(|| from_fn(|k| sets[k].lights.lights[i].li_along(&ls)));
             if li.iter().all(|v| *v == Vec3::ZERO) {
                 continue;
             }

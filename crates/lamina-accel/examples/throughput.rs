@@ -67,6 +67,9 @@ fn main() {
                     e.memory_bytes().unwrap_or(0) as f64 / 1e6
                 );
                 drop(e);
+                // Embree's TBB workers spin for a while after the build: on a 2-core
+                // machine they would slow the next build down. Let them go idle.
+                std::thread::sleep(std::time::Duration::from_millis(300));
             } else {
                 let f = |_: u32, _| true;
                 let (mut best, mut best_any) = (f64::INFINITY, f64::INFINITY);

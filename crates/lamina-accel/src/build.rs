@@ -171,7 +171,14 @@ pub(crate) fn build_binary(bounds: &[Aabb], params: BuildParams) -> Binary {
         count: u32::MAX,
     };
     let mut nodes = vec![unused; 2 * n - 1];
-    let ctx = Ctx { params };
+    assert!(
+        params.pack.is_power_of_two(),
+        "the leaf pack is a power of two"
+    );
+    let ctx = Ctx {
+        params,
+        pack_shift: params.pack.trailing_zeros(),
+    };
     let (b, c) = bounds_of(&refs);
     ctx.build(&mut nodes, 0, &mut refs, 0, 0, b, c);
     Binary {
@@ -182,6 +189,8 @@ pub(crate) fn build_binary(bounds: &[Aabb], params: BuildParams) -> Binary {
 
 struct Ctx {
     params: BuildParams,
+    /// `log2(params.pack)`: the SAH sweep's leaf costs by shifts, not divisions.
+    pack_shift: u32,
 }
 
 /// One bin: the box of the primitives in it (SIMD lanes) and their number.
@@ -192,24 +201,16 @@ struct Bin {
     count: u32,
 }
 
-impl Bin {
-    fn aabb(&self) -> Aabb {
-        Aabb {
-            min: self.min.into(),
-            max: self.max.into(),
-        }
-    }
-}
-
-const EMPTY_BINS: [[Bin; BINS]; 3] = [[Bin {
+const EMPTY_BIN: Bin = Bin {
     min: Vec3A::INFINITY,
     max: Vec3A::NEG_INFINITY,
     count: 0,
-}; BINS]; 3];
+};
 
 impl Ctx {
+    #[inline(always)]
     fn leaf_cost(&self, n: usize) -> f32 {
-        n.div_ceil(self.params.pack) as f32
+        ((n + self.params.pack - 1) >> self.pack_shift) as f32
     }
 
     /// Builds the subtree over `refs` (global offset `start` in the order) into `nodes`
@@ -238,7 +239,13 @@ impl Ctx {
             return;
         }
         let split = if depth < SAH_DEPTH {
-            self.sah_split(refs, bounds, cbounds)
+            // Fewer bins for small nodes: the sweep costs O(bins) whatever the node's
+            // size, and so does clearing the bins (most nodes are small).
+            match refs.len() / 2 + 4 {
+                0..=8 => self.sah_split::<8>(refs, bounds, cbounds),
+                9..=16 => self.sah_split::<16>(refs, bounds, cbounds),
+                _ => self.sah_split::<BINS>(refs, bounds, cbounds),
+            }
         } else {
             None
         };
@@ -288,7 +295,7 @@ impl Ctx {
     /// The best binned-SAH split over the three axes: `(cost, k, [(box, centre box); 2])`,
     /// `refs` partitioned so that `refs[..k]` goes left. `None` when every centre coincides.
     #[allow(clippy::type_complexity)]
-    fn sah_split(
+    fn sah_split<const B: usize>(
         &self,
         refs: &mut [PRef],
         bounds: Aabb,
@@ -297,22 +304,21 @@ impl Ctx {
         let extent = cb.max - cb.min;
         let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
         let mut best: Option<(f32, usize, usize)> = None; // cost, axis, bin boundary
-        // Fewer bins for small nodes: the sweep costs O(bins) whatever the node's size.
-        let nb = (refs.len() / 2 + 4).min(BINS);
+        let nb = (refs.len() / 2 + 4).min(B);
         let scale = Vec3::select(
             extent.cmpgt(Vec3::ZERO),
             Vec3::splat(nb as f32 * (1.0 - 1e-6)) / extent,
             Vec3::ZERO,
         );
         let (cmin, scale_a) = (Vec3A::from(cb.min), Vec3A::from(scale));
-        let last = glam::UVec3::splat(nb as u32 - 1);
+        let last = Vec3A::splat((nb - 1) as f32);
         let bin_all = |chunk: &[PRef]| {
-            let mut bins = EMPTY_BINS;
+            let mut bins = [[EMPTY_BIN; B]; 3];
             for r in chunk {
                 let (lo, hi) = (Vec3A::from(r.min), Vec3A::from(r.max));
-                let k = (((lo + hi) * 0.5 - cmin) * scale_a).as_uvec3().min(last);
+                let k = bin_index((((lo + hi) * 0.5 - cmin) * scale_a).min(last));
                 for (axis, bins) in bins.iter_mut().enumerate() {
-                    let b = &mut bins[k[axis] as usize];
+                    let b = &mut bins[k[axis]];
                     b.min = b.min.min(lo);
                     b.max = b.max.max(hi);
                     b.count += 1;
@@ -325,7 +331,7 @@ impl Ctx {
         } else {
             use rayon::prelude::*;
             refs.par_chunks(PARALLEL_BINNING / 4).map(bin_all).reduce(
-                || EMPTY_BINS,
+                || [[EMPTY_BIN; B]; 3],
                 |mut a, b| {
                     for (x, y) in a.iter_mut().flatten().zip(b.iter().flatten()) {
                         x.min = x.min.min(y.min);
@@ -336,41 +342,86 @@ impl Ctx {
                 },
             )
         };
+        // Half the area of a box given as SIMD corners (0 when empty).
+        let half_area = |min: Vec3A, max: Vec3A| {
+            let e = (max - min).max(Vec3A::ZERO);
+            e.x * e.y + e.y * e.z + e.z * e.x
+        };
         for (axis, bins) in bins.iter().enumerate() {
             if extent[axis] <= 0.0 {
                 continue;
             }
             // Right-to-left sweep: area·cost of everything right of each boundary.
-            let mut right = [0.0f32; BINS];
-            let (mut rb, mut rn) = (Aabb::EMPTY, 0usize);
+            let mut right = [0.0f32; B];
+            let (mut rmin, mut rmax, mut rn) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0usize);
             for k in (1..nb).rev() {
-                rb = rb.union(bins[k].aabb());
+                rmin = rmin.min(bins[k].min);
+                rmax = rmax.max(bins[k].max);
                 rn += bins[k].count as usize;
-                right[k] = rb.half_area() * self.leaf_cost(rn);
+                right[k] = half_area(rmin, rmax) * self.leaf_cost(rn);
             }
-            let (mut lb, mut ln) = (Aabb::EMPTY, 0usize);
+            // Left to right: the split's area·cost (the SAH cost times the parent's area,
+            // less the traversal step: both the same for every candidate).
+            let (mut lmin, mut lmax, mut ln) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0usize);
             for k in 1..nb {
-                lb = lb.union(bins[k - 1].aabb());
+                lmin = lmin.min(bins[k - 1].min);
+                lmax = lmax.max(bins[k - 1].max);
                 ln += bins[k - 1].count as usize;
                 if ln == 0 || ln == refs.len() {
                     continue;
                 }
-                let cost = self.params.trav_cost
-                    + (lb.half_area() * self.leaf_cost(ln) + right[k]) / parent_area;
+                let cost = half_area(lmin, lmax) * self.leaf_cost(ln) + right[k];
                 if best.is_none_or(|b| cost < b.0) {
                     best = Some((cost, axis, k));
                 }
             }
         }
         let (cost, axis, k) = best?;
-        let s = scale[axis];
-        let lo = cb.min[axis];
-        let goes_left = |r: &PRef| {
-            let c = ((r.center()[axis] - lo) * s) as usize;
-            c.min(nb - 1) < k
+        let cost = self.params.trav_cost + cost / parent_area;
+        // The sides' boxes from the bins (the same bin of each centre as the binning's:
+        // the same arithmetic on the same lanes); their centre boxes from the partition.
+        let side_box = |range: std::ops::Range<usize>| {
+            let (min, max) = bins[axis][range]
+                .iter()
+                .fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(a, b), bin| {
+                    (a.min(bin.min), b.max(bin.max))
+                });
+            Aabb {
+                min: min.into(),
+                max: max.into(),
+            }
         };
-        let (mid, sides) = partition(refs, goes_left);
+        let boxes = [side_box(0..k), side_box(k..nb)];
+        // Bin `⌊min(x, nb - 1)⌋ < k` is `x < k` (as `k <= nb - 1`): no conversion.
+        let kf = k as f32;
+        let (mid, centres) = partition(refs, |c: Vec3A| ((c - cmin) * scale_a)[axis] < kf);
+        let sides = [(boxes[0], centres[0]), (boxes[1], centres[1])];
         Some((cost, mid, sides))
+    }
+}
+
+/// `⌊x⌋` of each lane of `x`, non-negative and below 2³¹: the bins of a centre.
+#[inline(always)]
+fn bin_index(x: Vec3A) -> [usize; 3] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // One truncating conversion for the three lanes (SSE2, always there on x86-64;
+        // `as` converts one lane at a time and saturates).
+        use std::arch::x86_64::{_mm_cvtsi128_si32, _mm_cvttps_epi32, _mm_shuffle_epi32};
+        // SAFETY: these intrinsics need SSE2 only, which every x86-64 CPU has (it is in
+        // the target's baseline features); they read and write registers, no memory.
+        unsafe {
+            let v = _mm_cvttps_epi32(x.into());
+            [
+                _mm_cvtsi128_si32(v) as usize,
+                _mm_cvtsi128_si32(_mm_shuffle_epi32::<0b01_01_01_01>(v)) as usize,
+                _mm_cvtsi128_si32(_mm_shuffle_epi32::<0b10_10_10_10>(v)) as usize,
+            ]
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        [x.x as usize, x.y as usize, x.z as usize]
     }
 }
 
@@ -389,30 +440,42 @@ fn median_split(refs: &mut [PRef], cb: Aabb) -> usize {
     k
 }
 
-/// Moves the elements for which `left` holds to the front (Hoare-style, from both ends);
-/// returns how many there are and the boxes and centre boxes of the two sides.
-fn partition(refs: &mut [PRef], left: impl Fn(&PRef) -> bool) -> (usize, [(Aabb, Aabb); 2]) {
+/// Moves the elements whose centre `left` accepts to the front (Hoare-style, from both
+/// ends); returns how many there are and the boxes of the two sides' centres.
+fn partition(refs: &mut [PRef], left: impl Fn(Vec3A) -> bool) -> (usize, [Aabb; 2]) {
+    let centre = |r: &PRef| (Vec3A::from(r.min) + Vec3A::from(r.max)) * 0.5;
     let (mut i, mut j) = (0, refs.len());
-    let mut sides = [(Aabb::EMPTY, Aabb::EMPTY); 2];
-    let mut add = |side: usize, r: &PRef| {
-        let s = &mut sides[side];
-        *s = (s.0.union(r.aabb()), s.1.grow(r.center()));
-    };
+    let (mut lmin, mut lmax) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+    let (mut rmin, mut rmax) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
     loop {
-        while i < j && left(&refs[i]) {
-            add(0, &refs[i]);
+        while i < j {
+            let c = centre(&refs[i]);
+            if !left(c) {
+                break;
+            }
+            (lmin, lmax) = (lmin.min(c), lmax.max(c));
             i += 1;
         }
-        while i < j && !left(&refs[j - 1]) {
-            add(1, &refs[j - 1]);
+        while i < j {
+            let c = centre(&refs[j - 1]);
+            if left(c) {
+                break;
+            }
+            (rmin, rmax) = (rmin.min(c), rmax.max(c));
             j -= 1;
         }
         if i >= j {
-            return (i, sides);
+            let aabb = |min: Vec3A, max: Vec3A| Aabb {
+                min: min.into(),
+                max: max.into(),
+            };
+            return (i, [aabb(lmin, lmax), aabb(rmin, rmax)]);
         }
+        // refs[i] goes right and refs[j - 1] left: swap them.
+        let (ci, cj) = (centre(&refs[i]), centre(&refs[j - 1]));
         refs.swap(i, j - 1);
-        add(0, &refs[i]);
-        add(1, &refs[j - 1]);
+        (lmin, lmax) = (lmin.min(cj), lmax.max(cj));
+        (rmin, rmax) = (rmin.min(ci), rmax.max(ci));
         i += 1;
         j -= 1;
     }

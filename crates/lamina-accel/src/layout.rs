@@ -107,7 +107,13 @@ pub(crate) fn collapse<const W: usize>(
     bin: &Binary,
     leaf: &mut impl FnMut(usize, usize) -> u32,
 ) -> (Vec<Node<W>>, u32) {
-    let mut nodes = Vec::new();
+    // About one wide node per `W / 2` leaves (full nodes need a `W - 1`-th of that): room
+    // enough that the array rarely grows (each growth copies it whole).
+    let leaves = bin
+        .nodes
+        .iter()
+        .filter(|n| n.count > 0 && n.count != u32::MAX);
+    let mut nodes = Vec::with_capacity(leaves.count().div_ceil((W / 2).max(1)));
     let root = &bin.nodes[0];
     if root.count > 0 {
         let code = leaf(root.a as usize, root.count as usize);
@@ -189,10 +195,47 @@ pub(crate) fn prim_bounds(p: &Prim) -> Aabb {
     }
 }
 
+/// The pack of primitives `ids` of `geom` (at most four), and the lanes (bit mask) whose
+/// alpha record is still to be made: their flags hold [`ALPHA`] and no index yet.
+fn pack_of(geom: &Geometry, ids: &[u32]) -> (Pack, u8) {
+    let mut p = Pack {
+        v0: [[0.0; 4]; 3],
+        e1: [[0.0; 4]; 3],
+        e2: [[0.0; 4]; 3],
+        tri: [0.0; 4],
+        id: [u32::MAX; 4],
+        flags: [0; 4],
+    };
+    let mut pending = 0u8;
+    for (lane, &id) in ids.iter().enumerate() {
+        let prim = &geom.prims[id as usize];
+        let (v0, e1, e2) = (prim.v[0], prim.v[1] - prim.v[0], prim.v[2] - prim.v[0]);
+        for a in 0..3 {
+            p.v0[a][lane] = v0[a];
+            p.e1[a][lane] = e1[a];
+            p.e2[a][lane] = e2[a];
+        }
+        p.tri[lane] = if prim.quad { 0.0 } else { 1.0 };
+        p.id[lane] = id;
+        if let Some(al) = prim.alpha {
+            if al.uv == [glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y] && al.id <= FLAG_INDEX {
+                p.flags[lane] = ALPHA | ALPHA_IDENTITY_UV | al.id;
+            } else {
+                p.flags[lane] = ALPHA;
+                pending |= 1 << lane;
+            }
+        }
+    }
+    (p, pending)
+}
+
 impl<const W: usize> Blas<W> {
-    /// The bottom level of `geom`: invalid primitives left out.
+    /// The bottom level of `geom`: invalid primitives left out. The passes over every
+    /// primitive (validity, boxes, packs) run in parallel, as does the binary build.
     pub(crate) fn build(geom: &Geometry, trav_cost: f32) -> Self {
+        use rayon::prelude::*;
         let valid: Vec<u32> = (0..geom.prims.len() as u32)
+            .into_par_iter()
             .filter(|&i| geom.prims[i as usize].is_valid())
             .collect();
         let mut blas = Blas {
@@ -206,50 +249,21 @@ impl<const W: usize> Blas<W> {
             return blas;
         }
         let bounds: Vec<Aabb> = valid
-            .iter()
+            .par_iter()
             .map(|&i| prim_bounds(&geom.prims[i as usize]))
             .collect();
-        blas.bounds = Some(bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(*b)));
-        let mut packs = Vec::new();
-        let mut alpha = Vec::new();
-        let mut make_pack = |ids: &mut dyn Iterator<Item = u32>| -> u32 {
-            let mut p = Pack {
-                v0: [[0.0; 4]; 3],
-                e1: [[0.0; 4]; 3],
-                e2: [[0.0; 4]; 3],
-                tri: [0.0; 4],
-                id: [u32::MAX; 4],
-                flags: [0; 4],
-            };
-            for (lane, id) in ids.enumerate() {
-                let prim = &geom.prims[id as usize];
-                let (v0, e1, e2) = (prim.v[0], prim.v[1] - prim.v[0], prim.v[2] - prim.v[0]);
-                for a in 0..3 {
-                    p.v0[a][lane] = v0[a];
-                    p.e1[a][lane] = e1[a];
-                    p.e2[a][lane] = e2[a];
-                }
-                p.tri[lane] = if prim.quad { 0.0 } else { 1.0 };
-                p.id[lane] = id;
-                if let Some(al) = prim.alpha {
-                    if al.uv == [glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y]
-                        && al.id <= FLAG_INDEX
-                    {
-                        p.flags[lane] = ALPHA | ALPHA_IDENTITY_UV | al.id;
-                        continue;
-                    }
-                    p.flags[lane] = ALPHA | alpha.len() as u32;
-                    alpha.push(AlphaRec {
-                        id: al.id,
-                        uv: al.uv.map(|u| u.to_array()),
-                    });
-                }
-            }
-            packs.push(p);
-            LEAF | (packs.len() as u32 - 1)
-        };
-        if valid.len() <= 4 {
-            blas.root = make_pack(&mut valid.iter().copied());
+        blas.bounds = Some(
+            bounds
+                .par_iter()
+                .copied()
+                .reduce(|| Aabb::EMPTY, Aabb::union),
+        );
+        // The binary tree, then one pack per binary leaf in leaf order (the order of the
+        // primitives in `bin.order`: a depth-first order, so siblings' packs sit together).
+        let (packs, pending): (Vec<Pack>, Vec<u8>) = if valid.len() <= 4 {
+            let (p, pending) = pack_of(geom, &valid);
+            blas.root = LEAF;
+            (vec![p], vec![pending])
         } else {
             let bin = crate::build::build_binary(
                 &bounds,
@@ -259,15 +273,50 @@ impl<const W: usize> Blas<W> {
                     trav_cost,
                 },
             );
-            let (nodes, root) = collapse::<W>(&bin, &mut |start, count| {
-                make_pack(
-                    &mut bin.order[start..start + count]
-                        .iter()
-                        .map(|&k| valid[k as usize]),
-                )
+            let mut leaves: Vec<(u32, u32)> = bin
+                .nodes
+                .iter()
+                .filter(|n| n.count > 0 && n.count != u32::MAX)
+                .map(|n| (n.a, n.count))
+                .collect();
+            leaves.par_sort_unstable();
+            let (nodes, root) = collapse::<W>(&bin, &mut |start, _| {
+                LEAF | leaves.partition_point(|l| (l.0 as usize) < start) as u32
             });
             blas.nodes = PageArray::new(nodes);
             blas.root = root;
+            leaves
+                .par_iter()
+                .map(|&(start, count)| {
+                    let mut ids = [0u32; 4];
+                    let order = &bin.order[start as usize..(start + count) as usize];
+                    for (id, &k) in ids.iter_mut().zip(order) {
+                        *id = valid[k as usize];
+                    }
+                    pack_of(geom, &ids[..order.len()])
+                })
+                .unzip()
+        };
+        // The alpha records of lanes whose texture coordinates are not the identity's, in
+        // pack order (rare: generated cards have the identity's).
+        let mut packs = packs;
+        let mut alpha = Vec::new();
+        for (p, &lanes) in packs.iter_mut().zip(&pending) {
+            if lanes == 0 {
+                continue;
+            }
+            for lane in 0..4 {
+                if lanes & (1 << lane) != 0 {
+                    let al = geom.prims[p.id[lane] as usize]
+                        .alpha
+                        .expect("a pending lane has a matte");
+                    p.flags[lane] = ALPHA | alpha.len() as u32;
+                    alpha.push(AlphaRec {
+                        id: al.id,
+                        uv: al.uv.map(|u| u.to_array()),
+                    });
+                }
+            }
         }
         blas.packs = PageArray::new(packs);
         blas.alpha = PageArray::new(alpha);

@@ -171,8 +171,15 @@ impl CameraPass {
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.set_pipeline(&pipelines.camera);
+        // Depth first, then each pixel shaded once, by the surface the depth holds (leaves
+        // overlap many times over: shading each one cost most of a frame; on an H200 the
+        // 1M-leaf tree's camera pass fell from 207 to 29 ms). Where two surfaces meet at
+        // the same depth (crossing leaves) the last drawn now shows, not the first: 0.7 %
+        // of the forest example's pixels, the same ones on lavapipe and on NVIDIA.
         pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_pipeline(&pipelines.camera_depth);
+        geometry.draw(&mut pass, materials, list);
+        pass.set_pipeline(&pipelines.camera);
         geometry.draw(&mut pass, materials, list);
     }
 }

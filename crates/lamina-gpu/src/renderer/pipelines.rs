@@ -1,5 +1,6 @@
-//! The scene shader's five render pipelines (sun/sky light view layer 1 and layer 2, the
-//! local lights' cube faces layer 1 and layer 2, the camera) and the layouts of their group 0 (group 1 is the material,
+//! The scene shader's six render pipelines (sun/sky light view layer 1 and layer 2, the
+//! local lights' cube faces layer 1 and layer 2, the camera's depth pre-pass and its
+//! shading pass) and the layouts of their group 0 (group 1 is the material,
 //! [`super::materials`]; group 2 the instances, [`super::geometry`]).
 
 use super::geometry::vertex_layouts;
@@ -25,7 +26,10 @@ pub(super) struct ScenePipelines {
     pub cube_first: wgpu::RenderPipeline,
     /// A local light's cube face, layer 2 (`fs_cube_peel`).
     pub cube_peel: wgpu::RenderPipeline,
-    /// The camera pass (`fs_main`) into the HDR target.
+    /// The camera's depth pre-pass (`fs_depth`): depth only, the colour left alone.
+    pub camera_depth: wgpu::RenderPipeline,
+    /// The camera pass (`fs_main`) into the HDR target, where the pre-pass left the
+    /// nearest depth (equal depth passes, no depth writes): one shading per pixel.
     pub camera: wgpu::RenderPipeline,
 }
 
@@ -44,25 +48,49 @@ impl ScenePipelines {
             entries: &[uniform_entry(0), tex_entry(1, DEPTH, D2)],
         });
         let camera_layout = camera_layout(device);
-        let make = |label: &str, group0: &wgpu::BindGroupLayout, vs, fs, color| {
+        let make = |label: &str, group0: &wgpu::BindGroupLayout, vs, fs, color, depth| {
             pipeline(
                 device,
                 module,
                 [group0, material, instances],
                 (label, vs, fs),
                 color,
+                depth,
             )
         };
-        let light_view =
-            |label: &str, fs| make(label, &shadow_layout, "vs_shadow", fs, SHADOW_COLOR_FORMAT);
-        let (shadow_first, shadow_peel, cube_first, cube_peel, camera) =
-            ctx.validated("building the render pipelines", || {
+        let light_view = |label: &str, fs| {
+            make(
+                label,
+                &shadow_layout,
+                "vs_shadow",
+                fs,
+                SHADOW_COLOR_FORMAT,
+                Depth::Nearest,
+            )
+        };
+        let (shadow_first, shadow_peel, cube_first, cube_peel, camera_depth, camera) = ctx
+            .validated("building the render pipelines", || {
                 (
                     light_view("shadow layer 1", "fs_shadow_first"),
                     light_view("shadow layer 2", "fs_shadow_peel"),
                     light_view("cube face layer 1", "fs_cube_first"),
                     light_view("cube face layer 2", "fs_cube_peel"),
-                    make("camera", &camera_layout, "vs_main", "fs_main", HDR_FORMAT),
+                    make(
+                        "camera depth",
+                        &camera_layout,
+                        "vs_main",
+                        "fs_depth",
+                        HDR_FORMAT,
+                        Depth::Only,
+                    ),
+                    make(
+                        "camera",
+                        &camera_layout,
+                        "vs_main",
+                        "fs_main",
+                        HDR_FORMAT,
+                        Depth::Equal,
+                    ),
                 )
             })?;
         Ok(ScenePipelines {
@@ -72,6 +100,7 @@ impl ScenePipelines {
             shadow_peel,
             cube_first,
             cube_peel,
+            camera_depth,
             camera,
         })
     }
@@ -97,14 +126,26 @@ fn camera_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     })
 }
 
-/// One pipeline of the scene shader: entry points `vs`, `fs`, depth test and write,
-/// no culling (leaves are two-sided sheets), no blending, into `color`.
+/// How a pipeline uses depth.
+#[derive(Clone, Copy, PartialEq)]
+enum Depth {
+    /// Nearest wins, depth and colour written.
+    Nearest,
+    /// Nearest wins, depth written, colour not (a depth pre-pass).
+    Only,
+    /// Only where the depth equals the stored one (after a pre-pass), depth not written.
+    Equal,
+}
+
+/// One pipeline of the scene shader: entry points `vs`, `fs`, the depth test `depth`, no
+/// culling (leaves are two-sided sheets), no blending, into `color`.
 fn pipeline(
     device: &wgpu::Device,
     module: &wgpu::ShaderModule,
     [group0, group1, group2]: [&wgpu::BindGroupLayout; 3],
     (label, vs, fs): (&str, &str, &str),
     color: wgpu::TextureFormat,
+    depth: Depth,
 ) -> wgpu::RenderPipeline {
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(label),
@@ -130,8 +171,12 @@ fn pipeline(
         },
         depth_stencil: Some(wgpu::DepthStencilState {
             format: DEPTH_FORMAT,
-            depth_write_enabled: Some(true),
-            depth_compare: Some(wgpu::CompareFunction::Less),
+            depth_write_enabled: Some(depth != Depth::Equal),
+            depth_compare: Some(if depth == Depth::Equal {
+                wgpu::CompareFunction::Equal
+            } else {
+                wgpu::CompareFunction::Less
+            }),
             stencil: Default::default(),
             bias: Default::default(),
         }),
@@ -143,7 +188,11 @@ fn pipeline(
             targets: &[Some(wgpu::ColorTargetState {
                 format: color,
                 blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
+                write_mask: if depth == Depth::Only {
+                    wgpu::ColorWrites::empty()
+                } else {
+                    wgpu::ColorWrites::ALL
+                },
             })],
         }),
         multiview_mask: None,

@@ -145,7 +145,9 @@ struct VIn {
 }
 
 struct VOut {
-    @builtin(position) clip: vec4<f32>,
+    // Invariant: the camera's depth pre-pass and its shading pass compute the same depth
+    // for the same vertex, bit for bit (the shading pass tests for equal depth).
+    @builtin(position) @invariant clip: vec4<f32>,
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) uv: vec2<f32>,
@@ -737,6 +739,17 @@ fn quad_irradiance(li: Light, x: vec3<f32>) -> vec3<f32> {
     }
     e *= 0.5;
     return select(e, -e, dot(e, c0 + 0.5 * (li.u.xyz + li.v.xyz)) < 0.0);
+}
+
+// The camera's depth pre-pass: the nearest alpha-tested surface per pixel (the same
+// alpha test as `fs_main`'s, on the same texture coordinates and derivatives), so that the
+// shading pass runs `fs_main` once per pixel, not once per overlapping leaf. No colour.
+@fragment
+fn fs_depth(in: VOut) -> @location(0) vec4<f32> {
+    if textureSample(t_front, s_map, map_uv(in.uv)).a < 0.5 {
+        discard;
+    }
+    return vec4<f32>(0.0);
 }
 
 // Radiance toward the camera (linear RGB, W m^-2 sr^-1).

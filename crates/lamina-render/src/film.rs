@@ -13,45 +13,53 @@ use lamina_core::PixelFilter;
 /// Bins of the tabulated 1D filter profile.
 const FILTER_BINS: usize = 256;
 
+/// A filter's 1D profile: weight at an offset in pixels.
+type Profile = Box<dyn Fn(f32) -> f32>;
+
 /// Draws sample offsets from a pixel filter.
 #[derive(Clone, Debug)]
 pub struct FilterSampler {
     radius: f32,
-    dist: Distribution1D,
+    /// The tabulated profile; `None` for the box filter, whose samples are the uniform
+    /// numbers themselves (two table searches per camera sample were a measured few per
+    /// cent of a render).
+    dist: Option<Distribution1D>,
 }
 
 impl FilterSampler {
     /// A sampler for `filter`. Non-positive or non-finite radii fall back to the box filter.
     pub fn new(filter: PixelFilter) -> Self {
-        let (radius, profile): (f32, Box<dyn Fn(f32) -> f32>) = match filter {
+        let (radius, profile): (f32, Option<Profile>) = match filter {
             PixelFilter::Tent { radius } if radius.is_finite() && radius > 0.0 => (
                 radius,
-                Box::new(move |x: f32| (1.0 - x.abs() / radius).max(0.0)),
+                Some(Box::new(move |x: f32| (1.0 - x.abs() / radius).max(0.0))),
             ),
             PixelFilter::Gaussian { radius, sigma }
                 if radius.is_finite() && radius > 0.0 && sigma.is_finite() && sigma > 0.0 =>
             {
                 let g = move |x: f32| (-x * x / (2.0 * sigma * sigma)).exp();
                 let edge = g(radius);
-                (radius, Box::new(move |x: f32| (g(x) - edge).max(0.0)))
+                (radius, Some(Box::new(move |x: f32| (g(x) - edge).max(0.0))))
             }
-            _ => (0.5, Box::new(|_| 1.0)),
+            _ => (0.5, None),
         };
-        let func: Vec<f32> = (0..FILTER_BINS)
-            .map(|i| profile(((i as f32 + 0.5) / FILTER_BINS as f32 * 2.0 - 1.0) * radius))
-            .collect();
-        FilterSampler {
-            radius,
-            dist: Distribution1D::new(&func),
-        }
+        let dist = profile.map(|profile| {
+            let func: Vec<f32> = (0..FILTER_BINS)
+                .map(|i| profile(((i as f32 + 0.5) / FILTER_BINS as f32 * 2.0 - 1.0) * radius))
+                .collect();
+            Distribution1D::new(&func)
+        });
+        FilterSampler { radius, dist }
     }
 
     /// Offset (pixels) from the pixel centre for `u ∈ [0, 1)²`.
     #[inline]
     pub fn sample(&self, u: Vec2) -> Vec2 {
-        let (x, _, _) = self.dist.sample(u.x);
-        let (y, _, _) = self.dist.sample(u.y);
-        (Vec2::new(x, y) * 2.0 - Vec2::ONE) * self.radius
+        let p = match &self.dist {
+            Some(d) => Vec2::new(d.sample(u.x).0, d.sample(u.y).0),
+            None => u,
+        };
+        (p * 2.0 - Vec2::ONE) * self.radius
     }
 }
 

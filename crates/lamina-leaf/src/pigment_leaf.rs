@@ -293,13 +293,9 @@ mod tests {
         use glam::Vec2;
         let ramp = |f: fn(f32, f32) -> f32| {
             let (w, h) = (24u32, 20u32);
-            let texels = (0..w * h)
-                .map(|i| {
-                    let v = f((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
-                    Vec4::new(v, v, v, 1.0)
-                })
-                .collect();
-            Some(Texture::from_texels(w, h, texels, Wrap::Repeat))
+            Some(Texture::from_fn(w, h, Wrap::Repeat, |x, y| {
+                Vec4::splat(f(x as f32 / w as f32, y as f32 / h as f32)).with_w(1.0)
+            }))
         };
         let maps = LeafMaps {
             thickness: ramp(|x, y| 0.3 + 0.4 * x * y),

@@ -372,6 +372,22 @@ impl Texture {
         }
     }
 
+    /// A texture whose texel `(x, y)` (column, row from the top) is `f(x, y)`.
+    ///
+    /// # Panics
+    /// If either size is zero (as [`Texture::from_texels`]).
+    pub fn from_fn(
+        width: u32,
+        height: u32,
+        wrap: Wrap,
+        mut f: impl FnMut(u32, u32) -> Vec4,
+    ) -> Self {
+        let texels = (0..width * height)
+            .map(|i| f(i % width, i / width))
+            .collect();
+        Self::from_texels(width, height, texels, wrap)
+    }
+
     /// A 1x1 texture of one value.
     pub fn constant(value: Vec4) -> Self {
         Self::from_texels(1, 1, vec![value], Wrap::Repeat)

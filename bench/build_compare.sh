@@ -6,8 +6,15 @@
 # several (e.g. the example built at two commits) they alternate round by round.
 set -euo pipefail
 rounds=${1:-8}
+if ! [[ "$rounds" =~ ^[1-9][0-9]*$ ]]; then
+  echo "build_compare.sh: ROUNDS must be a whole number of rounds, at least 1 (got '$rounds')" >&2
+  exit 2
+fi
 shift || true
 bins=("$@")
+for b in "${bins[@]}"; do
+  [ -x "$b" ] || { echo "build_compare.sh: '$b' is not an executable (the throughput example)" >&2; exit 2; }
+done
 if [ ${#bins[@]} -eq 0 ]; then
   cargo build --release -q -p lamina-accel --features embree --example throughput
   bins=(target/release/examples/throughput)

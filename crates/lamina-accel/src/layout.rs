@@ -101,19 +101,17 @@ pub(crate) struct Tlas {
 }
 
 /// Lays out a wide tree from `bin`: `leaf(start, count)` makes the child code of a binary
-/// leaf over `bin.order[start .. start + count]`. Returns the nodes (root first, parents
+/// leaf over `bin.order[start .. start + count]` (`leaves` of them, to size the array).
+/// Returns the nodes (root first, parents
 /// before children) and the root's code.
 pub(crate) fn collapse<const W: usize>(
     bin: &Binary,
+    leaves: usize,
     leaf: &mut impl FnMut(usize, usize) -> u32,
 ) -> (Vec<Node<W>>, u32) {
-    // About one wide node per `W / 2` leaves (full nodes need a `W - 1`-th of that): room
-    // enough that the array rarely grows (each growth copies it whole).
-    let leaves = bin
-        .nodes
-        .iter()
-        .filter(|n| n.count > 0 && n.count != u32::MAX);
-    let mut nodes = Vec::with_capacity(leaves.count().div_ceil((W / 2).max(1)));
+    // About one wide node per `W / 2` of the `leaves` binary leaves (full nodes need a
+    // `W - 1`-th of that): room enough that the array rarely grows (each growth copies it).
+    let mut nodes = Vec::with_capacity(leaves.div_ceil((W / 2).max(1)));
     let root = &bin.nodes[0];
     if root.count > 0 {
         let code = leaf(root.a as usize, root.count as usize);
@@ -280,7 +278,7 @@ impl<const W: usize> Blas<W> {
                 .map(|n| (n.a, n.count))
                 .collect();
             leaves.par_sort_unstable();
-            let (nodes, root) = collapse::<W>(&bin, &mut |start, _| {
+            let (nodes, root) = collapse::<W>(&bin, leaves.len(), &mut |start, _| {
                 LEAF | leaves.partition_point(|l| (l.0 as usize) < start) as u32
             });
             blas.nodes = PageArray::new(nodes);

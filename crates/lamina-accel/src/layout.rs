@@ -102,8 +102,7 @@ pub(crate) struct Tlas {
 
 /// Lays out a wide tree from `bin`: `leaf(start, count)` makes the child code of a binary
 /// leaf over `bin.order[start .. start + count]` (`leaves` of them, to size the array).
-/// Returns the nodes (root first, parents
-/// before children) and the root's code.
+/// Returns the nodes (root first, parents before children) and the root's code.
 pub(crate) fn collapse<const W: usize>(
     bin: &Binary,
     leaves: usize,

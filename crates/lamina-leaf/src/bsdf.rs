@@ -34,6 +34,14 @@ pub trait Bsdf {
     /// sample carries no energy (e.g. `wo` in the plane, or an absorbing lobe chosen).
     fn sample(&self, wo: Vec3, u: Vec3) -> Option<BsdfSample>;
 
+    /// The direction [`Bsdf::sample`] draws from the same numbers, without its value and
+    /// density: for callers that weigh it by other BSDFs' values and a mixture density
+    /// anyway (the hero of a spectral path). `None` where `sample` draws no direction; a
+    /// direction may be returned where `sample` would discard it for a zero density.
+    fn sample_direction(&self, wo: Vec3, u: Vec3) -> Option<Vec3> {
+        self.sample(wo, u).map(|s| s.wi)
+    }
+
     /// Solid-angle density with which [`Bsdf::sample`] returns `wi` for this `wo`.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
 }

@@ -385,14 +385,11 @@ impl LeafBsdf {
             [0.0; 3]
         }
     }
-}
 
-impl Bsdf for LeafBsdf {
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        self.eval_with(wo, wi, || self.subsurface(wo, wi))
-    }
-
-    fn sample(&self, wo: Vec3, u: Vec3) -> Option<BsdfSample> {
+    /// The direction [`Bsdf::sample`] draws (a lobe picked by `u.x`, then a direction in
+    /// it from `u.y`, `u.z`), and the lobe probabilities it picked with.
+    #[inline]
+    fn sample_lobe(&self, wo: Vec3, u: Vec3) -> Option<(Vec3, [f32; 3])> {
         if wo.z == 0.0 {
             return None;
         }
@@ -410,9 +407,17 @@ impl Bsdf for LeafBsdf {
             }
             wi
         };
-        if wi.z == 0.0 {
-            return None;
-        }
+        (wi.z != 0.0).then_some((wi, probs))
+    }
+}
+
+impl Bsdf for LeafBsdf {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.eval_with(wo, wi, || self.subsurface(wo, wi))
+    }
+
+    fn sample(&self, wo: Vec3, u: Vec3) -> Option<BsdfSample> {
+        let (wi, probs) = self.sample_lobe(wo, u)?;
         // (`pdf` with the lobe probabilities already at hand.)
         let pdf = self.pdf_with(wo, wi, probs);
         (pdf > 0.0).then(|| BsdfSample {
@@ -420,6 +425,10 @@ impl Bsdf for LeafBsdf {
             f: self.eval(wo, wi),
             pdf,
         })
+    }
+
+    fn sample_direction(&self, wo: Vec3, u: Vec3) -> Option<Vec3> {
+        self.sample_lobe(wo, u).map(|(wi, _)| wi)
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {

@@ -192,6 +192,14 @@ fn sample_weight_is_eval_over_pdf() {
         for _ in 0..20_000 {
             let wo = sampling::uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
             let u = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            // `sample_direction` draws the same direction, wherever `sample` draws one
+            // (and only drops `sample`'s zero-density check).
+            let dir = b.sample_direction(wo, u);
+            if let Some(s) = b.sample(wo, u) {
+                assert_eq!(dir, Some(s.wi));
+            } else if let Some(wi) = dir {
+                assert_eq!(b.pdf(wo, wi), 0.0, "{wo} {wi}");
+            }
             if let Some(s) = b.sample(wo, u) {
                 let f = b.eval(wo, s.wi);
                 let p = b.pdf(wo, s.wi);

@@ -146,6 +146,16 @@ impl Bsdf for SurfaceBsdf {
     }
 
     #[inline]
+    fn sample_direction(&self, wo: Vec3, u: Vec3) -> Option<Vec3> {
+        match self {
+            SurfaceBsdf::Diffuse(b) => b.sample_direction(wo, u),
+            SurfaceBsdf::DiffuseTransmission(b) => b.sample_direction(wo, u),
+            SurfaceBsdf::Leaf(b) => b.sample_direction(wo, u),
+            SurfaceBsdf::Pbr(b) => b.sample_direction(wo, u),
+        }
+    }
+
+    #[inline]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
             SurfaceBsdf::Diffuse(b) => b.pdf(wo, wi),

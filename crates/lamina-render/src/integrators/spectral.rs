@@ -290,24 +290,35 @@ pub fn radiance_sets<const G: usize>(
             let h = (x as usize).min(G - 1);
             (h, (x - h as f32).clamp(0.0, 1.0 - f32::EPSILON))
         };
-        let Some(bs) = bsdfs[hero].sample(wo, Vec3::new(u1, u2.x, u2.y)) else {
-            break;
+        let u = Vec3::new(u1, u2.x, u2.y);
+        // One set: its own sample, value and density. Several: the hero's direction only;
+        // every set's value and the mixture density there come next, the hero's with the
+        // others', so its own `sample` would evaluate it twice.
+        let (wi, one) = if G == 1 {
+            match bsdfs[0].sample(wo, u) {
+                Some(bs) if bs.pdf > 0.0 => (bs.wi, Some((bs.f, bs.pdf))),
+                _ => break,
+            }
+        } else {
+            match bsdfs[hero].sample_direction(wo, u) {
+                Some(wi) => (wi, None),
+                None => break,
+            }
         };
-        if !(bs.pdf > 0.0) {
-            break;
-        }
-        let dir = frame.to_world(bs.wi).normalize();
+        let dir = frame.to_world(wi).normalize();
         if !frame.consistent(dir) {
             break; // its geometric side disagrees with the BSDF's: no light goes there
         }
-        // Every set's value and the mixture density at the hero's direction (the hero's
-        // own value is `bs.f`, recomputed here with the others at no extra cost).
-        let f = SurfaceBsdf::eval_sets(&bsdfs, wo, bs.wi);
-        let pdf = if G == 1 {
-            bs.pdf
-        } else {
-            SurfaceBsdf::pdf_mean(&bsdfs, wo, bs.wi)
+        let (f, pdf) = match one {
+            Some((f, pdf)) => (from_fn(|_| f), pdf),
+            None => (
+                SurfaceBsdf::eval_sets(&bsdfs, wo, wi),
+                SurfaceBsdf::pdf_mean(&bsdfs, wo, wi),
+            ),
         };
+        if !(pdf > 0.0) {
+            break;
+        }
         let mut largest = 0.0f32;
         let mut finite = true;
         for k in 0..G {

@@ -668,6 +668,13 @@ impl DaylightSpectrum {
         self.raw(k).max(0.0)
     }
 
+    /// Whether no basis row is clamped: then [`Self::nodes`] is exactly
+    /// `S0 + M1 S1 + M2 S2`, linear in `(1, M1, M2)`, and any fixed linear functional of it
+    /// (a band mean, say) is three numbers made once ([`basis`]) combined with the weights.
+    pub fn is_unclamped(&self) -> bool {
+        (0..S0.len()).all(|k| self.raw(k) >= 0.0)
+    }
+
     /// The relative spectral power at each basis row (300, 310, ..., 830 nm), clamped at
     /// zero: the nodes between which [`Self::eval`] interpolates linearly.
     pub fn nodes(&self) -> [f64; 54] {
@@ -782,6 +789,11 @@ impl SkySpectrum {
 // these arrays from it and checks that. The CIE distributes its data freely (cie.co.at).
 
 /// `S0`, 300..=830 nm every 10 nm.
+/// The basis functions `S0`, `S1`, `S2` at the rows of [`DaylightSpectrum::nodes`].
+pub fn basis() -> [&'static [f64; 54]; 3] {
+    [&S0, &S1, &S2]
+}
+
 const S0: [f64; 54] = [
     0.04, 6.0, 29.6, 55.3, 57.3, 61.8, 61.5, 68.8, 63.4, 65.8, 94.8, 104.8, 105.9, 96.8, 113.9,
     125.6, 125.5, 121.3, 121.3, 113.5, 113.1, 110.8, 106.5, 108.8, 105.3, 104.4, 100.0, 96.0, 95.1,

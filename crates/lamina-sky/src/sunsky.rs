@@ -292,7 +292,9 @@ impl SunSky {
                 } else {
                     (nodes, nir) = ([0.0; 54], 0.0);
                 }
-                BandWeights { nodes, nir }
+                let basis = crate::preetham::basis()
+                    .map(|b| b.iter().zip(&nodes).map(|(s, w)| s * w).sum());
+                BandWeights { nodes, basis, nir }
             })
             .collect();
         SkyBandWeights { bands }
@@ -308,11 +310,22 @@ impl SunSky {
             return;
         }
         let visible = self.preetham.spectrum(dir);
-        let nodes = visible.shape().nodes();
+        let shape = visible.shape();
         let (vis_scale, nir_scale) = (
             visible.scale() * self.scale,
             self.preetham.xyz(dir).y * self.scale,
         );
+        if shape.is_unclamped() {
+            // The nodes are `S0 + M1 S1 + M2 S2`: three numbers per band.
+            let (m1, m2) = (shape.m1(), shape.m2());
+            for (o, band) in out.iter_mut().zip(&weights.bands) {
+                let [b0, b1, b2] = band.basis;
+                let v = b0 + m1 * b1 + m2 * b2;
+                *o = (v * vis_scale + nir_scale * band.nir).max(0.0);
+            }
+            return;
+        }
+        let nodes = shape.nodes();
         for (o, band) in out.iter_mut().zip(&weights.bands) {
             let v: f64 = nodes.iter().zip(&band.nodes).map(|(a, b)| a * b).sum();
             *o = (v * vis_scale + nir_scale * band.nir).max(0.0);
@@ -333,6 +346,9 @@ struct BandWeights {
     /// The weight of each daylight node in the band mean (the band's weights, divided by
     /// their sum).
     nodes: [f64; 54],
+    /// `nodes` applied to the basis functions `S0`, `S1`, `S2`: the band mean of an
+    /// unclamped daylight spectrum is `basis[0] + M1 basis[1] + M2 basis[2]`.
+    basis: [f64; 3],
     /// The band mean of `at(nm).1 / diffuse_y` beyond 830 nm (times the luminance `Y` of
     /// the direction and the scale).
     nir: f64,
@@ -444,7 +460,6 @@ mod tests {
 
     #[test]
     fn band_weights_equal_the_per_wavelength_band_means() {
-        let s = paris_noon();
         let response =
             lamina_leaf::spectrum::bands::Response::parse("600 0.1\n650 1\n700 0.3\n").unwrap();
         let bands = [
@@ -456,36 +471,61 @@ mod tests {
             Band::with_response("curve", response),
         ];
         let refs: Vec<&Band> = bands.iter().collect();
-        let weights = s.sky_band_weights(&refs);
         let mut out = vec![0.0; bands.len()];
-        for (th, ph) in [(0.1, 0.0), (0.7, 1.3), (1.2, -2.0), (1.55, 3.0), (0.4, 2.2)] {
-            let dir = DVec3::new(
-                f64::sin(th) * f64::sin(ph),
-                f64::cos(th),
-                f64::sin(th) * f64::cos(ph),
-            );
-            s.sky_bands_weighted(dir, &weights, &mut out);
-            // The definition: the band mean of the spectrum evaluated at each wavelength.
-            let visible = s.preetham.spectrum(dir);
-            let y = s.preetham.xyz(dir).y;
-            for (b, got) in bands.iter().zip(&out) {
-                let want = SunSky::band_mean(b, |nm| {
-                    if nm <= VISIBLE_END_NM {
-                        visible.eval(nm) * s.scale
-                    } else {
-                        y * s.scale * s.at(nm).1 / s.diffuse_y
-                    }
-                });
-                assert!(want > 0.0, "{}: {want}", b.name);
-                assert!(
-                    (got / want - 1.0).abs() < 1e-12,
-                    "{} at ({th}, {ph}): {got} vs {want}",
-                    b.name
+        // At noon the daylight basis is clamped nowhere; under a low sun it is, near the
+        // horizon (in the ultraviolet rows): both ways of `sky_bands_weighted` are checked.
+        let sunset = SunSky::new(&SunSkyParams::new(
+            Observer {
+                latitude: 48.8566,
+                longitude: 2.3522,
+                elevation: 35.0,
+            },
+            crate::parse_local_time("2024-06-21T21:45:00+02:00").unwrap(),
+        ))
+        .unwrap();
+        let mut unclamped = [0usize; 2];
+        for (which, s) in [paris_noon(), sunset].iter().enumerate() {
+            let weights = s.sky_band_weights(&refs);
+            // Directions over the whole sky, down to 3° above the horizon.
+            let dirs = (0..16).flat_map(|i| {
+                (0..8).map(move |j| (0.05 + 1.52 * f64::from(i) / 15.0, -3.0 + 0.8 * f64::from(j)))
+            });
+            for (th, ph) in dirs {
+                let dir = DVec3::new(
+                    f64::sin(th) * f64::sin(ph),
+                    f64::cos(th),
+                    f64::sin(th) * f64::cos(ph),
                 );
+                s.sky_bands_weighted(dir, &weights, &mut out);
+                // The definition: the band mean of the spectrum evaluated at each wavelength.
+                let visible = s.preetham.spectrum(dir);
+                unclamped[which] += usize::from(visible.shape().is_unclamped());
+                let y = s.preetham.xyz(dir).y;
+                for (b, got) in bands.iter().zip(&out) {
+                    let want = SunSky::band_mean(b, |nm| {
+                        if nm <= VISIBLE_END_NM {
+                            visible.eval(nm) * s.scale
+                        } else {
+                            y * s.scale * s.at(nm).1 / s.diffuse_y
+                        }
+                    });
+                    assert!(want > 0.0, "{}: {want}", b.name);
+                    assert!(
+                        (got / want - 1.0).abs() < 1e-12,
+                        "{} at ({th}, {ph}): {got} vs {want}",
+                        b.name
+                    );
+                }
             }
+            s.sky_bands_weighted(DVec3::new(0.0, -0.2, 1.0).normalize(), &weights, &mut out);
+            assert!(out.iter().all(|&x| x == 0.0), "below the horizon: {out:?}");
         }
-        s.sky_bands_weighted(DVec3::new(0.0, -0.2, 1.0).normalize(), &weights, &mut out);
-        assert!(out.iter().all(|&x| x == 0.0), "below the horizon: {out:?}");
+        assert_eq!(unclamped[0], 128, "noon");
+        assert!(
+            (1..128).contains(&unclamped[1]),
+            "sunset: {} of 128 unclamped",
+            unclamped[1]
+        );
     }
 
     #[test]

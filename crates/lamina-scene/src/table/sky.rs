@@ -119,11 +119,17 @@ impl lamina_core::SpectralSky for PhysicalSky {
             n,
             |d| self.to_sky(d),
             |v, out| {
-                let mut f = vec![0.0f64; n];
-                self.model.sky_bands_weighted(v, &weights, &mut f);
-                for (o, x) in out.iter_mut().zip(f) {
-                    *o = x as f32;
-                }
+                // One scratch row per thread, not an allocation per texel.
+                thread_local!(static ROW: std::cell::RefCell<Vec<f64>> = const {
+                    std::cell::RefCell::new(Vec::new())
+                });
+                ROW.with_borrow_mut(|f| {
+                    f.resize(n, 0.0);
+                    self.model.sky_bands_weighted(v, &weights, f);
+                    for (o, x) in out.iter_mut().zip(f.iter()) {
+                        *o = *x as f32;
+                    }
+                });
             },
         );
         let (w, h) = (self.width, (self.width / 2).max(1));

@@ -468,8 +468,11 @@ impl Precomputed {
                 }
             }
         }
-        let corner_bsdfs: Vec<Vec<LeafBsdf>> =
-            corners.iter().map(|&(t, e)| at(mode, t, e)).collect();
+        // Every corner's BSDFs in one list, corner-major: their slabs differ only in
+        // thickness and coefficients, so one call per incidence shares the geometry of the
+        // quadrature's directions among all of them.
+        let corner_bsdfs: Vec<LeafBsdf> =
+            corners.iter().flat_map(|&(t, e)| at(mode, t, e)).collect();
         let mut table = vec![[[EnergyRow::default(); TABLE_N + 1]; 2]; n];
         // The specular albedo per incidence and side depends on parameters that one leaf's
         // channel sets share: computed once for each distinct set of them.
@@ -519,11 +522,13 @@ impl Precomputed {
                 ]
             };
             let mut best: Vec<[Vec3; 4]> = (0..n).map(|j| ratio(j, &nominal_rows[j][k])).collect();
-            for b in &corner_bsdfs {
-                for (j, row) in directional_albedos_each(b, mu).iter().enumerate() {
-                    let r = ratio(j, row);
-                    for i in 0..4 {
-                        best[j][i] = best[j][i].max(r[i]);
+            if !corner_bsdfs.is_empty() {
+                for rows in directional_albedos_each(&corner_bsdfs, mu).chunks_exact(n) {
+                    for (j, row) in rows.iter().enumerate() {
+                        let r = ratio(j, row);
+                        for i in 0..4 {
+                            best[j][i] = best[j][i].max(r[i]);
+                        }
                     }
                 }
             }
@@ -562,16 +567,15 @@ impl Precomputed {
                     }
                 }
             }
-            let ws: Vec<Vec<[Vec3; 3]>> = points
-                .iter()
-                .map(|&(t, e)| white_sky_albedos_each(&at(mode, t, e)))
-                .collect();
+            // All of them in one quadrature (point-major), the directions' geometry shared.
+            let all: Vec<LeafBsdf> = points.iter().flat_map(|&(t, e)| at(mode, t, e)).collect();
+            let ws = white_sky_albedos_each(&all);
             let lookup = |j: usize, t: f32, e: f32| {
                 let i = points
                     .iter()
                     .position(|&q| q == (t, e))
                     .expect("a node of the table");
-                ws[i][j]
+                ws[i * n + j]
             };
             (0..n)
                 .map(|j| {

@@ -320,6 +320,63 @@ fn mu_grid(k: usize) -> f32 {
     }
 }
 
+/// The specular lobe's albedo at each incidence of the energy table ([`mu_grid`]), light
+/// from the adaxial side and from the abaxial side.
+type SpecTable = std::sync::Arc<[[f32; TABLE_N + 1]; 2]>;
+
+/// [`SpecTable`] of `p`'s specular lobe (weight, roughness and epidermis index per side),
+/// computed once per distinct lobe in the process and kept (a few hundred bytes each):
+/// the 98 integrations cost about 2 ms, and a pigment leaf makes materials with the same
+/// lobe for each of its wavelength triples.
+fn specular_table(p: &LeafParams) -> SpecTable {
+    use std::sync::{Mutex, OnceLock};
+    type Key = [u32; 5];
+    static MEMO: OnceLock<Mutex<Vec<(Key, SpecTable)>>> = OnceLock::new();
+    let key = [
+        p.specular,
+        p.roughness_adaxial,
+        p.upper.ior,
+        p.roughness_abaxial,
+        p.lower.ior,
+    ]
+    .map(f32::to_bits);
+    let memo = MEMO.get_or_init(|| Mutex::new(Vec::new()));
+    let found = |m: &Vec<(Key, SpecTable)>| m.iter().find(|(k, _)| *k == key).map(|e| e.1.clone());
+    if let Some(t) = found(&memo.lock().unwrap_or_else(|e| e.into_inner())) {
+        return t;
+    }
+    let mut spec = [[0.0f32; TABLE_N + 1]; 2];
+    for k in 0..=TABLE_N {
+        let mu = mu_grid(k);
+        let s = (1.0 - mu * mu).max(0.0).sqrt();
+        let wo = Vec3::new(s, 0.0, mu);
+        for (side, spec) in spec.iter_mut().enumerate() {
+            let (alpha, eta) = if side == 0 {
+                (p.roughness_adaxial, p.upper.ior)
+            } else {
+                (p.roughness_abaxial, p.lower.ior)
+            };
+            spec[k] = if p.specular > 0.0 {
+                p.specular * specular::albedo(wo, alpha, eta, 24)
+            } else {
+                0.0
+            };
+        }
+    }
+    let table: SpecTable = std::sync::Arc::new(spec);
+    let mut m = memo.lock().unwrap_or_else(|e| e.into_inner());
+    // Another thread may have made it meanwhile: the same values either way.
+    if let Some(t) = found(&m) {
+        return t;
+    }
+    // A bound on the memo's size (each distinct lobe of a scene, usually a handful).
+    if m.len() >= 4096 {
+        m.clear();
+    }
+    m.push((key, table.clone()));
+    table
+}
+
 /// Directional albedos (adaxial R, abaxial R, T from above, T from below) of the physical
 /// model `b` for incidence cosine `mu`, integrated over the outgoing hemisphere.
 #[cfg(test)]
@@ -475,42 +532,10 @@ impl Precomputed {
             corners.iter().flat_map(|&(t, e)| at(mode, t, e)).collect();
         let mut table = vec![[[EnergyRow::default(); TABLE_N + 1]; 2]; n];
         // The specular albedo per incidence and side depends on parameters that one leaf's
-        // channel sets share: computed once for each distinct set of them.
-        let spec_key = |p: &LeafParams| {
-            (
-                p.specular,
-                p.roughness_adaxial,
-                p.upper.ior,
-                p.roughness_abaxial,
-                p.lower.ior,
-            )
-        };
-        type SpecKey = (f32, f32, f32, f32, f32);
-        let mut spec_memo: Vec<(SpecKey, [[f32; TABLE_N + 1]; 2])> = Vec::new();
-        for p in params {
-            let key = spec_key(p);
-            if !spec_memo.iter().any(|(k, _)| *k == key) {
-                let mut spec = [[0.0f32; TABLE_N + 1]; 2];
-                for k in 0..=TABLE_N {
-                    let mu = mu_grid(k);
-                    let s = (1.0 - mu * mu).max(0.0).sqrt();
-                    let wo = Vec3::new(s, 0.0, mu);
-                    for (side, spec) in spec.iter_mut().enumerate() {
-                        let (alpha, eta) = if side == 0 {
-                            (p.roughness_adaxial, p.upper.ior)
-                        } else {
-                            (p.roughness_abaxial, p.lower.ior)
-                        };
-                        spec[k] = if p.specular > 0.0 {
-                            p.specular * specular::albedo(wo, alpha, eta, 24)
-                        } else {
-                            0.0
-                        };
-                    }
-                }
-                spec_memo.push((key, spec));
-            }
-        }
+        // channel sets share (and that every wavelength triple of a pigment leaf shares, in
+        // its calibration and in each render's sets): computed once per distinct set of them
+        // in the process ([`specular_table`]).
+        let spec: Vec<SpecTable> = params.iter().map(specular_table).collect();
         for k in 0..=TABLE_N {
             let mu = mu_grid(k);
             let ratio = |j: usize, row: &[Vec3; 4]| {
@@ -533,12 +558,7 @@ impl Precomputed {
                 }
             }
             for j in 0..n {
-                let key = spec_key(&params[j]);
-                let spec = &spec_memo
-                    .iter()
-                    .find(|(m, _)| *m == key)
-                    .expect("memoised above")
-                    .1;
+                let spec = &*spec[j];
                 for side in 0..2 {
                     table[j][side][k] = EnergyRow {
                         spec: spec[side][k],

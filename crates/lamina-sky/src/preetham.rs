@@ -518,12 +518,29 @@ impl PreethamSky {
     /// The sky's spectral radiance along `dir` (W m⁻² sr⁻¹ nm⁻¹ over 300–830 nm): the CIE
     /// daylight spectrum of its chromaticity with its luminance. Zero below the horizon.
     pub fn spectrum(&self, dir: DVec3) -> SkySpectrum {
+        self.spectrum_and_y(dir).0
+    }
+
+    /// [`Self::spectrum`] and the `Y` of [`Self::xyz`] along `dir` from one evaluation of the
+    /// model (what a spectral sky map needs per texel), bit for bit those two.
+    pub fn spectrum_and_y(&self, dir: DVec3) -> (SkySpectrum, f64) {
         match self.xyY(dir) {
-            Some(c) => SkySpectrum::from_xyY(c),
-            None => SkySpectrum {
-                shape: DaylightSpectrum { m1: 0.0, m2: 0.0 },
-                scale: 0.0,
-            },
+            Some(c) => (
+                SkySpectrum::from_xyY(c),
+                XyY {
+                    luminance: c.luminance * 1000.0 / LUMINOUS_EFFICACY,
+                    ..c
+                }
+                .to_xyz()
+                .y,
+            ),
+            None => (
+                SkySpectrum {
+                    shape: DaylightSpectrum { m1: 0.0, m2: 0.0 },
+                    scale: 0.0,
+                },
+                0.0,
+            ),
         }
     }
 

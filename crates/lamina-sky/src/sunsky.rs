@@ -309,12 +309,9 @@ impl SunSky {
             out.fill(0.0);
             return;
         }
-        let visible = self.preetham.spectrum(dir);
+        let (visible, y) = self.preetham.spectrum_and_y(dir);
         let shape = visible.shape();
-        let (vis_scale, nir_scale) = (
-            visible.scale() * self.scale,
-            self.preetham.xyz(dir).y * self.scale,
-        );
+        let (vis_scale, nir_scale) = (visible.scale() * self.scale, y * self.scale);
         if shape.is_unclamped() {
             // The nodes are `S0 + M1 S1 + M2 S2`: three numbers per band.
             let (m1, m2) = (shape.m1(), shape.m2());
@@ -501,6 +498,7 @@ mod tests {
                 let visible = s.preetham.spectrum(dir);
                 unclamped[which] += usize::from(visible.shape().is_unclamped());
                 let y = s.preetham.xyz(dir).y;
+                assert_eq!(s.preetham.spectrum_and_y(dir), (visible, y));
                 for (b, got) in bands.iter().zip(&out) {
                     let want = SunSky::band_mean(b, |nm| {
                         if nm <= VISIBLE_END_NM {

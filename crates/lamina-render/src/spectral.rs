@@ -72,7 +72,7 @@ fn build_sets(
                     leaves[i].get(j).cloned()
                 })?;
                 Ok(ChannelSet {
-                    lights: LightSet::from_parts(&v.lights, v.sky.as_ref())?,
+                    lights: LightSet::for_channel_set(&v.lights, v.sky.as_ref())?,
                     materials: v.materials,
                 })
             })

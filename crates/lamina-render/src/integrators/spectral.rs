@@ -39,7 +39,8 @@ use std::array::from_fn;
 pub struct ChannelSet {
     /// The scene's materials, in scene order.
     pub materials: Vec<Material>,
-    /// The scene's lights and sky.
+    /// The scene's lights and sky ([`LightSet::for_channel_set`]: looked up along the
+    /// directions the scene's own lights draw, never sampled themselves).
     pub lights: LightSet,
 }
 
@@ -69,6 +70,10 @@ pub struct SkySets {
     factor: usize,
     width: usize,
     coarse_width: usize,
+    /// `log2` of `width` and of `factor` where both are powers of two (the usual map
+    /// sizes): a texel's cell by shifts, not by integer divisions (tens of cycles each,
+    /// at every sky lookup of every set).
+    shifts: Option<(u32, u32)>,
     /// The relative ratios, cell-major.
     ratios: Vec<[half::f16; 3]>,
 }
@@ -142,6 +147,8 @@ impl SkySets {
             factor,
             width: w,
             coarse_width: cw,
+            shifts: (w.is_power_of_two() && factor.is_power_of_two())
+                .then(|| (w.trailing_zeros(), factor.trailing_zeros())),
             ratios,
         })
     }
@@ -157,8 +164,14 @@ impl SkySets {
         slots: &[usize; G],
     ) -> [Vec3; G] {
         let t = t as usize;
-        let (x, y) = (t % self.width, t / self.width);
-        let cell = ((y / self.factor) * self.coarse_width + x / self.factor) * self.sets;
+        let (cx, cy) = match self.shifts {
+            Some((w, f)) => ((t & (self.width - 1)) >> f, (t >> w) >> f),
+            None => (
+                (t % self.width) / self.factor,
+                (t / self.width) / self.factor,
+            ),
+        };
+        let cell = (cy * self.coarse_width + cx) * self.sets;
         let lum = base.element_sum() / 3.0;
         from_fn(|k| {
             let v = self.ratios[cell + slots[k]];
@@ -352,4 +365,63 @@ pub fn radiance_sets<const G: usize>(
         }
     }
     l
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lights::{AnyLight, EnvMap, SkyLight};
+
+    fn sky_set(w: usize, h: usize, texel: impl Fn(usize, usize) -> Vec3) -> LightSet {
+        let texels = (0..w * h).map(|t| texel(t % w, t / w)).collect();
+        let map = EnvMap::new(w, h, texels, 0.0).expect("a map");
+        LightSet {
+            lights: vec![AnyLight::Sky(SkyLight::Image(Box::new(map)))],
+            sky_mean: Vec3::ONE,
+        }
+    }
+
+    /// Each set's sky is the grey base sky times a colour that is constant over each coarse
+    /// cell (and differs between cells and sets): [`SkySets::at`] gives it back at every
+    /// texel, within half precision, for a power-of-two width (cells by shifts) and for
+    /// another (by divisions).
+    #[test]
+    fn sky_sets_give_each_sets_texels_back() {
+        for (w, h) in [(512, 256), (600, 300)] {
+            let factor = (w / SKY_CELLS).max(1);
+            let base_value = |x: usize, y: usize| 0.5 + ((x * 7 + y * 13) % 17) as f32;
+            let colour = |j: usize, x: usize, y: usize| {
+                let (cx, cy) = ((x / factor) as f32, (y / factor) as f32);
+                Vec3::new(
+                    0.2 + 0.01 * cx + 0.1 * j as f32,
+                    0.3 + 0.02 * cy,
+                    0.9 - 0.003 * (cx + cy),
+                )
+            };
+            let base = sky_set(w, h, |x, y| Vec3::splat(base_value(x, y)));
+            let sets: Vec<ChannelSet> = (0..3)
+                .map(|j| ChannelSet {
+                    materials: Vec::new(),
+                    lights: sky_set(w, h, |x, y| base_value(x, y) * colour(j, x, y)),
+                })
+                .collect();
+            let AnyLight::Sky(sky) = &base.lights[0] else {
+                unreachable!("a sky")
+            };
+            let s = SkySets::new(sky, &sets, vec![2, 0, 1], 1).expect("a map sky");
+            assert_eq!(s.shifts.is_some(), w.is_power_of_two(), "{w}");
+            for t in (0..w * h).step_by(7) {
+                let (x, y) = (t % w, t / w);
+                let b = Vec3::splat(base_value(x, y));
+                let got = s.at(t as u32, b, &[0, 1, 2], &[2, 0, 1]);
+                for (j, g) in got.iter().enumerate() {
+                    let want = b * colour(j, x, y);
+                    assert!(
+                        ((*g - want).abs() / want).max_element() < 2e-3,
+                        "{w}x{h} texel ({x}, {y}) set {j}: {g} vs {want}"
+                    );
+                }
+            }
+        }
+    }
 }

@@ -158,6 +158,21 @@ impl LightSet {
 
     /// [`Self::new`] from a scene's lights and sky.
     pub fn from_parts(scene_lights: &[Light], sky: Option<&Sky>) -> Result<Self, RenderError> {
+        Self::from_parts_with(scene_lights, sky, true)
+    }
+
+    /// [`Self::from_parts`] for a spectral render's channel set: the same lights in other
+    /// channels, only looked up along directions the scene's own lights drew, so a map sky
+    /// gets no sampling distribution ([`EnvMap::new_unsampled`]).
+    pub fn for_channel_set(scene_lights: &[Light], sky: Option<&Sky>) -> Result<Self, RenderError> {
+        Self::from_parts_with(scene_lights, sky, false)
+    }
+
+    fn from_parts_with(
+        scene_lights: &[Light],
+        sky: Option<&Sky>,
+        sampled: bool,
+    ) -> Result<Self, RenderError> {
         let mut lights = Vec::with_capacity(scene_lights.len() + 1);
         for (i, l) in scene_lights.iter().enumerate() {
             let bad = |what: &str| RenderError::InvalidScene(format!("light {i}: {what}"));
@@ -214,7 +229,7 @@ impl LightSet {
         }
         let mut sky_mean = Vec3::ZERO;
         if let Some(sky) = sky {
-            let s = SkyLight::new(sky)?;
+            let s = SkyLight::with_sampling(sky, sampled)?;
             sky_mean = s.mean();
             lights.push(AnyLight::Sky(s));
         }

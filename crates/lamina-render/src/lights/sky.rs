@@ -28,7 +28,9 @@ pub struct EnvMap {
     height: usize,
     /// Radiance (W m⁻² sr⁻¹, scale applied), row-major, top row (zenith) first.
     texels: Vec<Vec3>,
-    dist: Distribution2D,
+    /// The sampling distribution; `None` for a map that is only looked up
+    /// ([`EnvMap::new_unsampled`]).
+    dist: Option<Distribution2D>,
     /// `cos` and `sin` of the rotation about `+y`.
     rot: Vec2,
 }
@@ -37,6 +39,28 @@ impl EnvMap {
     /// A map of `width x height` radiance texels (top row = zenith), rotated by
     /// `rotation_deg` about `+y`. `None` when sizes do not match the texel count.
     pub fn new(width: usize, height: usize, texels: Vec<Vec3>, rotation_deg: f32) -> Option<Self> {
+        Self::build(width, height, texels, rotation_deg, true)
+    }
+
+    /// [`EnvMap::new`] without the sampling distribution: a map that is looked up, never
+    /// sampled ([`EnvMap::sample`] gives `None`, [`EnvMap::pdf`] zero), as a spectral
+    /// render's channel sets' skies are (their directions come from the scene's own sky).
+    pub fn new_unsampled(
+        width: usize,
+        height: usize,
+        texels: Vec<Vec3>,
+        rotation_deg: f32,
+    ) -> Option<Self> {
+        Self::build(width, height, texels, rotation_deg, false)
+    }
+
+    fn build(
+        width: usize,
+        height: usize,
+        texels: Vec<Vec3>,
+        rotation_deg: f32,
+        sampled: bool,
+    ) -> Option<Self> {
         if width == 0 || height == 0 || texels.len() != width * height {
             return None;
         }
@@ -50,14 +74,17 @@ impl EnvMap {
                 }
             })
             .collect();
-        let mut func = Vec::with_capacity(width * height);
-        for y in 0..height {
-            let sin_t = (PI * (y as f32 + 0.5) / height as f32).sin();
-            for x in 0..width {
-                let t = texels[y * width + x];
-                func.push((t.x + t.y + t.z) / 3.0 * sin_t);
+        let dist = sampled.then(|| {
+            let mut func = Vec::with_capacity(width * height);
+            for y in 0..height {
+                let sin_t = (PI * (y as f32 + 0.5) / height as f32).sin();
+                for x in 0..width {
+                    let t = texels[y * width + x];
+                    func.push((t.x + t.y + t.z) / 3.0 * sin_t);
+                }
             }
-        }
+            Distribution2D::new(&func, width, height)
+        });
         let r = if rotation_deg.is_finite() {
             rotation_deg.to_radians()
         } else {
@@ -66,7 +93,7 @@ impl EnvMap {
         Some(EnvMap {
             width,
             height,
-            dist: Distribution2D::new(&func, width, height),
+            dist,
             texels,
             rot: Vec2::new(r.cos(), r.sin()),
         })
@@ -122,8 +149,11 @@ impl EnvMap {
         if sin_t <= 0.0 {
             return 0.0;
         }
+        let Some(dist) = &self.dist else {
+            return 0.0;
+        };
         let (x, y) = self.cell(uv);
-        self.dist.pdf_cell(x, y) / (2.0 * PI * PI * sin_t)
+        dist.pdf_cell(x, y) / (2.0 * PI * PI * sin_t)
     }
 
     /// [`EnvMap::le`] and [`EnvMap::pdf`] of `d` together, and the index of its texel (for
@@ -150,7 +180,7 @@ impl EnvMap {
     /// A direction drawn proportionally to radiance (times `sin θ` per row).
     #[inline]
     pub fn sample(&self, u: Vec2) -> Option<LightSample> {
-        let (uv, pdf_uv, (x, y)) = self.dist.sample(u);
+        let (uv, pdf_uv, (x, y)) = self.dist.as_ref()?.sample(u);
         let sin_t = (PI * uv.y).sin();
         if !(pdf_uv > 0.0 && sin_t > 0.0) {
             return None;
@@ -193,6 +223,12 @@ pub enum SkyLight {
 impl SkyLight {
     /// Prepares the scene's sky.
     pub fn new(sky: &Sky) -> Result<Self, RenderError> {
+        Self::with_sampling(sky, true)
+    }
+
+    /// [`SkyLight::new`]; a map sky without its sampling distribution unless `sampled`
+    /// ([`EnvMap::new_unsampled`]).
+    pub fn with_sampling(sky: &Sky, sampled: bool) -> Result<Self, RenderError> {
         match sky {
             Sky::Constant(c) => {
                 if !c.is_finite() {
@@ -210,7 +246,12 @@ impl SkyLight {
             } => {
                 let scale = if scale.is_finite() { *scale } else { 0.0 };
                 let texels = map.texels().iter().map(|t| t.truncate() * scale).collect();
-                EnvMap::new(
+                let make = if sampled {
+                    EnvMap::new
+                } else {
+                    EnvMap::new_unsampled
+                };
+                make(
                     map.width() as usize,
                     map.height() as usize,
                     texels,
@@ -383,7 +424,7 @@ mod tests {
         }
         for y in 0..8 {
             for x in 0..16 {
-                let mass = m.dist.pdf_cell(x, y) / (16.0 * 8.0);
+                let mass = m.dist.as_ref().expect("sampled").pdf_cell(x, y) / (16.0 * 8.0);
                 let expect = mass * samples as f32;
                 let got = hist[y * 16 + x] as f32;
                 // 4 sigma of a binomial count, plus one for rounding.
@@ -392,6 +433,23 @@ mod tests {
                     "cell {x},{y}: {got} vs {expect}"
                 );
             }
+        }
+    }
+
+    /// A map without its distribution looks up the same texels and is never sampled.
+    #[test]
+    fn unsampled_map_is_looked_up_only() {
+        let m = test_map();
+        let texels = (0..16 * 8).map(|i| m.le_at(i)).collect();
+        let u = EnvMap::new_unsampled(16, 8, texels, 30.0).unwrap();
+        for k in 0..64u32 {
+            let d = uniform_sphere(sobol_2d(k, 5));
+            assert_eq!(u.le(d), m.le(d));
+            assert_eq!(u.le_pdf(d).0, m.le_pdf(d).0);
+            assert_eq!(u.le_pdf(d).2, m.le_pdf(d).2);
+            assert_eq!(u.pdf(d), 0.0);
+            assert!(m.pdf(d) > 0.0);
+            assert!(u.sample(sobol_2d(k, 9)).is_none());
         }
     }
 }

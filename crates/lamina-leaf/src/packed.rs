@@ -66,7 +66,7 @@ impl Source {
 /// The filtered map values at one hit, as the per-map lookups give them: colours (linear
 /// RGB, before any clamping), the thickness and extinction map values and the bump map's
 /// gradient (per unit of texture coordinate).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct MapValues {
     pub front: Option<Vec3>,
     pub back: Option<Vec3>,

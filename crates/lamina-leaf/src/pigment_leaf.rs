@@ -17,9 +17,11 @@
 //!   so that at the nominal texel the leaf's directional-hemispherical `R` and `T` for light
 //!   at [`CALIBRATION_THETA_DEG`] on the adaxial side (the integrating sphere's geometry,
 //!   specular lobe included) equal PROSPECT's: `C_R = A_R (R_P - s) / ρ_R`,
-//!   `C_T = A_T T_P / ρ_T`, with `ρ` the physical lobes' directional albedos at 8° and `A`
-//!   their white-sky albedos (both from the BSDF, [`crate::albedo`]) and `s` the specular
-//!   lobe's albedo at 8°. The abaxial colour keeps the physics' adaxial/abaxial ratio,
+//!   `C_T = A_T T_P / ρ_T`, with `ρ` the subsurface lobes' directional albedos at 8° and `A`
+//!   their white-sky albedos (both integrated from the BSDF by the quadrature the energy
+//!   table uses, every wavelength triple of a render at once; [`crate::albedo`]'s sampled
+//!   estimate, what `lamina leaf albedo` prints, agrees within its noise) and `s` the
+//!   specular lobe's albedo at 8°. The abaxial colour keeps the physics' adaxial/abaxial ratio,
 //!   `C_B = C_R A_B / A_R` (PROSPECT has one side).
 //! * **Maps modulate pigments.** The extinction map scales the absorption (so the pigment
 //!   contents) by `1 + s (2e - 1)` and the thickness map the path length, as for an RGB leaf;
@@ -31,7 +33,6 @@
 //! demand: the same code path as an RGB leaf, per wavelength.
 
 use crate::LeafError;
-use crate::albedo::{AlbedoOptions, Side, directional_albedo};
 use crate::maps::LeafMaps;
 use crate::material::LeafMaterial;
 use crate::params::{LeafMode, LeafParams};
@@ -42,9 +43,6 @@ use glam::Vec3;
 
 /// Incidence angle (degrees, adaxial side) at which a pigment leaf equals PROSPECT.
 pub const CALIBRATION_THETA_DEG: f32 = 8.0;
-
-/// Direction samples of the calibration integral (at the nominal texel).
-const CALIBRATION_SAMPLES: u32 = 1 << 13;
 
 /// A leaf whose optics come from PROSPECT pigments (see the module docs).
 #[derive(Clone, Debug)]
@@ -152,6 +150,7 @@ impl PigmentLeaf {
             .collect();
         let bare = LeafMaterial::new_each(items)?;
         let (s, c) = CALIBRATION_THETA_DEG.to_radians().sin_cos();
+        let rho = LeafMaterial::nominal_directional_albedos_each(&bare, c);
         let spec = self.params.specular
             * crate::specular::albedo(
                 Vec3::new(s, 0.0, c),
@@ -162,17 +161,9 @@ impl PigmentLeaf {
         Ok(nms
             .iter()
             .zip(&bare)
-            .map(|(nm, bare)| {
+            .zip(rho)
+            .map(|((nm, bare), (rho_r, rho_t))| {
                 let [a_r, a_b, a_t] = bare.physical_albedos();
-                let (rho_r, rho_t) = directional_albedo(
-                    bare,
-                    &AlbedoOptions {
-                        theta_deg: CALIBRATION_THETA_DEG,
-                        side: Side::Adaxial,
-                        samples: CALIBRATION_SAMPLES,
-                        max_texels: 1,
-                    },
-                );
                 let mut cr = [0.0f32; 3];
                 let mut ct = [0.0f32; 3];
                 for ch in 0..3 {

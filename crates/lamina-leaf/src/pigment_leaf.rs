@@ -52,6 +52,10 @@ pub struct PigmentLeaf {
     /// The non-colour maps (alpha, thickness, extinction, bump).
     maps: LeafMaps,
     spectrum: LeafSpectrum,
+    /// The specular lobe's albedo (times its weight) for light at
+    /// [`CALIBRATION_THETA_DEG`] on the adaxial side: what the calibration takes off
+    /// PROSPECT's reflectance, made once (a 64-point integration).
+    spec_calibration: f32,
 }
 
 /// Index into PROSPECT's 1 nm grid of `nm`, clamped to 400-2500 nm.
@@ -88,11 +92,20 @@ impl PigmentLeaf {
                 allowed: "a leaf described by pigments uses the layered model".into(),
             });
         }
+        let (s, c) = CALIBRATION_THETA_DEG.to_radians().sin_cos();
+        let spec_calibration = params.specular
+            * crate::specular::albedo(
+                Vec3::new(s, 0.0, c),
+                params.roughness_adaxial,
+                params.upper.ior,
+                64,
+            );
         Ok(PigmentLeaf {
             spectrum: prospect(&pigments),
             pigments,
             params,
             maps,
+            spec_calibration,
         })
     }
 
@@ -149,15 +162,11 @@ impl PigmentLeaf {
             })
             .collect();
         let bare = LeafMaterial::new_each(items)?;
-        let (s, c) = CALIBRATION_THETA_DEG.to_radians().sin_cos();
-        let rho = LeafMaterial::nominal_directional_albedos_each(&bare, c);
-        let spec = self.params.specular
-            * crate::specular::albedo(
-                Vec3::new(s, 0.0, c),
-                self.params.roughness_adaxial,
-                self.params.upper.ior,
-                64,
-            );
+        let rho = LeafMaterial::nominal_directional_albedos_each(
+            &bare,
+            CALIBRATION_THETA_DEG.to_radians().cos(),
+        );
+        let spec = self.spec_calibration;
         Ok(nms
             .iter()
             .zip(&bare)

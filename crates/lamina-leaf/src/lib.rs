@@ -62,7 +62,7 @@ pub use error::LeafError;
 pub use lambert::{DiffuseTransmission, Lambertian};
 pub use leaf_bsdf::LeafBsdf;
 pub use maps::{LeafDescription, LeafMapPaths, LeafMaps};
-pub use material::LeafMaterial;
+pub use material::{LeafMaterial, TexelBsdf};
 pub use params::{LayerParams, LeafMode, LeafParams};
 pub use pbr::PbrBsdf;
 pub use pigment_leaf::PigmentLeaf;

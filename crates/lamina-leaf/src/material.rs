@@ -756,6 +756,29 @@ pub fn derive_back(front: Vec3) -> Vec3 {
     (front.lerp(Vec3::splat(luminance(front)), 0.3) * 1.2).min(Vec3::ONE)
 }
 
+/// One texel of a leaf material, its maps read: its BSDF is made by [`TexelBsdf::make`],
+/// or written over one the caller keeps by [`TexelBsdf::write`]
+/// ([`LeafMaterial::bsdf_sets_each`]).
+#[derive(Clone, Copy, Debug)]
+pub struct TexelBsdf<'a> {
+    material: &'a LeafMaterial,
+    values: MapValues,
+}
+
+impl TexelBsdf<'_> {
+    /// The texel's BSDF ([`LeafMaterial::bsdf`] at its texture coordinates).
+    #[inline]
+    pub fn make(&self) -> LeafBsdf {
+        self.material.bsdf_from(&self.values)
+    }
+
+    /// [`Self::make`] into `b`, in place.
+    #[inline]
+    pub fn write(&self, b: &mut LeafBsdf) {
+        *b = self.material.bsdf_from(&self.values);
+    }
+}
+
 impl LeafMaterial {
     /// A material from maps already in memory; validates `params` and precomputes the
     /// normalisation of the maps (a few tens of milliseconds). The maps [`Self::bsdf`] reads
@@ -1026,12 +1049,17 @@ impl LeafMaterial {
 
     /// The BSDF at texture coordinates `uv`.
     pub fn bsdf(&self, uv: Vec2) -> LeafBsdf {
+        self.bsdf_from(&self.values(uv))
+    }
+
+    /// The filtered map values at `uv` that [`Self::bsdf`] reads.
+    #[inline]
+    fn values(&self, uv: Vec2) -> MapValues {
         let with_bump = self.params.bump_scale > 0.0;
-        let v = match &self.packed {
+        match &self.packed {
             Some(p) => p.read(uv, with_bump),
             None => MapValues::read(&self.maps, uv, with_bump),
-        };
-        self.bsdf_from(&v)
+        }
     }
 
     /// [`Self::bsdf`] of several materials of one leaf in other channels (variants sharing
@@ -1039,19 +1067,19 @@ impl LeafMaterial {
     /// `bsdf`.
     pub fn bsdf_sets<const G: usize>(m: [&LeafMaterial; G], uv: Vec2) -> [LeafBsdf; G] {
         let mut out = [const { None }; G];
-        Self::bsdf_sets_each(m, uv, |k, b| out[k] = Some(b));
+        Self::bsdf_sets_each(m, uv, |k, t| out[k] = Some(t.make()));
         out.map(|b| b.expect("one BSDF per set"))
     }
 
-    /// [`Self::bsdf_sets`], the BSDF of set `k` handed to `put(k, bsdf)` as it is made, so
-    /// that a caller stores it in place (an array of a caller's enum of BSDFs built through
-    /// an array of these, or through `from_fn`, was copied whole, a measured few per cent
-    /// of a spectral render).
+    /// [`Self::bsdf_sets`], set `k`'s texel handed to `put(k, texel)` to be made where the
+    /// caller keeps it ([`TexelBsdf::write`] over a BSDF already there, in place: an array
+    /// of a caller's enum of BSDFs built through an array of these, or through `from_fn`,
+    /// was copied whole, a measured few per cent of a spectral render).
     #[inline]
     pub fn bsdf_sets_each<const G: usize>(
         m: [&LeafMaterial; G],
         uv: Vec2,
-        mut put: impl FnMut(usize, LeafBsdf),
+        mut put: impl FnMut(usize, TexelBsdf<'_>),
     ) {
         let with_bump = m[0].params.bump_scale > 0.0;
         let shared = G > 1
@@ -1066,16 +1094,28 @@ impl LeafMaterial {
             (Some(p), true) => {
                 let l = p.lookup(uv, with_bump);
                 for (k, x) in m.iter().enumerate() {
-                    let v = match &x.packed {
+                    let values = match &x.packed {
                         Some(q) => q.values(&l),
                         None => MapValues::read(&x.maps, uv, with_bump),
                     };
-                    put(k, x.bsdf_from(&v));
+                    put(
+                        k,
+                        TexelBsdf {
+                            material: x,
+                            values,
+                        },
+                    );
                 }
             }
             _ => {
                 for (k, x) in m.iter().enumerate() {
-                    put(k, x.bsdf(uv));
+                    put(
+                        k,
+                        TexelBsdf {
+                            material: x,
+                            values: x.values(uv),
+                        },
+                    );
                 }
             }
         }

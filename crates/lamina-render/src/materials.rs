@@ -51,17 +51,25 @@ impl SurfaceBsdf {
 
     /// The BSDFs of several materials, one per channel set of a spectral render, at the
     /// same `uv`: a leaf's variants read their shared maps once
-    /// ([`lamina_leaf::LeafMaterial::bsdf_sets`]).
+    /// ([`lamina_leaf::LeafMaterial::bsdf_sets_each`]).
     #[inline]
     pub fn at_sets<const G: usize>(materials: [&Material; G], uv: Vec2) -> [Self; G] {
-        // Filled in place: built through `from_fn` or `map`, every element was moved
-        // through a temporary the size of the largest variant (a measured 5 % of a visible
-        // render in memmove), a ground's small diffuse value too.
         let mut out = [const {
             SurfaceBsdf::Diffuse(Lambertian {
                 reflectance: Vec3::ZERO,
             })
         }; G];
+        Self::at_sets_into(materials, uv, &mut out);
+        out
+    }
+
+    /// [`Self::at_sets`] into `out`, in place: a leaf's BSDF is written over the leaf
+    /// BSDF already there (a path's vertices mostly hit leaves), the others replaced.
+    /// Built through `from_fn` or `map`, or returned by value, every element was moved
+    /// through a temporary the size of the largest variant (a measured few per cent of a
+    /// visible render in memmove).
+    #[inline]
+    pub fn at_sets_into<const G: usize>(materials: [&Material; G], uv: Vec2, out: &mut [Self; G]) {
         let leaf = |k: usize| match materials[k] {
             Material::Leaf { leaf, .. } => Some(&**leaf),
             _ => None,
@@ -69,15 +77,15 @@ impl SurfaceBsdf {
         if G > 1 && (0..G).all(|k| leaf(k).is_some()) {
             let leaves: [&lamina_leaf::LeafMaterial; G] =
                 std::array::from_fn(|k| leaf(k).expect("checked"));
-            lamina_leaf::LeafMaterial::bsdf_sets_each(leaves, uv, |k, b| {
-                out[k] = SurfaceBsdf::Leaf(b)
+            lamina_leaf::LeafMaterial::bsdf_sets_each(leaves, uv, |k, t| match &mut out[k] {
+                SurfaceBsdf::Leaf(b) => t.write(b),
+                o => *o = SurfaceBsdf::Leaf(t.make()),
             });
         } else {
             for (o, m) in out.iter_mut().zip(materials) {
                 *o = SurfaceBsdf::at(m, uv);
             }
         }
-        out
     }
 
     /// `eval` of each of `b` (one per channel set) for the same directions, sharing what a

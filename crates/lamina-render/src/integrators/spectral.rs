@@ -198,6 +198,12 @@ pub fn radiance_sets<const G: usize>(
     let mut camera_ray = true;
     let mut skip = PrimRef::NONE;
     let mut bounces = 0u32;
+    // Each vertex's BSDFs, written over the last vertex's in place.
+    let mut bsdfs = [const {
+        SurfaceBsdf::Diffuse(lamina_leaf::Lambertian {
+            reflectance: Vec3::ZERO,
+        })
+    }; G];
     let lights = &ctx.lights.lights;
     let sets: [&ChannelSet; G] = set_ids.map(|j| &ctx.sets[j]);
     // A sky map's texel in set `j` (the interleaved copy), or the light's own value.
@@ -258,7 +264,7 @@ pub fn radiance_sets<const G: usize>(
         let ns = shading_normal(&ctx.accel, prim, bary, &info, normal_map);
         let frame = ShadingFrame::new(&info, ns, -ray.dir);
         let uv = info.uv_at(bary);
-        let bsdfs = SurfaceBsdf::at_sets(sets.map(|s| &s.materials[m]), uv);
+        SurfaceBsdf::at_sets_into(sets.map(|s| &s.materials[m]), uv, &mut bsdfs);
         let wo = frame.to_local(-ray.dir);
 
         for (i, light) in lights.iter().enumerate() {

@@ -133,12 +133,23 @@ impl lamina_core::SpectralSky for PhysicalSky {
             },
         );
         let (w, h) = (self.width, (self.width / 2).max(1));
-        (0..groups.len())
-            .map(|g| {
-                let texels = values
-                    .chunks_exact(n)
-                    .map(|px| glam::Vec4::new(px[3 * g], px[3 * g + 1], px[3 * g + 2], 1.0))
-                    .collect();
+        // One pass over the values, each texel's groups to their maps (a pass per map read
+        // the whole array once per group).
+        let mut maps: Vec<Vec<glam::Vec4>> = (0..groups.len())
+            .map(|_| Vec::with_capacity(values.len() / n.max(1)))
+            .collect();
+        for px in values.chunks_exact(n) {
+            for (g, map) in maps.iter_mut().enumerate() {
+                map.push(glam::Vec4::new(
+                    px[3 * g],
+                    px[3 * g + 1],
+                    px[3 * g + 2],
+                    1.0,
+                ));
+            }
+        }
+        maps.into_iter()
+            .map(|texels| {
                 lamina_leaf::Texture::from_texels(w, h, texels, lamina_leaf::Wrap::Repeat)
             })
             .collect()

@@ -1182,25 +1182,25 @@ impl LeafMaterial {
         b
     }
 
-    /// Directional-hemispherical `(R, T)` per channel of each of `m` at its nominal texel
-    /// (thickness and extinction maps at 0.5, flat normal) for light on the adaxial side at
-    /// incidence cosine `mu`: the subsurface lobes `eval` returns there (the physical lobes
-    /// times the texel's scale), by the energy table's quadrature with the directions'
-    /// geometry shared among all of them. Without the specular lobe. What a pigment leaf's
-    /// calibration needs for every wavelength triple at once ([`crate::PigmentLeaf`]).
+    /// Directional-hemispherical `(R, T)` per channel of the physical subsurface lobes of
+    /// each of `m` at its nominal texel (thickness and extinction maps at 0.5) for light on
+    /// the adaxial side at incidence cosine `mu`: the layer model alone, before the texel's
+    /// colours and energy scale, by the energy table's quadrature with the directions'
+    /// geometry shared among all of them. What a pigment leaf's calibration divides by
+    /// ([`crate::PigmentLeaf`]): the rendered lobes are these times `colour / A` and the
+    /// material's own energy scale, which is 1 wherever the calibrated colours leave room.
     pub(crate) fn nominal_directional_albedos_each(
         m: &[LeafMaterial],
         mu: f32,
     ) -> Vec<(Vec3, Vec3)> {
-        // No map values: the nominal texel, flat.
+        // No map values: the nominal texel.
         let b: Vec<LeafBsdf> = m
             .iter()
             .map(|x| x.bsdf_from(&MapValues::default()))
             .collect();
         directional_albedos_each(&b, mu)
             .into_iter()
-            .zip(&b)
-            .map(|(rows, b)| (rows[0] * b.scale[0], rows[2] * b.scale[2]))
+            .map(|rows| (rows[0], rows[2]))
             .collect()
     }
 

@@ -17,8 +17,9 @@
 //!   so that at the nominal texel the leaf's directional-hemispherical `R` and `T` for light
 //!   at [`CALIBRATION_THETA_DEG`] on the adaxial side (the integrating sphere's geometry,
 //!   specular lobe included) equal PROSPECT's: `C_R = A_R (R_P - s) / ρ_R`,
-//!   `C_T = A_T T_P / ρ_T`, with `ρ` the subsurface lobes' directional albedos at 8° and `A`
-//!   their white-sky albedos (both integrated from the BSDF by the quadrature the energy
+//!   `C_T = A_T T_P / ρ_T`, with `ρ` the physical subsurface lobes' directional albedos at 8°
+//!   (the layer model before colours and energy scale) and `A` their white-sky albedos (both
+//!   integrated from the BSDF by the quadrature the energy
 //!   table uses, every wavelength triple of a render at once; [`crate::albedo`]'s sampled
 //!   estimate, what `lamina leaf albedo` prints, agrees within its noise) and `s` the
 //!   specular lobe's albedo at 8°. The abaxial colour keeps the physics' adaxial/abaxial ratio,

@@ -24,10 +24,11 @@
 //! diffusion) at the texel's thickness and extinction map values, `min(1)` per channel:
 //! specular lobe excluded, bump map excluded (geometric cosines, flat frame). In diffuse mode
 //! `A_X(t, e) / A_X` is the exact Kubelka-Munk ratio per texel; otherwise it is tabulated
-//! here over 9 x 9 map values spanning the ranges the maps contain (denser toward low
-//! values; 0.5 is a node where it is inside, so nominal texels and a leaf without thickness
-//! or extinction maps are exact), by a 16 x 16 x 6 quadrature, and interpolated bilinearly
-//! in its logarithm (within about 2 % of a fine integration of `eval`).
+//! here over up to 9 x 9 map values spanning the ranges the maps contain (9 per axis over
+//! the whole `[0, 1]`, proportionally fewer over a narrower range; denser toward low values;
+//! 0.5 is a node where it is inside, so nominal texels and a leaf without thickness or
+//! extinction maps are exact), by a 16 x 16 x 6 quadrature, and interpolated bilinearly in
+//! its logarithm (within about 2 % of a fine integration of `eval`).
 //!
 //! **Cost**: each azimuthal ring of these quadratures costs one evaluation of the slab, not
 //! one per azimuth: only the single-scattering phase function depends on the azimuth, and
@@ -35,9 +36,11 @@
 //! ([`LeafBsdf::subsurface_summed_each`]). A leaf in several channel sets (a spectral
 //! render's wavelength bins or bands) runs the quadratures of all of them together
 //! ([`LeafMaterial::new_like_each`], [`LeafMaterial::variant_each`]), the slab geometry
-//! computed once per pair of cosines. A pigment leaf's sixteen visible sets with thickness
-//! and extinction maps take about 0.15 s (`cargo bench -p lamina-leaf --bench bsdf --
-//! pigment_materials`).
+//! computed once per pair of cosines, and the corners of the energy table and the nodes of
+//! the ratio table each run as one quadrature over all their BSDFs. A pigment leaf's sixteen
+//! visible sets with thickness and extinction maps take about 80 ms on one core (150 ms
+//! before the corners and nodes were merged and the tables sized to the ranges; `cargo
+//! bench -p lamina-leaf --bench bsdf -- pigment_materials`).
 //!
 //! **Energy**: `lambda` (per texel and channel, `<= 1`) scales the colours down where the
 //! maps ask for more than light can give: for every incidence angle on either side,

@@ -3,7 +3,7 @@
 fit PROSPECT-D itself reaches on them (an independent reference for the fit's errors).
 
 Usage:
-    python3 bench/spectral/measured_rt_leaves.py --rda leaves.spct.rda -o /tmp/rt_leaves
+    python3 bench/spectral/measured_rt_leaves.py --rda leaves.spct.rda -o /tmp/rt_leaves [--force]
     python3 bench/spectral/measured_rt_leaves.py --rda leaves.spct.rda -o DIR \
         --lamina target/release/lamina --prospect-fit
 
@@ -35,7 +35,7 @@ from pathlib import Path
 BANDS = [(450, 500), (500, 570), (620, 700), (800, 900)]
 
 
-def extract(rda, out):
+def extract(rda, out, force):
     try:
         import rdata
     except ImportError:
@@ -53,6 +53,8 @@ def extract(rda, out):
             if not str(name).endswith("adax"):
                 continue
             path = out / f"{collection.split('.')[0]}_{name}.csv"
+            if path.exists() and not force:
+                sys.exit(f"{path} exists; give --force to replace it (or another -o folder)")
             tmp = path.with_suffix(".csv.tmp")
             with open(tmp, "w") as f:
                 f.write("wavelength_nm,reflectance,transmittance\n")
@@ -109,6 +111,8 @@ def main():
     ap.add_argument("-o", "--out", required=True, help="folder for the CSVs (and the fits)")
     ap.add_argument("--lamina", help="fit each with this lamina binary")
     ap.add_argument("--prospect-fit", action="store_true", help="PROSPECT-D's own best fit")
+    ap.add_argument("--force", action="store_true",
+                    help="replace CSVs (and fit folders) of the same names in --out")
     ap.add_argument("fit_flags", nargs="*", help="after --: flags for lamina leaf fit")
     args = ap.parse_args()
     rda = Path(args.rda)
@@ -116,11 +120,12 @@ def main():
         sys.exit(f"{rda}: no such file")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    for path in extract(rda, out):
+    for path in extract(rda, out, args.force):
         print(f"== {path.stem}")
         if args.lamina:
+            force = ["--force"] if args.force else []
             r = subprocess.run([args.lamina, "leaf", "fit", "--spectrum", str(path), "-o",
-                                str(out / path.stem), "--force", *args.fit_flags],
+                                str(out / path.stem), *force, *args.fit_flags],
                                capture_output=True, text=True)
             if r.returncode != 0:
                 sys.exit(f"lamina leaf fit failed on {path}:\n{r.stderr}")

@@ -50,24 +50,12 @@ impl SurfaceBsdf {
     }
 
     /// The BSDFs of several materials, one per channel set of a spectral render, at the
-    /// same `uv`: a leaf's variants read their shared maps once
-    /// ([`lamina_leaf::LeafMaterial::bsdf_sets_each`]).
-    #[inline]
-    pub fn at_sets<const G: usize>(materials: [&Material; G], uv: Vec2) -> [Self; G] {
-        let mut out = [const {
-            SurfaceBsdf::Diffuse(Lambertian {
-                reflectance: Vec3::ZERO,
-            })
-        }; G];
-        Self::at_sets_into(materials, uv, &mut out);
-        out
-    }
-
-    /// [`Self::at_sets`] into `out`, in place: a leaf's BSDF is written over the leaf
-    /// BSDF already there (a path's vertices mostly hit leaves), the others replaced.
-    /// Built through `from_fn` or `map`, or returned by value, every element was moved
-    /// through a temporary the size of the largest variant (a measured few per cent of a
-    /// visible render in memmove).
+    /// same `uv`, into `out`: a leaf's variants read their shared maps once
+    /// ([`lamina_leaf::LeafMaterial::bsdf_sets_each`]), and each leaf BSDF is written over
+    /// the leaf BSDF already there, in place (a path's vertices mostly hit leaves); other
+    /// materials replace theirs. (Built through `from_fn` or `map`, or returned by value,
+    /// every element was moved through a temporary the size of the largest variant: a
+    /// measured few per cent of a visible render in memmove.)
     #[inline]
     pub fn at_sets_into<const G: usize>(materials: [&Material; G], uv: Vec2, out: &mut [Self; G]) {
         let leaf = |k: usize| match materials[k] {

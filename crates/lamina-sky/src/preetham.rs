@@ -498,14 +498,7 @@ impl PreethamSky {
     /// The sky's radiance along `dir` as CIE XYZ, W m⁻² sr⁻¹ (`Y = ∫ L ȳ dλ`, the luminance
     /// divided by 683 lm/W); zero below the horizon.
     pub fn xyz(&self, dir: DVec3) -> DVec3 {
-        match self.xyY(dir) {
-            Some(c) => XyY {
-                luminance: c.luminance * 1000.0 / LUMINOUS_EFFICACY,
-                ..c
-            }
-            .to_xyz(),
-            None => DVec3::ZERO,
-        }
+        self.xyY(dir).map_or(DVec3::ZERO, radiometric_xyz)
     }
 
     /// The sky's radiance along `dir` in linear Rec.709 (sRGB primaries, D65 white),
@@ -525,15 +518,7 @@ impl PreethamSky {
     /// model (what a spectral sky map needs per texel), bit for bit those two.
     pub fn spectrum_and_y(&self, dir: DVec3) -> (SkySpectrum, f64) {
         match self.xyY(dir) {
-            Some(c) => (
-                SkySpectrum::from_xyY(c),
-                XyY {
-                    luminance: c.luminance * 1000.0 / LUMINOUS_EFFICACY,
-                    ..c
-                }
-                .to_xyz()
-                .y,
-            ),
+            Some(c) => (SkySpectrum::from_xyY(c), radiometric_xyz(c).y),
             None => (
                 SkySpectrum {
                     shape: DaylightSpectrum { m1: 0.0, m2: 0.0 },
@@ -551,6 +536,16 @@ impl PreethamSky {
     pub fn spectral_radiance(&self, dir: DVec3, nm: f64) -> f64 {
         self.spectrum(dir).eval(nm)
     }
+}
+
+/// The model's `xyY` (luminance in kcd/m²) as radiometric CIE XYZ, W m⁻² sr⁻¹
+/// (`Y = ∫ L ȳ dλ`: the luminance divided by 683 lm/W).
+fn radiometric_xyz(c: XyY) -> DVec3 {
+    XyY {
+        luminance: c.luminance * 1000.0 / LUMINOUS_EFFICACY,
+        ..c
+    }
+    .to_xyz()
 }
 
 /// `v` scaled to unit length (without overflow for huge components), or `None` for a zero

@@ -142,6 +142,8 @@ pub enum Integrator {
         max_depth: u32,
         /// Depth from which Russian roulette may end paths.
         rr_depth: u32,
+        /// Which lights next-event estimation samples at each scattering vertex.
+        light_sampling: LightSampling,
     },
     /// The paper's renderer: direct light only, per light front/back/through-light shading,
     /// multiple scattering as an ambient term.
@@ -150,6 +152,20 @@ pub enum Integrator {
         /// material's diffuse albedo. `None`: the sky's mean radiance (zero without a sky).
         ambient: Option<Vec3>,
     },
+}
+
+/// How the path tracer's next-event estimation picks lights at a scattering vertex.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightSampling {
+    /// Every light, one sample each: the least noise per sample; the cost of a vertex grows
+    /// with the number of lights (a sun and a sky: two shadow rays).
+    #[default]
+    All,
+    /// One light per vertex, drawn with probability proportional to its estimated power
+    /// (emitted flux, with distant lights and skies as seen by the scene's bounding sphere:
+    /// pbrt-v4's power light sampler), its contribution divided by that probability: one
+    /// shadow ray per vertex, as Mitsuba 3's `path` integrator traces.
+    One,
 }
 
 /// A light source.

@@ -45,6 +45,7 @@ fn scene_for(
         integrator: Integrator::Path {
             max_depth: 6,
             rr_depth: 3,
+            light_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: sun_dir.normalize(),

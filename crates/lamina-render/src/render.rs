@@ -324,6 +324,7 @@ impl Estimator for RgbEstimator {
             Integrator::Path {
                 max_depth,
                 rr_depth,
+                ..
             } => path::radiance(ctx, ray, sampler, max_depth, rr_depth, rays),
             Integrator::Paper { .. } => paper::radiance(ctx, ray, sampler, self.ambient, rays),
         };

@@ -87,6 +87,7 @@ fn path_depths(scene: &Scene, what: &str) -> Result<(u32, u32), RenderError> {
         Integrator::Path {
             max_depth,
             rr_depth,
+            ..
         } => Ok((max_depth, rr_depth)),
         Integrator::Paper { .. } => Err(RenderError::InvalidScene(format!(
             "{what} renders with the path integrator; the paper integrator is RGB only (set \

@@ -77,6 +77,7 @@ fn leaf_panel(leaf: &BuiltinLeaf, sun_dir: Vec3, sun: Vec3, size: (u32, u32), sp
         integrator: Integrator::Path {
             max_depth: 8,
             rr_depth: 3,
+            light_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: sun_dir.normalize(),
@@ -190,6 +191,7 @@ pub fn bush_scene_with(
         integrator: Integrator::Path {
             max_depth: 8,
             rr_depth: 3,
+            light_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: sun_dir,

@@ -1,6 +1,8 @@
 //! Scene files: what parses, and that every kind of mistake names file, line and key.
 
-use lamina_scene::{Integrator, Light, Material, Scene, SceneError, Sky, parse_scene};
+use lamina_scene::{
+    Integrator, Light, LightSampling, Material, Scene, SceneError, Sky, parse_scene,
+};
 use std::path::{Path, PathBuf};
 
 const MINIMAL: &str = r#"
@@ -33,7 +35,8 @@ fn minimal_scene_gets_documented_defaults() {
         s.integrator,
         Integrator::Path {
             max_depth: 8,
-            rr_depth: 3
+            rr_depth: 3,
+            light_sampling: Default::default(),
         }
     );
     assert!(s.sky.is_none() && s.lights.is_empty() && s.meshes.is_empty());
@@ -122,6 +125,32 @@ cards = [{{ center = [0, 0, 0], normal = [0, 0, 1], up = [0, 1, 0], width = 0.1,
 }
 
 #[test]
+fn light_sampling_reads_all_and_one() {
+    for (value, want) in [("all", LightSampling::All), ("one", LightSampling::One)] {
+        let s = parse(&format!(
+            "{MINIMAL}\n[integrator]\nmax_depth = 5\nlight_sampling = \"{value}\"\n"
+        ))
+        .unwrap();
+        assert_eq!(
+            s.integrator,
+            Integrator::Path {
+                max_depth: 5,
+                rr_depth: 3,
+                light_sampling: want,
+            }
+        );
+    }
+    let e = err(&format!(
+        "{MINIMAL}\n[integrator]\nlight_sampling = \"power\"\n"
+    ));
+    assert!(
+        e.to_string()
+            .contains("unknown light sampling 'power' (all, one)"),
+        "{e}"
+    );
+}
+
+#[test]
 fn toml_syntax_error_names_line() {
     let e = err("[camera]\nposition = [0, 1, 3\nlook_at = [0,0,0]\n");
     assert_eq!(e.file, Path::new("test.toml"));
@@ -157,6 +186,16 @@ fn bad_values_name_key_and_range() {
         ("[film]\nspp = 0\n", "film.spp", 7),
         ("[film]\nwidth = -5\n", "film.width", 7),
         ("[integrator]\nmax_depth = 0\n", "integrator.max_depth", 7),
+        (
+            "[integrator]\nlight_sampling = \"some\"\n",
+            "integrator.light_sampling",
+            7,
+        ),
+        (
+            "[integrator]\ntype = \"paper\"\nlight_sampling = \"one\"\n",
+            "integrator.light_sampling",
+            6,
+        ),
         (
             "[[light]]\ntype = \"sun\"\ndirection = [0, 0, 0]\nirradiance = 1\n",
             "light[0].direction",

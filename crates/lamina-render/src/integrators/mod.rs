@@ -9,7 +9,8 @@ use crate::accel::{Accel, FLAG_EMITTER, HitKind, ID_MASK, PrimRef, Ray, spawn_or
 use crate::camera::CameraModel;
 use crate::error::RenderError;
 use crate::film::FilterSampler;
-use crate::lights::{LightSample, LightSet};
+use crate::lights::{AnyLight, LightSample, LightSet};
+use crate::sampler::PixelSampler;
 use glam::Vec3;
 use lamina_core::Scene;
 
@@ -116,16 +117,37 @@ impl<'a> SceneContext<'a> {
 
     /// If `kind` is an emitter (quad or sphere light), its radiance toward the ray and the
     /// solid-angle density with which next-event estimation from `ray.origin` samples it.
+    /// The radiance of the emitter a ray hit at distance `t`, and the density with which
+    /// next-event estimation from the ray's origin draws that point: the light's own density
+    /// times the probability that the light is drawn. `None` when `kind` is not an emitter.
     #[inline]
     pub(crate) fn emitter(&self, kind: HitKind, ray: &Ray, t: f32) -> Option<(Vec3, f32)> {
         let light = self.emitter_light(kind)?;
         Some(match self.lights.lights.get(light) {
-            Some(l) => l.hit(ray.origin, ray.dir, t),
+            Some(l) => {
+                let (le, pdf) = l.hit(ray.origin, ray.dir, t);
+                (le, pdf * self.lights.pick_prob(light))
+            }
             None => (Vec3::ZERO, 0.0),
         })
     }
 
-    /// The index of the light `kind` is, if it is an emitter (quad or sphere light).
+    /// The lights next-event estimation samples at a vertex: the index of the first, the
+    /// lights, and the probability with which they were drawn. Every light with
+    /// probability 1, or (`light_sampling = "one"`) one light drawn by a 1D sample of
+    /// `sampler`.
+    #[inline]
+    pub(crate) fn nee_lights(&self, sampler: &mut PixelSampler) -> (usize, &[AnyLight], f32) {
+        let lights = &self.lights.lights;
+        match &self.lights.pick {
+            None => (0, lights, 1.0),
+            Some(pick) => {
+                let (i, p) = pick.choose(sampler.next_1d());
+                (i, &lights[i..i + 1], p)
+            }
+        }
+    }
+
     #[inline]
     pub(crate) fn emitter_light(&self, kind: HitKind) -> Option<usize> {
         match kind {

@@ -1,9 +1,11 @@
 //! The unidirectional path tracer.
 //!
 //! * **Next-event estimation** at every scattering vertex to *every* light (sun, point,
-//!   quad, sphere, sky), one sample each, with a shadow ray that the alpha test lets through
-//!   holes; opaque geometry blocks it (light *through* leaves arrives by the path's own
-//!   transmission bounces instead).
+//!   quad, sphere, sky), one sample each, or with `light_sampling = "one"` to one light
+//!   drawn by estimated power ([`crate::lights::LightPick`]; its density then includes the
+//!   probability of drawing it, for the estimate and for MIS), with a shadow ray that the
+//!   alpha test lets through holes; opaque geometry blocks it (light *through* leaves
+//!   arrives by the path's own transmission bounces instead).
 //! * **MIS**: light samples and BSDF samples of non-delta lights (area lights, the sun's
 //!   disc, the sky) are combined with the power heuristic (β = 2), each light's density
 //!   against the BSDF's. Delta lights (point, zero-diameter sun) get NEE only, weight 1.
@@ -73,13 +75,13 @@ fn trace(
     loop {
         *rays += 1;
         let Some(hit) = ctx.accel.intersect_skip(&ray, skip) else {
-            for light in lights.iter().filter(|l| l.is_infinite()) {
+            for (i, light) in lights.iter().enumerate().filter(|(_, l)| l.is_infinite()) {
                 let (le, pdf) = light.escaped(ray.dir);
                 if le != Vec3::ZERO {
                     let w = if camera_ray {
                         1.0
                     } else {
-                        power_heuristic(prev_pdf, pdf)
+                        power_heuristic(prev_pdf, pdf * ctx.lights.pick_prob(i))
                     };
                     l += beta * le * w;
                 }
@@ -109,11 +111,13 @@ fn trace(
         let bsdf = SurfaceBsdf::at(material, info.uv_at(bary));
         let wo = frame.to_local(-ray.dir);
 
-        for light in lights {
+        let (_, picked, pick) = ctx.nee_lights(sampler);
+        for light in picked {
             let u = sampler.next_2d();
-            let Some(ls) = light.sample(p, u) else {
+            let Some(mut ls) = light.sample(p, u) else {
                 continue;
             };
+            ls.pdf *= pick;
             if !(ls.pdf > 0.0) || ls.li == Vec3::ZERO || !frame.consistent(ls.wi) {
                 continue;
             }

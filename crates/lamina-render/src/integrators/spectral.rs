@@ -228,7 +228,7 @@ pub fn radiance_sets<const G: usize>(
                     continue;
                 }
                 let (base, pdf, texel) = light.escaped_texel(ray.dir);
-                let w = weight(camera_ray, prev_pdf, pdf);
+                let w = weight(camera_ray, prev_pdf, pdf * ctx.lights.pick_prob(i));
                 let le = sky_texel(i, texel, base).unwrap_or_else(|| {
                     from_fn(|k| sets[k].lights.lights[i].escaped_radiance(ray.dir, texel))
                 });
@@ -241,7 +241,7 @@ pub fn radiance_sets<const G: usize>(
         if let Some(light) = ctx.emitter_light(hit.kind) {
             if let Some(base) = lights.get(light) {
                 let (_, pdf) = base.hit(ray.origin, ray.dir, hit.t);
-                let w = weight(camera_ray, prev_pdf, pdf);
+                let w = weight(camera_ray, prev_pdf, pdf * ctx.lights.pick_prob(light));
                 for k in 0..G {
                     let le = sets[k].lights.lights[light]
                         .hit(ray.origin, ray.dir, hit.t)
@@ -267,11 +267,13 @@ pub fn radiance_sets<const G: usize>(
         SurfaceBsdf::at_sets_into(sets.map(|s| &s.materials[m]), uv, &mut bsdfs);
         let wo = frame.to_local(-ray.dir);
 
-        for (i, light) in lights.iter().enumerate() {
+        let (first, picked, pick) = ctx.nee_lights(sampler);
+        for (i, light) in (first..).zip(picked) {
             let u = sampler.next_2d();
-            let Some(ls) = light.sample(p, u) else {
+            let Some(mut ls) = light.sample(p, u) else {
                 continue;
             };
+            ls.pdf *= pick;
             if !(ls.pdf > 0.0) || !frame.consistent(ls.wi) {
                 continue;
             }
@@ -384,6 +386,7 @@ mod tests {
         LightSet {
             lights: vec![AnyLight::Sky(SkyLight::Image(Box::new(map)))],
             sky_mean: Vec3::ONE,
+            pick: None,
         }
     }
 

@@ -51,6 +51,12 @@ impl QuadLight {
         self.radiance
     }
 
+    /// Emitted flux (W): `π A L`, twice that when two-sided.
+    pub fn power(&self) -> Vec3 {
+        let sides = if self.two_sided { 2.0 } else { 1.0 };
+        self.radiance * (PI * self.area * sides)
+    }
+
     /// A point on the quad seen from `p`.
     #[inline]
     pub fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {

@@ -7,11 +7,13 @@
 //! any, comes last.
 
 mod area;
+mod pick;
 mod point;
 mod sky;
 mod sun;
 
 pub use area::{QuadLight, SphereLight};
+pub use pick::{LightPick, scene_radius};
 pub use point::PointLight;
 pub use sky::{EnvMap, SkyLight};
 pub use sun::SunLight;
@@ -147,13 +149,27 @@ pub struct LightSet {
     pub lights: Vec<AnyLight>,
     /// Mean radiance of the sky over the sphere (zero without a sky).
     pub sky_mean: Vec3,
+    /// How next-event estimation picks lights: `None` samples every light at every vertex
+    /// ([`lamina_core::LightSampling::All`]); `Some` draws one
+    /// ([`lamina_core::LightSampling::One`]).
+    pub pick: Option<LightPick>,
 }
 
 impl LightSet {
     /// Prepares the lights of `scene`. An error for non-finite values or a zero sun
     /// direction.
+    /// With the scene's path integrator set to `light_sampling = "one"`, it draws one light
+    /// per vertex ([`LightPick`]).
     pub fn new(scene: &Scene) -> Result<Self, RenderError> {
-        Self::from_parts(&scene.lights, scene.sky.as_ref())
+        let mut set = Self::from_parts(&scene.lights, scene.sky.as_ref())?;
+        if let lamina_core::Integrator::Path {
+            light_sampling: lamina_core::LightSampling::One,
+            ..
+        } = scene.integrator
+        {
+            set.pick = LightPick::new(&set.lights, scene_radius(scene));
+        }
+        Ok(set)
     }
 
     /// [`Self::new`] from a scene's lights and sky.
@@ -233,7 +249,11 @@ impl LightSet {
             sky_mean = s.mean();
             lights.push(AnyLight::Sky(s));
         }
-        Ok(LightSet { lights, sky_mean })
+        Ok(LightSet {
+            lights,
+            sky_mean,
+            pick: None,
+        })
     }
 }
 

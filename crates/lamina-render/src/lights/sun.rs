@@ -61,6 +61,12 @@ impl SunLight {
         self.h <= 0.0
     }
 
+    /// Irradiance (W m⁻²) on a surface facing the sun.
+    #[inline]
+    pub fn irradiance(&self) -> Vec3 {
+        self.irradiance
+    }
+
     /// What [`Self::sample`] returns as `li`: the irradiance of a delta sun, the disc's
     /// radiance otherwise.
     #[inline]

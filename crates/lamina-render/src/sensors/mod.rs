@@ -141,6 +141,7 @@ pub(crate) fn depths(scene: &Scene) -> (u32, u32) {
         Integrator::Path {
             max_depth,
             rr_depth,
+            ..
         } => (max_depth, rr_depth),
         Integrator::Paper { .. } => (64, 3),
     }

@@ -31,6 +31,7 @@ fn alpha_matte_lets_camera_and_shadow_rays_through() {
         integrator: Integrator::Path {
             max_depth: 1,
             rr_depth: 5,
+            light_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: Vec3::new(1.0, 0.0, 1.0),
@@ -88,6 +89,7 @@ fn alpha_tested_instances_cast_shadows_through_holes() {
             integrator: Integrator::Path {
                 max_depth: 1,
                 rr_depth: 5,
+                light_sampling: Default::default(),
             },
             lights: vec![Light::Sun {
                 direction: Vec3::new(sun_x, 0.0, 1.0),

@@ -28,6 +28,7 @@ fn lambertian_card_matches_analytic_sun_value() {
                 Integrator::Path {
                     max_depth: 4,
                     rr_depth: 2,
+                    light_sampling: Default::default(),
                 },
                 Integrator::Paper {
                     ambient: Some(Vec3::ZERO),
@@ -98,6 +99,7 @@ pub(super) fn furnace_scene() -> Scene {
         integrator: Integrator::Path {
             max_depth: 100,
             rr_depth: 3,
+            light_sampling: Default::default(),
         },
         lights: vec![],
         sky: Some(Sky::Constant(Vec3::ONE)),

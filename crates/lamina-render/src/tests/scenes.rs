@@ -125,6 +125,7 @@ pub(crate) fn small_canopy_scene() -> Scene {
         integrator: Integrator::Path {
             max_depth: 6,
             rr_depth: 2,
+            light_sampling: Default::default(),
         },
         lights: vec![
             Light::Sun {
@@ -170,6 +171,7 @@ pub(crate) fn sphere_scene(mesh: Mesh, lights: Vec<Light>, sky: Option<Sky>) -> 
         integrator: Integrator::Path {
             max_depth: 4,
             rr_depth: 2,
+            light_sampling: Default::default(),
         },
         lights,
         sky,

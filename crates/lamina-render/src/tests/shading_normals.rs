@@ -23,6 +23,7 @@ fn normals_equal_to_geometric_render_identically() {
             Integrator::Path {
                 max_depth: 4,
                 rr_depth: 2,
+                light_sampling: Default::default(),
             },
             Integrator::Paper { ambient: None },
         ] {
@@ -138,6 +139,7 @@ fn tilted_normals_do_not_leak_light() {
         Integrator::Path {
             max_depth: 4,
             rr_depth: 2,
+            light_sampling: Default::default(),
         },
         Integrator::Paper {
             ambient: Some(Vec3::ZERO),
@@ -190,6 +192,7 @@ fn furnace_with_shading_normals() {
         integrator: Integrator::Path {
             max_depth: 100,
             rr_depth: 3,
+            light_sampling: Default::default(),
         },
         lights: vec![],
         sky: Some(Sky::Constant(Vec3::ONE)),

@@ -5,16 +5,21 @@
 //! | `type` | `path`, `paper` | `path` | `path`: unidirectional path tracer with next-event estimation, MIS and Russian roulette; light passes leaf to leaf. `paper`: the paper's renderer: direct light only, per-light front/back/through-light shading, multiple scattering as an ambient term |
 //! | `max_depth` | scattering events, >= 1 | `8` | `path` only |
 //! | `rr_depth` | >= 1 | `3` | `path` only: depth from which Russian roulette may end a path |
+//! | `light_sampling` | `all`, `one` | `all` | `path` only: which lights next-event estimation samples at each scattering vertex. `all`: every light, one shadow ray each (the least noise per sample). `one`: one light, drawn in proportion to its estimated power (distant lights and skies as seen by the scene's bounding sphere) and weighted by that probability: one shadow ray per vertex whatever the number of lights, as Mitsuba 3's `path` traces; more noise per sample, less time per sample |
 //! | `ambient` | colour (radiance) | the sky's mean radiance | `paper` only: ambient radiance that stands in for multiple scattering |
 
 use crate::dict::{Dict, Keys, Kind, S, Table, Value};
 use crate::error::SceneError;
 use crate::loader::Loader;
-use crate::scene::Integrator;
+use crate::scene::{Integrator, LightSampling};
 
 /// The keys of `type = "path"`.
 pub(crate) const PATH: Keys = Keys {
-    own: &[("max_depth", Kind::Int), ("rr_depth", Kind::Int)],
+    own: &[
+        ("max_depth", Kind::Int),
+        ("rr_depth", Kind::Int),
+        ("light_sampling", Kind::Str),
+    ],
     common: &[],
     typed: true,
 };
@@ -32,6 +37,7 @@ pub(crate) fn read(ld: &Loader, t: Option<&S<Table>>) -> Result<Integrator, Scen
         return Ok(Integrator::Path {
             max_depth: 8,
             rr_depth: 3,
+            light_sampling: Default::default(),
         });
     };
     let kind_value = t.get_ref().iter().find(|(k, _)| k.get_ref() == "type");
@@ -62,10 +68,25 @@ pub(crate) fn read(ld: &Loader, t: Option<&S<Table>>) -> Result<Integrator, Scen
             let d = open(PATH)?;
             let max_depth = d.count("max_depth", 1, 1024, 8)?;
             let rr_depth = d.count("rr_depth", 1, 1024, 3)?;
+            let light_sampling = match d.string("light_sampling")? {
+                None => LightSampling::All,
+                Some(v) => match *v.get_ref() {
+                    "all" => LightSampling::All,
+                    "one" => LightSampling::One,
+                    other => {
+                        return Err(d.err(
+                            v.span(),
+                            "light_sampling",
+                            format!("unknown light sampling '{other}' (all, one)"),
+                        ));
+                    }
+                },
+            };
             d.finish()?;
             Integrator::Path {
                 max_depth,
                 rr_depth,
+                light_sampling,
             }
         }
         "paper" => {

@@ -85,6 +85,7 @@ pub(super) fn scene(materials: Vec<Material>, meshes: Vec<Mesh>) -> Scene {
         integrator: lamina_core::Integrator::Path {
             max_depth: 1,
             rr_depth: 1,
+            light_sampling: Default::default(),
         },
         lights: Vec::new(),
         sky: None,

@@ -146,10 +146,14 @@ def main():
                          "ignored by shadow rays)")
     ap.add_argument("--mitsuba-sampler", default="independent",
                     help="Mitsuba sampler (independent, stratified, multijitter, orthogonal, ldsampler)")
+    ap.add_argument("--light-sampling", default="all,one",
+                    help="lamina's light_sampling values to time, comma list (all: a shadow ray to "
+                         "every light per vertex; one: one light per vertex, as Mitsuba does)")
     ap.add_argument("--out", default=str(common.DEFAULT_OUT / "bush_compare"))
     ap.add_argument("--warm-disk-cache", action="store_true",
                     help="reuse Dr.Jit's on-disk kernel cache (default: fresh, so run 1 includes the JIT compile)")
     args = ap.parse_args()
+    modes = common.light_sampling_modes(args.light_sampling)
 
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -169,23 +173,31 @@ def main():
     # lamina and the Mitsuba integrators alternate, run by run, so that all see the same load
     # on a shared machine.
     rows = {}
-    lam_imgs = []
+    lam_imgs = {m: [] for m in modes}
+    lam_secs = {m: [] for m in modes}
     mit_imgs = {}
+    mit_secs = {}
     for seed in range(args.repeat):
-        exr = out / f"lamina_s{seed}.exr"
-        wall, summ, err = common.run_lamina(lamina, scene_toml, [exr, out / f"lamina_s{seed}.png"],
-                                            args.spp, args.threads, seed)
-        line = next((l for l in err.splitlines() if "samples/s" in l), err)
-        print(f"lamina seed {seed}: {wall:.2f} s wall; {line}", flush=True)
-        lam_imgs.append(common.load_exr(exr))
-        rows.setdefault("lamina", []).append([
-            f"lamina (run {seed + 1})", "%.2f" % wall, "%.2f" % summ["secs"] if summ else "-",
-            "%.3f" % (npix / wall / 1e6), "%.3f" % summ["msamples"] if summ else "-",
-            "%.2f" % summ["mrays"] if summ else "-"])
-        busy = busy or common.compile_running()
+        for m in modes:
+            tag = "" if m == "all" else f"_{m}"
+            exr = out / f"lamina{tag}_s{seed}.exr"
+            wall, summ, err = common.run_lamina(lamina, common.with_light_sampling(scene_toml, m),
+                                                [exr, out / f"lamina{tag}_s{seed}.png"],
+                                                args.spp, args.threads, seed)
+            line = next((l for l in err.splitlines() if "samples/s" in l), err)
+            print(f"lamina light_sampling={m} seed {seed}: {wall:.2f} s wall; {line}", flush=True)
+            lam_imgs[m].append(common.load_exr(exr))
+            lam_secs[m].append(summ["secs"] if summ else wall)
+            rows.setdefault(f"lamina {m}", []).append([
+                f"lamina light_sampling={m} (run {seed + 1})", "%.2f" % wall,
+                "%.2f" % summ["secs"] if summ else "-",
+                "%.3f" % (npix / wall / 1e6), "%.3f" % summ["msamples"] if summ else "-",
+                "%.2f" % summ["mrays"] if summ else "-"])
+            busy = busy or common.compile_running()
         for integ, (scene, load_s) in scenes.items():
             img, secs, st = common.render_mitsuba(scene, args.spp, seed, out / f"mitsuba_{integ}_s{seed}.exr")
             mit_imgs.setdefault(integ, []).append(img)
+            mit_secs.setdefault(integ, []).append(secs)
             wall = secs + (load_s if seed == 0 else 0.0)
             note = " (load %.2f s + JIT compile)" % load_s if seed == 0 else " (warm)"
             print(f"Mitsuba {integ} seed {seed}: {wall:.2f} s{note}; {st['kernels']} kernels, "
@@ -203,21 +215,30 @@ def main():
           f"a compile was {'RUNNING' if busy else 'not running'}")
     print(fmt_table(rows, ["run", "wall s", "render s", "M samples/s (wall)", "M samples/s (render)",
                            "M rays/s"]))
+    for integ, secs in mit_secs.items():
+        if len(secs) > 1:  # the warm runs (the first includes the JIT compile)
+            warm = sorted(secs[1:])[len(secs[1:]) // 2]
+            print(f"lamina / Mitsuba {integ} warm at equal spp (render s, median): " + ", ".join(
+                f"light_sampling={m} %.2fx" % (sorted(lam_secs[m])[len(lam_secs[m]) // 2] / warm)
+                for m in modes))
 
     print()
     crow = []
     for integ, imgs in mit_imgs.items():
-        c = common.compare(lam_imgs[0], imgs[0])
-        crow.append([f"lamina vs Mitsuba {integ}", "%.4f" % c["mean_rel"], "%+.2f%%" % (100 * c["means_rel"]),
-                     "%.2f%%" % (100 * c["rmse_rel"])])
+        for m in modes:
+            c = common.compare(lam_imgs[m][0], imgs[0])
+            crow.append([f"lamina {m} vs Mitsuba {integ}", "%.4f" % c["mean_rel"],
+                         "%+.2f%%" % (100 * c["means_rel"]), "%.2f%%" % (100 * c["rmse_rel"])])
         if len(imgs) > 1:
             n = common.compare(imgs[0], imgs[1])
             crow.append([f"noise: Mitsuba {integ} s0 vs s1", "%.4f" % n["mean_rel"],
                          "%+.2f%%" % (100 * n["means_rel"]), "%.2f%%" % (100 * n["rmse_rel"])])
-    if len(lam_imgs) > 1:
-        n = common.compare(lam_imgs[0], lam_imgs[1])
-        crow.append(["noise: lamina s0 vs s1", "%.4f" % n["mean_rel"], "%+.2f%%" % (100 * n["means_rel"]),
-                     "%.2f%%" % (100 * n["rmse_rel"])])
+    for m in modes:
+        if len(lam_imgs[m]) > 1:
+            n = common.compare(lam_imgs[m][0], lam_imgs[m][1])
+            crow.append([f"noise: lamina {m} s0 vs s1", "%.4f" % n["mean_rel"],
+                         "%+.2f%%" % (100 * n["means_rel"]), "%.2f%%" % (100 * n["rmse_rel"])])
+    lam_imgs = lam_imgs[modes[0]]
     print("Images (sanity check; a = first, b = second):")
     print(fmt_table(crow, ["pair", "mean rel. diff", "image mean a vs b", "RMSE / mean b"]))
 

@@ -373,6 +373,34 @@ def run_lamina(binary, scene, outputs, spp, threads, seed):
     return wall, summary, r.stderr.strip()
 
 
+LIGHT_SAMPLING = ("all", "one")
+
+
+def light_sampling_modes(text):
+    """`--light-sampling` of the comparison scripts: a comma list of lamina's `[integrator]
+    light_sampling` values (all: a shadow ray to every light per vertex; one: one light per
+    vertex drawn by power, as Mitsuba's path integrators sample one emitter)."""
+    modes = [m.strip() for m in text.split(",") if m.strip()]
+    bad = [m for m in modes if m not in LIGHT_SAMPLING]
+    if not modes or bad:
+        raise SystemExit(f"--light-sampling: {text!r} is not a comma list of {', '.join(LIGHT_SAMPLING)}")
+    return modes
+
+
+def with_light_sampling(scene_toml, mode):
+    """A copy of lamina scene `scene_toml` (beside it, `NAME_MODE.toml`) whose path
+    integrator samples lights by `mode`; the file itself for "all" (the default)."""
+    if mode == "all":
+        return scene_toml
+    text = scene_toml.read_text()
+    if "\n[integrator]\n" not in "\n" + text or "light_sampling" in text:
+        raise SystemExit(f"{scene_toml}: expected an [integrator] table without light_sampling")
+    text = ("\n" + text).replace("\n[integrator]\n", f'\n[integrator]\nlight_sampling = "{mode}"\n', 1)[1:]
+    out = scene_toml.with_name(f"{scene_toml.stem}_{mode}.toml")
+    out.write_text(text)
+    return out
+
+
 def compile_running():
     """Whether some rustc is running (someone compiling on this machine)."""
     r = subprocess.run(["pgrep", "-x", "rustc"], capture_output=True, text=True)

@@ -173,9 +173,13 @@ def main():
                     help="Mitsuba sampler (independent, stratified, multijitter, orthogonal, ldsampler)")
     ap.add_argument("--depth-check", action="store_true",
                     help="instead: lamina max_depth 1 against Mitsuba max_depth 1, 2, 3")
+    ap.add_argument("--light-sampling", default="all,one",
+                    help="lamina's light_sampling values to time, comma list (all: a shadow ray to "
+                         "every light per vertex; one: one light per vertex, as Mitsuba does)")
     ap.add_argument("--exposure", type=float, default=None,
                     help="PNG exposure in stops (default: lamina image mean -> 0.2)")
     args = ap.parse_args()
+    modes = common.light_sampling_modes(args.light_sampling)
 
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -195,16 +199,18 @@ def main():
           f"lamina max_depth {depth}, {args.threads} threads, Mitsuba sampler {args.mitsuba_sampler}; machine: {ncpu} cores, {model}")
     busy = common.compile_running()
 
-    def lamina_run(seed):
-        exr = out / f"lamina_s{seed}.exr"
-        wall, summ, err = common.run_lamina(lamina, scene_toml, [exr, out / f"lamina_s{seed}.png"],
+    def lamina_run(seed, mode="all"):
+        tag = "" if mode == "all" else f"_{mode}"
+        exr = out / f"lamina{tag}_s{seed}.exr"
+        wall, summ, err = common.run_lamina(lamina, common.with_light_sampling(scene_toml, mode),
+                                            [exr, out / f"lamina{tag}_s{seed}.png"],
                                             args.spp, args.threads, seed)
         line = next((l for l in err.splitlines() if "samples/s" in l), err)
-        print(f"lamina seed {seed}: {wall:.2f} s wall; {line}", flush=True)
+        print(f"lamina light_sampling={mode} seed {seed}: {wall:.2f} s wall; {line}", flush=True)
         return common.load_exr(exr), wall, summ
 
     if args.depth_check:
-        lam = [lamina_run(0), lamina_run(1)]
+        lam = [lamina_run(0, modes[0]), lamina_run(1, modes[0])]
         rows = []
         for md in (1, 2, 3):
             scene = mitsuba_scene(args.size, args.size, args.spp, depth, out / "cards.obj",
@@ -227,9 +233,12 @@ def main():
     scene = mitsuba_scene(args.size, args.size, args.spp, depth, out / "cards.obj", out / "ground.obj",
                           sampler=args.mitsuba_sampler)
     load_s = time.perf_counter() - t0
-    lam, mit = [], []
+    # Each mode's two seeds; `lam` is the first mode's (the images compared with Mitsuba).
+    runs = {m: [] for m in modes}
+    mit = []
     for seed in (0, 1):
-        lam.append(lamina_run(seed))
+        for m in modes:
+            runs[m].append(lamina_run(seed, m))
         busy = busy or common.compile_running()
         img, secs, st = common.render_mitsuba(scene, args.spp, seed, out / f"mitsuba_s{seed}.exr")
         mit.append((img, secs, st))
@@ -238,6 +247,7 @@ def main():
               + (f"; scene load {load_s:.2f} s" if seed == 0 else ""), flush=True)
         busy = busy or common.compile_running()
 
+    lam = runs[modes[0]]
     # ---- orientation check: compare with Mitsuba as is and mirrored left-right
     straight = common.compare(lam[0][0], mit[0][0])
     mirrored = common.compare(lam[0][0], common.flip_x(mit[0][0]))
@@ -255,13 +265,16 @@ def main():
           f"(least squares on the image gradient; 0 = same pixel grid)")
 
     # ---- statistics
-    pairs = [
-        ("lamina s0 vs Mitsuba s0", lam[0][0], mit[0][0]),
-        ("lamina s1 vs Mitsuba s1", lam[1][0], mit[1][0]),
-        ("noise: lamina s0 vs s1", lam[0][0], lam[1][0]),
-        ("noise: Mitsuba s0 vs s1", mit[0][0], mit[1][0]),
-        ("both seeds: lamina vs Mitsuba", (lam[0][0] + lam[1][0]) * 0.5, (mit[0][0] + mit[1][0]) * 0.5),
-    ]
+    pairs = []
+    for m in modes:
+        lm = runs[m]
+        pairs += [
+            (f"lamina {m} s0 vs Mitsuba s0", lm[0][0], mit[0][0]),
+            (f"lamina {m} s1 vs Mitsuba s1", lm[1][0], mit[1][0]),
+            (f"noise: lamina {m} s0 vs s1", lm[0][0], lm[1][0]),
+            (f"both seeds: lamina {m} vs Mitsuba", (lm[0][0] + lm[1][0]) * 0.5, (mit[0][0] + mit[1][0]) * 0.5),
+        ]
+    pairs.append(("noise: Mitsuba s0 vs s1", mit[0][0], mit[1][0]))
     rows = []
     for name, a, b in pairs:
         c = common.compare(a, b)
@@ -270,10 +283,12 @@ def main():
     # If both render the same image, lamina - Mitsuba is the difference of two independent noisy
     # estimates: its expected squared RMSE is the mean of the two same-renderer squared RMSEs
     # (each of those is the difference of two independent runs of one renderer).
-    ll = common.compare(lam[0][0], lam[1][0])
     mm = common.compare(mit[0][0], mit[1][0])
-    pred = math.sqrt(0.5 * (ll["rmse"] ** 2 + mm["rmse"] ** 2))
-    rows.append(["expected from noise alone", "-", "-", "%.5f (%.2f%%)" % (pred, 100 * pred / mm["mean_b"])])
+    for m in modes:
+        ll = common.compare(runs[m][0][0], runs[m][1][0])
+        pred = math.sqrt(0.5 * (ll["rmse"] ** 2 + mm["rmse"] ** 2))
+        rows.append([f"expected from noise alone ({m})", "-", "-",
+                     "%.5f (%.2f%%)" % (pred, 100 * pred / mm["mean_b"])])
     print()
     print(f"Image statistics ({args.size}x{args.size}, {args.spp} spp; mean rel. diff = mean |a-b| / "
           f"max(b, 0.05 x mean b); image means: lamina {common.image_mean(lam[0][0]):.5f}, "
@@ -282,10 +297,10 @@ def main():
 
     npix = args.size * args.size * args.spp
     rows = []
-    for seed in (0, 1):
-        img, wall, summ = lam[seed]
+    for m, seed in [(m, seed) for m in modes for seed in (0, 1)]:
+        img, wall, summ = runs[m][seed]
         r = summ["secs"] if summ else float("nan")
-        rows.append([f"lamina seed {seed}", "%.2f" % wall, "%.2f" % r, "%.3f" % (npix / wall / 1e6),
+        rows.append([f"lamina light_sampling={m} seed {seed}", "%.2f" % wall, "%.2f" % r, "%.3f" % (npix / wall / 1e6),
                      ("%.3f" % summ["msamples"]) if summ else "-"])
     for seed in (0, 1):
         img, secs, st = mit[seed]
@@ -296,6 +311,10 @@ def main():
     print()
     print(f"Times ({args.threads} threads; a compile was {'RUNNING' if busy else 'not running'} on this machine)")
     print(fmt_table(rows, ["run", "wall s", "render s", "M samples/s (wall)", "M samples/s (render)"]))
+    warm = mit[1][1]
+    print("lamina / Mitsuba warm at equal spp (render s, mean of the two seeds): " + ", ".join(
+        f"light_sampling={m} %.2fx" % (sum(r[2]["secs"] if r[2] else r[1] for r in runs[m]) / 2 / warm)
+        for m in modes))
 
     # ---- side-by-side PNG
     mean = common.image_mean(lam[0][0])

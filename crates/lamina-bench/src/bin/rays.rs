@@ -76,6 +76,10 @@ struct Args {
     /// Scenes to run, comma-separated: cards (also builds cards_opaque), tree.
     #[arg(long, value_delimiter = ',', default_value = "cards,tree")]
     scenes: Vec<String>,
+    /// Cases to run, comma-separated (e.g. `tree_camera_closest`, for a profile of one);
+    /// all of the chosen scenes' cases by default.
+    #[arg(long, value_delimiter = ',')]
+    cases: Vec<String>,
 }
 
 /// Rays of the counters and the cross-check.
@@ -500,6 +504,9 @@ fn run_cases(
 ) {
     let f = |_: u32, uv: Vec2| matte.opaque(uv);
     for case in cases {
+        if !args.cases.is_empty() && !args.cases.iter().any(|c| c == case.name) {
+            continue;
+        }
         let c = counters(case, matte);
         #[cfg(feature = "embree")]
         let mismatches = case
@@ -583,8 +590,22 @@ fn print_builds(builds: &[BuildRow]) {
     }
 }
 
+/// Every case's name, for `--cases`.
+const CASES: [&str; 7] = [
+    "camera_closest",
+    "random_closest",
+    "random_closest_alpha",
+    "shadow_any_alpha",
+    "tree_camera_closest",
+    "tree_random_closest",
+    "tree_shadow_any",
+];
+
 fn main() -> Result<()> {
     let args = Args::parse();
+    if let Some(bad) = args.cases.iter().find(|c| !CASES.contains(&c.as_str())) {
+        bail!("--cases: no case '{bad}' (cases: {})", CASES.join(", "));
+    }
     if let Some(path) = &args.json {
         check_json_target(path, args.force)?;
     }

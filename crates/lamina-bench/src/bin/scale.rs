@@ -49,6 +49,10 @@ struct Args {
     /// Render threads.
     #[arg(long, default_value_t = 2)]
     threads: usize,
+    /// The path integrator's light sampling: `all` (a shadow ray to the sun and one to the
+    /// sky at every vertex) or `one` (one of them, drawn by power).
+    #[arg(long, default_value = "all", value_parser = ["all", "one"])]
+    light_sampling: String,
     /// Seed of the tree.
     #[arg(long, default_value_t = 11)]
     seed: u64,
@@ -90,7 +94,14 @@ fn child(args: &Args, rep: Representation) -> Result<Measurement> {
     let generate_s = t.elapsed().as_secs_f64();
     let leaves_placed = plant.leaf_count() as u64;
     let copies = if rep.is_forest() { args.copies } else { 1 };
-    let scene = tree_scene(plant, rep, copies, args.width, args.height, args.spp);
+    let mut scene = tree_scene(plant, rep, copies, args.width, args.height, args.spp);
+    if let lamina_core::Integrator::Path { light_sampling, .. } = &mut scene.integrator {
+        *light_sampling = if args.light_sampling == "one" {
+            lamina_core::LightSampling::One
+        } else {
+            lamina_core::LightSampling::All
+        };
+    }
     let (triangles, unique_triangles) = triangle_counts(&scene);
     eprintln!(
         "  {rep} {leaves} leaves x{copies}: generated in {generate_s:.1} s, {triangles} triangles ({unique_triangles} unique); rendering {}x{} {} spp",
@@ -151,6 +162,7 @@ fn spawn(args: &Args, rep: &str, leaves: u32, copies: u32) -> Result<Measurement
         .args(["--height", &args.height.to_string()])
         .args(["--spp", &args.spp.to_string()])
         .args(["--threads", &args.threads.to_string()])
+        .args(["--light-sampling", &args.light_sampling])
         .args(["--seed", &args.seed.to_string()])
         .arg("--out")
         .arg(&args.out)

@@ -35,6 +35,46 @@ pub struct Scene {
     pub radiometry: crate::Radiometry,
 }
 
+impl Scene {
+    /// The axis-aligned box (m) around the scene's geometry: every finite vertex of its
+    /// meshes, and for each instance the eight corners of its prototype's box, transformed
+    /// (a box around the instance). `None` without geometry. Lights are not included.
+    pub fn geometry_bounds(&self) -> Option<(Vec3, Vec3)> {
+        let grow = |(lo, hi): (Vec3, Vec3), p: Vec3| {
+            if p.is_finite() {
+                (lo.min(p), hi.max(p))
+            } else {
+                (lo, hi)
+            }
+        };
+        let empty = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        let points = |meshes: &[Mesh]| {
+            meshes
+                .iter()
+                .flat_map(|m| m.positions.iter().copied())
+                .fold(empty, grow)
+        };
+        let mut b = points(&self.meshes);
+        let protos: Vec<(Vec3, Vec3)> = self.prototypes.iter().map(|p| points(&p.meshes)).collect();
+        for inst in &self.instances {
+            let Some(&(l, h)) = protos.get(inst.prototype as usize) else {
+                continue;
+            };
+            if l.cmple(h).all() {
+                for k in 0..8 {
+                    let c = Vec3::new(
+                        if k & 1 == 0 { l.x } else { h.x },
+                        if k & 2 == 0 { l.y } else { h.y },
+                        if k & 4 == 0 { l.z } else { h.z },
+                    );
+                    b = grow(b, inst.transform.transform_point3(c));
+                }
+            }
+        }
+        b.0.cmple(b.1).all().then_some(b)
+    }
+}
+
 /// A pinhole or thin-lens perspective camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {

@@ -25,54 +25,10 @@ impl SceneBounds {
 
 /// Bounding sphere of the scene's geometry (instances included).
 fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
-    let mut lo = Vec3::splat(f32::INFINITY);
-    let mut hi = Vec3::splat(f32::NEG_INFINITY);
-    let mut add = |p: Vec3| {
-        if p.is_finite() {
-            lo = lo.min(p);
-            hi = hi.max(p);
-        }
-    };
-    for m in &scene.meshes {
-        m.positions.iter().for_each(|&p| add(p));
+    match scene.geometry_bounds() {
+        Some((lo, hi)) => (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-3)),
+        None => (Vec3::ZERO, 1.0),
     }
-    let proto_bounds = prototype_boxes(scene);
-    for inst in &scene.instances {
-        if let Some(Some((l, h))) = proto_bounds.get(inst.prototype as usize) {
-            for k in 0..8 {
-                let c = Vec3::new(
-                    if k & 1 == 0 { l.x } else { h.x },
-                    if k & 2 == 0 { l.y } else { h.y },
-                    if k & 4 == 0 { l.z } else { h.z },
-                );
-                add(inst.transform.transform_point3(c));
-            }
-        }
-    }
-    if lo.x > hi.x {
-        return (Vec3::ZERO, 1.0);
-    }
-    let c = 0.5 * (lo + hi);
-    (c, (0.5 * (hi - lo).length()).max(1e-3))
-}
-
-/// Each prototype's bounding box in its own space (`None` when it has no vertices).
-fn prototype_boxes(scene: &Scene) -> Vec<Option<(Vec3, Vec3)>> {
-    scene
-        .prototypes
-        .iter()
-        .map(|p| {
-            let mut l = Vec3::splat(f32::INFINITY);
-            let mut h = Vec3::splat(f32::NEG_INFINITY);
-            for m in &p.meshes {
-                for &q in &m.positions {
-                    l = l.min(q);
-                    h = h.max(q);
-                }
-            }
-            (l.x <= h.x).then_some((l, h))
-        })
-        .collect()
 }
 
 /// Bounding sphere of the *shadow casters' core*: per axis, the 0.5th to 99.5th percentile of

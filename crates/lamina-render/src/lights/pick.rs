@@ -98,40 +98,15 @@ fn estimated_power(light: &AnyLight, r2: f32) -> f32 {
 /// Radius (m) of a sphere around the geometry and the local lights of `scene` (half the
 /// diagonal of their bounding box; 1 for an empty scene).
 pub fn scene_radius(scene: &lamina_core::Scene) -> f32 {
-    let mut lo = Vec3::INFINITY;
-    let mut hi = Vec3::NEG_INFINITY;
+    let (mut lo, mut hi) = scene
+        .geometry_bounds()
+        .unwrap_or((Vec3::INFINITY, Vec3::NEG_INFINITY));
     let mut grow = |p: Vec3| {
         if p.is_finite() {
             lo = lo.min(p);
             hi = hi.max(p);
         }
     };
-    for m in &scene.meshes {
-        m.positions.iter().for_each(|&p| grow(p));
-    }
-    let proto_box: Vec<Option<(Vec3, Vec3)>> = scene
-        .prototypes
-        .iter()
-        .map(|proto| {
-            let pts = proto.meshes.iter().flat_map(|m| m.positions.iter());
-            let (l, h) = pts.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), &p| {
-                (l.min(p), h.max(p))
-            });
-            (l.cmple(h).all()).then_some((l, h))
-        })
-        .collect();
-    for inst in &scene.instances {
-        if let Some(Some((l, h))) = proto_box.get(inst.prototype as usize) {
-            for k in 0..8 {
-                let c = Vec3::new(
-                    if k & 1 == 0 { l.x } else { h.x },
-                    if k & 2 == 0 { l.y } else { h.y },
-                    if k & 4 == 0 { l.z } else { h.z },
-                );
-                grow(inst.transform.transform_point3(c));
-            }
-        }
-    }
     for light in &scene.lights {
         match light {
             lamina_core::Light::Point { position, .. } => grow(*position),
@@ -219,6 +194,65 @@ mod tests {
         assert_eq!(pick.choose(0.0).0, 0);
         assert_eq!(pick.choose(0.999_999_94).0, 2);
         assert_eq!(pick.choose(1.0).0, 2);
+    }
+
+    /// The radius spans world meshes, instances (their prototype's box, transformed: a
+    /// rotated card's box), local lights, and nothing else (the sun adds nothing).
+    #[test]
+    fn scene_radius_covers_geometry_instances_and_local_lights() {
+        use crate::tests::scenes::{card, small_canopy_scene};
+        use lamina_core::{Instance, Light, Prototype};
+        let mut scene = small_canopy_scene();
+        scene.meshes = vec![card(0.5, 0.0, 0)];
+        scene.lights.clear();
+        assert!((scene_radius(&scene) - 0.5 * 2f32.sqrt()).abs() < 1e-6);
+        scene.prototypes = vec![Prototype {
+            name: "card".into(),
+            meshes: vec![card(0.5, 0.0, 0)],
+        }];
+        // Turned 45° about z and moved to x = 10: its box spans x 10 ± √½, y ± √½.
+        scene.instances = vec![Instance {
+            prototype: 0,
+            transform: glam::Affine3A::from_rotation_translation(
+                glam::Quat::from_rotation_z(std::f32::consts::FRAC_PI_4),
+                Vec3::new(10.0, 0.0, 0.0),
+            ),
+        }];
+        let (lo, hi) = scene.geometry_bounds().unwrap();
+        assert!((hi.x - (10.0 + 0.5f32.sqrt())).abs() < 1e-5, "{hi}");
+        assert!(
+            (lo - Vec3::new(-0.5, -(0.5f32.sqrt()), 0.0))
+                .abs()
+                .max_element()
+                < 1e-6,
+            "{lo}"
+        );
+        scene.lights = vec![
+            Light::Point {
+                position: Vec3::new(0.0, 0.0, -20.0),
+                intensity: Vec3::ONE,
+            },
+            Light::Sun {
+                direction: Vec3::Y,
+                irradiance: Vec3::ONE,
+                angular_diameter_deg: 0.0,
+            },
+        ];
+        let want = 0.5
+            * (Vec3::new(10.0 + 0.5f32.sqrt(), 0.5f32.sqrt(), 0.0)
+                - Vec3::new(-0.5, -(0.5f32.sqrt()), -20.0))
+            .length();
+        assert!(
+            (scene_radius(&scene) - want).abs() < 1e-4,
+            "{} vs {want}",
+            scene_radius(&scene)
+        );
+        // No geometry and no local lights: radius 1.
+        scene.meshes.clear();
+        scene.instances.clear();
+        scene.lights.truncate(0);
+        assert!(scene.geometry_bounds().is_none());
+        assert_eq!(scene_radius(&scene), 1.0);
     }
 
     #[test]

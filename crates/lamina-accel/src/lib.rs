@@ -464,28 +464,79 @@ fn top_params(trav_cost: f32) -> build::BuildParams {
     }
 }
 
-/// The instances the top level holds (those whose prototype is not empty), as scene
-/// indices, and their world boxes.
-fn top_boxes<const W: usize>(desc: &SceneDesc, protos: &[Blas<W>]) -> (Vec<u32>, Vec<Aabb>) {
-    let mut ids = Vec::new();
-    let mut boxes = Vec::new();
-    for (i, inst) in desc.instances.iter().enumerate() {
-        let Some(b) = protos[inst.prototype as usize].bounds else {
-            continue;
-        };
-        let m = inst.object_to_world;
-        let mut wb = Aabb::EMPTY;
-        for k in 0..8 {
-            let c = Vec3::new(
-                if k & 1 == 0 { b.min.x } else { b.max.x },
-                if k & 2 == 0 { b.min.y } else { b.max.y },
-                if k & 4 == 0 { b.min.z } else { b.max.z },
-            );
-            wb = wb.grow(m.transform_point3(c));
+/// Most distinct vertices a prototype's instances are bounded by one by one; above it, by
+/// the corners of the prototype's box.
+const MAX_HULL_POINTS: usize = 64;
+
+/// The object-space points whose transformed box bounds an instance of prototype `g` (box
+/// `b`): its distinct vertices (a parallelogram's four corners) when there are at most
+/// [`MAX_HULL_POINTS`], so that a turned leaf gets the box of its turned vertices, not the
+/// larger box of its turned box; otherwise the eight corners of `b`.
+fn hull_points(g: &Geometry, b: Aabb) -> Vec<Vec3> {
+    let mut pts: Vec<[u32; 3]> = Vec::new();
+    for p in g.prims.iter().filter(|p| p.is_valid()) {
+        let mut add = |v: Vec3| pts.push(v.to_array().map(f32::to_bits));
+        p.v.iter().for_each(|&v| add(v));
+        if p.quad {
+            add(p.v[1] + p.v[2] - p.v[0]);
         }
-        ids.push(i as u32);
-        boxes.push(wb);
+        if pts.len() > 4 * MAX_HULL_POINTS {
+            pts.sort_unstable();
+            pts.dedup();
+            if pts.len() > MAX_HULL_POINTS {
+                break;
+            }
+        }
     }
+    pts.sort_unstable();
+    pts.dedup();
+    if pts.len() > MAX_HULL_POINTS || pts.is_empty() {
+        return (0..8)
+            .map(|k| {
+                Vec3::new(
+                    if k & 1 == 0 { b.min.x } else { b.max.x },
+                    if k & 2 == 0 { b.min.y } else { b.max.y },
+                    if k & 4 == 0 { b.min.z } else { b.max.z },
+                )
+            })
+            .collect();
+    }
+    pts.into_iter()
+        .map(|p| Vec3::from_array(p.map(f32::from_bits)))
+        .collect()
+}
+
+/// The instances the top level holds (those whose prototype is not empty), as scene
+/// indices, and their world boxes: the box of the prototype's [`hull_points`] placed by
+/// the instance, widened by a few units in the last place of its coordinates (the
+/// transform's rounding; traversal tests the untransformed geometry in object space).
+fn top_boxes<const W: usize>(desc: &SceneDesc, protos: &[Blas<W>]) -> (Vec<u32>, Vec<Aabb>) {
+    use rayon::prelude::*;
+    let hulls: Vec<Option<Vec<Vec3>>> = protos
+        .par_iter()
+        .zip(&desc.prototypes)
+        // Prototypes no instance uses were built empty (no bounds): no hull made for them.
+        .map(|(blas, g)| blas.bounds.map(|b| hull_points(g, b)))
+        .collect();
+    let ids: Vec<u32> = (0..desc.instances.len() as u32)
+        .filter(|&i| hulls[desc.instances[i as usize].prototype as usize].is_some())
+        .collect();
+    let boxes = ids
+        .par_iter()
+        .map(|&i| {
+            let inst = &desc.instances[i as usize];
+            let m = inst.object_to_world;
+            let pts = hulls[inst.prototype as usize].as_deref().unwrap_or(&[]);
+            let b = pts
+                .iter()
+                .fold(Aabb::EMPTY, |b, &p| b.grow(m.transform_point3(p)));
+            let pad = (b.min.abs().max(b.max.abs()) + (b.max - b.min)) * (4.0 * f32::EPSILON);
+            Aabb {
+                min: b.min - pad,
+                max: b.max + pad,
+            }
+        })
+        .collect();
     (ids, boxes)
 }
 

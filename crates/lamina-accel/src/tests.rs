@@ -373,6 +373,133 @@ fn masks_skip_most_alpha_lookups() {
     );
 }
 
+/// Instances are bounded by their placed vertices ([`hull_points`]), not by their placed
+/// box: a right triangle turned 45° about its normal gets a box half the area of its turned
+/// box's box. Rays aimed at points just inside the corners of turned, scaled and mirrored cards
+/// and triangles (where a too-tight box would cut them off) hit them, as brute force does.
+#[test]
+fn instance_boxes_are_tight_and_keep_the_corners() {
+    let card = Prim::parallelogram(Vec3::ZERO, Vec3::X, Vec3::Y);
+    let tri = Prim::triangle([
+        Vec3::new(0.0, 0.0, 0.5),
+        Vec3::new(1.0, 0.2, 0.5),
+        Vec3::new(0.3, 1.0, 0.7),
+    ]);
+    let geom = Geometry {
+        prims: vec![card, tri],
+    };
+    let b = Aabb::of_points(&[Vec3::ZERO, Vec3::ONE]);
+    assert_eq!(hull_points(&geom, b).len(), 4 + 3);
+    // More distinct vertices than MAX_HULL_POINTS: the box's corners.
+    let mut r = rng(3);
+    let many = random_geometry(&mut r, MAX_HULL_POINTS, 1.0, false);
+    assert_eq!(hull_points(&many, b).len(), 8);
+
+    // A right triangle turned 45° about its normal: its box is half its box's turned box.
+    let right = Geometry {
+        prims: vec![Prim::triangle([Vec3::ZERO, Vec3::X, Vec3::Y])],
+    };
+    let mut desc = SceneDesc {
+        prototypes: vec![right],
+        ..Default::default()
+    };
+    let turn = Affine3A::from_rotation_z(std::f32::consts::FRAC_PI_4);
+    desc.instances.push(Instance {
+        object_to_world: turn,
+        prototype: 0,
+    });
+    let a = Accel::build(&desc).unwrap();
+    let blas_box = |a: &Accel| match &a.engine {
+        Engine::W8(l) => l.protos[0].bounds.unwrap(),
+        Engine::W4(l) => l.protos[0].bounds.unwrap(),
+    };
+    let (_, boxes) = match &a.engine {
+        Engine::W8(l) => top_boxes(&desc, &l.protos),
+        Engine::W4(l) => top_boxes(&desc, &l.protos),
+    };
+    let corner_box = (0..8).fold(Aabb::EMPTY, |acc, k| {
+        let pb = blas_box(&a);
+        let c = Vec3::new(
+            if k & 1 == 0 { pb.min.x } else { pb.max.x },
+            if k & 2 == 0 { pb.min.y } else { pb.max.y },
+            if k & 4 == 0 { pb.min.z } else { pb.max.z },
+        );
+        acc.grow(turn.transform_point3(c))
+    });
+    let area = |b: &Aabb| {
+        let e = b.max - b.min;
+        e.x * e.y
+    };
+    assert!(
+        area(&boxes[0]) < 0.6 * area(&corner_box),
+        "{:?} vs {:?}",
+        boxes[0],
+        corner_box
+    );
+
+    // Many placements; rays toward points 1 % inside each corner, from random origins.
+    let mut r = rng(17);
+    desc.prototypes = vec![geom.clone()];
+    desc.instances.clear();
+    for i in 0..40 {
+        let scale =
+            Vec3::new(0.2 + r(), 0.2 + r(), 0.2 + r()) * if i % 3 == 0 { -1.0 } else { 1.0 };
+        desc.instances.push(Instance {
+            object_to_world: Affine3A::from_scale_rotation_translation(
+                scale,
+                Quat::from_axis_angle(unit(&mut r), 6.0 * r()),
+                Vec3::new(r(), r(), r()) * 30.0,
+            ),
+            prototype: 0,
+        });
+    }
+    let f = |_: u32, _: Vec2| true;
+    for kernel in kernels() {
+        let a = Accel::build_with(
+            &desc,
+            BuildOptions {
+                kernel,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let mut missed = 0;
+        let mut n = 0;
+        for inst in &desc.instances {
+            let m = inst.object_to_world;
+            for p in &geom.prims {
+                let corners: Vec<Vec3> = if p.quad {
+                    vec![p.v[0], p.v[1], p.v[2], p.v[1] + p.v[2] - p.v[0]]
+                } else {
+                    p.v.to_vec()
+                };
+                let centre = corners.iter().copied().sum::<Vec3>() / corners.len() as f32;
+                for &c in &corners {
+                    let target = m.transform_point3(c + (centre - c) * 1e-2);
+                    for _ in 0..4 {
+                        let origin = target + unit(&mut r) * 5.0;
+                        let ray = Ray {
+                            origin,
+                            dir: (target - origin).normalize(),
+                            tmax: f32::INFINITY,
+                        };
+                        n += 1;
+                        let want = brute(&desc, &ray, PrimRef::NONE).is_some();
+                        let got = a.intersect(&ray, PrimRef::NONE, &f).is_some();
+                        missed += (want && !got) as u32;
+                        assert_eq!(
+                            a.occluded(&ray, PrimRef::NONE, &f),
+                            got,
+                            "{kernel:?}: occluded and intersect disagree"
+                        );
+                    }
+                }
+            }
+        }
+        assert_eq!(missed, 0, "{kernel:?}: {missed} of {n} corner rays missed");
+    }
+}
+
 #[test]
 fn build_errors_name_the_instance() {
     let mut desc = scene(5, true);

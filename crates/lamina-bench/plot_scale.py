@@ -1,11 +1,14 @@
 #!/usr/bin/env python3
-"""Plots the scale benchmark: `python3 plot_scale.py scale.json scale.png`.
+"""Plots the scale benchmark: `python3 plot_scale.py scale.json scale.png [frames.png]`.
 
 Four panels against leaves in the scene (log-log): peak memory, BVH bytes, BVH build time
 and seconds per frame, one line per representation (flat cards, instanced curved leaves,
-forest of instanced trees)."""
+forest of instanced trees). With a third path, also a contact sheet of the runs' frames
+(`frame_*.png` beside scale.json, as the benchmark names them): one row per leaf count,
+flat | instanced, then the forests."""
 import json
 import sys
+from pathlib import Path
 
 import matplotlib
 
@@ -46,6 +49,41 @@ def main():
     )
     fig.tight_layout()
     fig.savefig(dst, dpi=110)
+    if len(sys.argv) > 3:
+        contact_sheet(rows, Path(src).parent, sys.argv[3])
+
+
+def frame_name(r):
+    """The frame file of run `r`, as `scale` writes it."""
+    rep = r["representation"]
+    if rep.startswith("forest"):
+        return "frame_%s_%dx%d.png" % (rep, r["trees"], r["leaves"] // max(r["trees"], 1))
+    return "frame_%s_%d.png" % (rep, r["leaves"])
+
+
+def count(n):
+    """10000 -> "10k", 1000000 -> "1M"."""
+    return "%gM" % (n / 1e6) if n >= 1_000_000 else "%gk" % (n / 1e3) if n >= 1000 else str(n)
+
+
+def contact_sheet(rows, folder, dst):
+    """The frames two per row: per leaf count the representations side by side, then the
+    forests; each titled with its run and seconds per frame."""
+    cells = [r for r in rows if (folder / frame_name(r)).exists()]
+    if not cells:
+        sys.exit(f"no frame_*.png in {folder}")
+    ncols = 2
+    nrows = (len(cells) + ncols - 1) // ncols
+    fig, axes = plt.subplots(nrows, ncols, figsize=(ncols * 6.4, nrows * 3.9), squeeze=False)
+    for ax in axes.flat:
+        ax.axis("off")
+    for ax, r in zip(axes.flat, cells):
+        ax.imshow(plt.imread(folder / frame_name(r)))
+        what = ("%d x %s" % (r["trees"], count(r["leaves"] // r["trees"]))
+                if r["representation"].startswith("forest") else count(r["leaves"]))
+        ax.set_title("%s %s: %.1f s / frame" % (what, r["representation"], r["render_s"]), fontsize=11)
+    fig.tight_layout()
+    fig.savefig(dst, dpi=80)
 
 
 if __name__ == "__main__":

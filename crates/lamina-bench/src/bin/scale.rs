@@ -306,18 +306,21 @@ fn main() -> Result<()> {
     println!("\nwrote {} and {}", csv.display(), json.display());
     if !args.no_plot {
         let png = args.out.join("scale.png");
+        let frames = args.out.join("frames.png");
         let script = concat!(env!("CARGO_MANIFEST_DIR"), "/plot_scale.py");
         let status = Command::new("python3")
             .arg(script)
             .arg(&json)
             .arg(&png)
+            .arg(&frames)
             .status();
         match status {
-            Ok(s) if s.success() => println!("wrote {}", png.display()),
+            Ok(s) if s.success() => println!("wrote {} and {}", png.display(), frames.display()),
             _ => eprintln!(
-                "no plot: run `python3 {script} {} {}` (needs matplotlib)",
+                "no plot: run `python3 {script} {} {} {}` (needs matplotlib)",
                 json.display(),
-                png.display()
+                png.display(),
+                frames.display()
             ),
         }
     }

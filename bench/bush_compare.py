@@ -179,14 +179,9 @@ def main():
     mit_secs = {}
     for seed in range(args.repeat):
         for m in modes:
-            tag = "" if m == "all" else f"_{m}"
-            exr = out / f"lamina{tag}_s{seed}.exr"
-            wall, summ, err = common.run_lamina(lamina, common.with_light_sampling(scene_toml, m),
-                                                [exr, out / f"lamina{tag}_s{seed}.png"],
-                                                args.spp, args.threads, seed)
-            line = next((l for l in err.splitlines() if "samples/s" in l), err)
-            print(f"lamina light_sampling={m} seed {seed}: {wall:.2f} s wall; {line}", flush=True)
-            lam_imgs[m].append(common.load_exr(exr))
+            img, wall, summ = common.run_lamina_mode(lamina, scene_toml, out, m, seed, args.spp,
+                                                     args.threads)
+            lam_imgs[m].append(img)
             lam_secs[m].append(summ["secs"] if summ else wall)
             rows.setdefault(f"lamina {m}", []).append([
                 f"lamina light_sampling={m} (run {seed + 1})", "%.2f" % wall,

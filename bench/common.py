@@ -401,6 +401,19 @@ def with_light_sampling(scene_toml, mode):
     return out
 
 
+def run_lamina_mode(binary, scene_toml, out, mode, seed, spp, threads):
+    """Renders `scene_toml` with light sampling `mode` (see `with_light_sampling`) and
+    `seed` into `out/lamina[_MODE]_sSEED.{exr,png}`, prints its timing line, and returns
+    (image, wall seconds, summary dict or None)."""
+    tag = "" if mode == "all" else f"_{mode}"
+    exr = out / f"lamina{tag}_s{seed}.exr"
+    wall, summ, err = run_lamina(binary, with_light_sampling(scene_toml, mode),
+                                 [exr, out / f"lamina{tag}_s{seed}.png"], spp, threads, seed)
+    line = next((l for l in err.splitlines() if "samples/s" in l), err)
+    print(f"lamina light_sampling={mode} seed {seed}: {wall:.2f} s wall; {line}", flush=True)
+    return load_exr(exr), wall, summ
+
+
 def compile_running():
     """Whether some rustc is running (someone compiling on this machine)."""
     r = subprocess.run(["pgrep", "-x", "rustc"], capture_output=True, text=True)

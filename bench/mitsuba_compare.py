@@ -200,14 +200,7 @@ def main():
     busy = common.compile_running()
 
     def lamina_run(seed, mode="all"):
-        tag = "" if mode == "all" else f"_{mode}"
-        exr = out / f"lamina{tag}_s{seed}.exr"
-        wall, summ, err = common.run_lamina(lamina, common.with_light_sampling(scene_toml, mode),
-                                            [exr, out / f"lamina{tag}_s{seed}.png"],
-                                            args.spp, args.threads, seed)
-        line = next((l for l in err.splitlines() if "samples/s" in l), err)
-        print(f"lamina light_sampling={mode} seed {seed}: {wall:.2f} s wall; {line}", flush=True)
-        return common.load_exr(exr), wall, summ
+        return common.run_lamina_mode(lamina, scene_toml, out, mode, seed, args.spp, args.threads)
 
     if args.depth_check:
         lam = [lamina_run(0, modes[0]), lamina_run(1, modes[0])]

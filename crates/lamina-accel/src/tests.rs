@@ -375,8 +375,10 @@ fn masks_skip_most_alpha_lookups() {
 
 /// Instances are bounded by their placed vertices ([`hull_points`]), not by their placed
 /// box: a right triangle turned 45° about its normal gets a box half the area of its turned
-/// box's box. Rays aimed at points just inside the corners of turned, scaled and mirrored cards
-/// and triangles (where a too-tight box would cut them off) hit them, as brute force does.
+/// box's box. Rays aimed at points 1 % inside the corners of turned, scaled and mirrored
+/// cards and triangles (what a box that left out a vertex would cut off) hit them, as brute
+/// force does. (At 1e-4 inside, 9 of 1120 such rays miss with these boxes and with the
+/// placed-box boxes alike: the f32 instance transform at 30 m from the origin.)
 #[test]
 fn instance_boxes_are_tight_and_keep_the_corners() {
     let card = Prim::parallelogram(Vec3::ZERO, Vec3::X, Vec3::Y);

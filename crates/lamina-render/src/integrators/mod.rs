@@ -115,11 +115,10 @@ impl<'a> SceneContext<'a> {
         !self.accel.occluded_skip(&shadow, prim)
     }
 
-    /// If `kind` is an emitter (quad or sphere light), its radiance toward the ray and the
-    /// solid-angle density with which next-event estimation from `ray.origin` samples it.
-    /// The radiance of the emitter a ray hit at distance `t`, and the density with which
-    /// next-event estimation from the ray's origin draws that point: the light's own density
-    /// times the probability that the light is drawn. `None` when `kind` is not an emitter.
+    /// If `kind` is an emitter (quad or sphere light) the ray hit at distance `t`, its
+    /// radiance toward the ray and the solid-angle density with which next-event estimation
+    /// from `ray.origin` draws that point: the light's own density times the probability
+    /// that the light is drawn.
     #[inline]
     pub(crate) fn emitter(&self, kind: HitKind, ray: &Ray, t: f32) -> Option<(Vec3, f32)> {
         let light = self.emitter_light(kind)?;
@@ -148,6 +147,7 @@ impl<'a> SceneContext<'a> {
         }
     }
 
+    /// The index of the light `kind` is, if it is an emitter (quad or sphere light).
     #[inline]
     pub(crate) fn emitter_light(&self, kind: HitKind) -> Option<usize> {
         match kind {

@@ -153,8 +153,7 @@ mod tests {
     #[test]
     fn distant_lights_share_by_flux_through_the_scene() {
         // A sun of 3 W/m² against a sky of mean 0.25 W/m²/sr: π R² 3 vs 4π² R² 0.25.
-        let sky = AnyLight::Sky(SkyLight::Constant(Vec3::splat(0.25)));
-        let pick = LightPick::new(&[sun(3.0), sky], 7.0).unwrap();
+        let pick = LightPick::new(&[sun(3.0), sky_of(0.25)], 7.0).unwrap();
         let want = 3.0 / (3.0 + 4.0 * PI * 0.25);
         assert!((pick.prob(0) - want).abs() < 1e-5, "{}", pick.prob(0));
         assert!((pick.prob(0) + pick.prob(1) - 1.0).abs() < 1e-6);

@@ -1,8 +1,9 @@
 //! The irradiance sensor: `E↓` and `E↑` (W m⁻²) on the horizontal plane `y = height`, per
 //! cell of a grid. At a point spread uniformly over the cell, each hemisphere's irradiance
 //! `E = ∫ L cos θ dω` is estimated as at a white Lambertian receiver: next-event estimation
-//! of the sun and sky (shadow rays) plus a cosine-distributed ray traced by the path
-//! tracer, the two combined by the power heuristic.
+//! of the sun and sky (shadow rays; to every light, or to one with `light_sampling = "one"`,
+//! as at a path vertex) plus a cosine-distributed ray traced by the path tracer, the two
+//! combined by the power heuristic.
 
 use super::{BATCHES, Estimate, Run, area_or_cell, depths};
 use crate::accel::{PrimRef, Ray};
@@ -45,11 +46,15 @@ fn irradiance_at(run: &Run, p: Vec3, n: Vec3, s: &mut PixelSampler, rays: &mut u
     let ctx = run.ctx;
     let (max_depth, rr_depth) = depths(ctx.scene);
     let mut e = Vec3::ZERO;
-    for light in ctx.lights.lights.iter() {
+    // The lights as a path vertex picks them: the traced ray's MIS weights (in
+    // `path::radiance_sampled`) assume these densities, the pick probability included.
+    let (_, picked, pick) = ctx.nee_lights(s);
+    for light in picked {
         let u = s.next_2d();
-        let Some(ls) = light.sample(p, u) else {
+        let Some(mut ls) = light.sample(p, u) else {
             continue;
         };
+        ls.pdf *= pick;
         let cos = ls.wi.dot(n);
         if !(ls.pdf > 0.0) || cos <= 0.0 || ls.li == Vec3::ZERO {
             continue;

@@ -485,6 +485,60 @@ fn irradiance_sensor_agrees_with_the_flux_budget() {
     );
 }
 
+/// The irradiance sensor's receiver picks lights as a path vertex does: with
+/// `light_sampling = "one"` its shadow rays go to one light, weighted by the probability of
+/// drawing it, and the MIS weights of its traced ray assume the same. Above the canopy the
+/// downwelling irradiance of a sun and a constant sky is `E cos θ + π L` in either mode,
+/// and below it the two modes agree.
+#[test]
+fn irradiance_is_the_same_with_one_light_per_vertex() {
+    let mut scene = canopy(2.0, 1.0, 3.0, (0.4957, 0.4409, 0.159), 20.0, 4);
+    scene.sky = Some(Sky::Constant(Vec3::splat(0.1)));
+    let plane = |height: f32| Sensor {
+        name: format!("plane {height}"),
+        samples: 16384,
+        channel: None,
+        kind: SensorKind::Irradiance {
+            height,
+            area: None,
+            grid: [1, 1],
+            file: "e.csv".into(),
+        },
+    };
+    let measure_with = |ls| {
+        let mut s = scene.clone();
+        let Integrator::Path { light_sampling, .. } = &mut s.integrator else {
+            unreachable!()
+        };
+        *light_sampling = ls;
+        let out = run(&s, vec![plane(1.2), plane(0.001)], 2);
+        out.iter()
+            .map(|o| match &o.measurement {
+                Measurement::Irradiance(r) => r.cells[0],
+                _ => unreachable!(),
+            })
+            .collect::<Vec<_>>()
+    };
+    let all = measure_with(lamina_core::LightSampling::All);
+    let one = measure_with(lamina_core::LightSampling::One);
+    let expect = 20f64.to_radians().cos() + std::f64::consts::PI * 0.1;
+    for (name, m) in [("all", &all), ("one", &one)] {
+        let (v, sd) = (m[0].down.value.x, m[0].down.std.x);
+        eprintln!("{name}: downwelling above {v:.4} ± {sd:.4} (expected {expect:.4})");
+        assert!(
+            (v - expect).abs() < 4.0 * sd + 0.002,
+            "{name}: {v} vs {expect}"
+        );
+    }
+    let (a, o) = (all[1].down, one[1].down);
+    eprintln!(
+        "down at the soil: all {:.4} ± {:.4}, one {:.4} ± {:.4}",
+        a.value.x, a.std.x, o.value.x, o.std.x
+    );
+    let sd = (a.std.x.powi(2) + o.std.x.powi(2)).sqrt();
+    assert!((a.value.x - o.value.x).abs() < 4.0 * sd + 0.002);
+}
+
 #[test]
 fn fisheye_sees_the_sky_through_the_gaps() {
     let mut scene = canopy(1.0, 1.0, 3.0, (0.1, 0.1, 0.2), 30.0, 8);

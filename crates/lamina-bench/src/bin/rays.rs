@@ -70,6 +70,10 @@ struct Args {
     /// 10x fewer cards, leaves and rays (a smoke test).
     #[arg(long)]
     quick: bool,
+    /// Leaf cards of the cards scene instead of the scale's (100k; 10k with --quick): a
+    /// few thousand shows the per-ray cost on a scene that fits in the caches.
+    #[arg(long, value_name = "N")]
+    cards: Option<u32>,
     /// Runs per measurement (the best one counts).
     #[arg(long, default_value_t = 3)]
     repeat: usize,
@@ -616,11 +620,17 @@ fn main() -> Result<()> {
         );
         std::process::exit(1);
     }
-    let scale = if args.quick {
+    let mut scale = if args.quick {
         Scale::QUICK
     } else {
         Scale::FULL
     };
+    if let Some(n) = args.cards {
+        if n == 0 {
+            bail!("--cards: must be at least 1");
+        }
+        scale.cards = n;
+    }
     let machine = machine(&args);
     println!(
         "{} ({} logical CPUs), load {}; lamina kernel {}; {}",

@@ -56,6 +56,7 @@ pub fn frame_tree_scene(leaves: u32, size: (u32, u32)) -> Result<Scene, lamina_p
             max_depth: 8,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: Vec3::new(0.5, 0.7, 0.4).normalize(),

@@ -251,6 +251,7 @@ pub fn tree_scene(
             max_depth: 6,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: Vec3::new(0.5, 0.8, 0.6).normalize(),

@@ -184,6 +184,8 @@ pub enum Integrator {
         rr_depth: u32,
         /// Which lights next-event estimation samples at each scattering vertex.
         light_sampling: LightSampling,
+        /// Whether next-event estimation samples the sky, or BSDF samples alone reach it.
+        sky_sampling: SkySampling,
     },
     /// The paper's renderer: direct light only, per light front/back/through-light shading,
     /// multiple scattering as an ambient term.
@@ -206,6 +208,40 @@ pub enum LightSampling {
     /// pbrt-v4's power light sampler), its contribution divided by that probability: one
     /// shadow ray per vertex, as Mitsuba 3's `path` integrator traces.
     One,
+}
+
+/// How the path tracer reaches the sky: by next-event estimation (a shadow ray toward a
+/// direction drawn from the sky, combined with BSDF samples by MIS), or by BSDF samples
+/// alone (the ray a vertex traces anyway to continue the path, counted in full when it
+/// escapes).
+///
+/// A constant sky is best left to BSDF samples: the sky's own strategy draws directions
+/// uniformly over the sphere, which for a diffuse surface is always worse than the BSDF's
+/// cosine-weighted samples, so its shadow ray adds little beyond its cost (Cycles, for the
+/// same reason, does not light-sample a uniform world). An image sky (`image`, `sunsky`)
+/// has bright regions only its own sampling finds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SkySampling {
+    /// [`SkySampling::Bsdf`] for a constant sky, [`SkySampling::Light`] for an image sky.
+    #[default]
+    Auto,
+    /// Next-event estimation samples the sky (one shadow ray per vertex with
+    /// [`LightSampling::All`], or the sky competes to be the one light with
+    /// [`LightSampling::One`]).
+    Light,
+    /// Only BSDF samples reach the sky; no shadow rays toward it.
+    Bsdf,
+}
+
+impl SkySampling {
+    /// Whether next-event estimation samples `sky` under this setting.
+    pub fn light_samples(self, sky: &Sky) -> bool {
+        match self {
+            SkySampling::Auto => !matches!(sky, Sky::Constant(_)),
+            SkySampling::Light => true,
+            SkySampling::Bsdf => false,
+        }
+    }
 }
 
 /// A light source.

@@ -46,6 +46,7 @@ fn scene_for(
             max_depth: 6,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: sun_dir.normalize(),

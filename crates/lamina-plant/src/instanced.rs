@@ -221,6 +221,7 @@ mod tests {
                 max_depth: 3,
                 rr_depth: 3,
                 light_sampling: Default::default(),
+                sky_sampling: Default::default(),
             },
             lights: vec![Light::Sun {
                 direction: Vec3::new(0.5, 0.8, 0.6).normalize(),

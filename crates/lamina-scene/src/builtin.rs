@@ -78,6 +78,7 @@ fn leaf_panel(leaf: &BuiltinLeaf, sun_dir: Vec3, sun: Vec3, size: (u32, u32), sp
             max_depth: 8,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: sun_dir.normalize(),
@@ -192,6 +193,7 @@ pub fn bush_scene_with(
             max_depth: 8,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: sun_dir,

@@ -1,7 +1,7 @@
 //! Scene files: what parses, and that every kind of mistake names file, line and key.
 
 use lamina_scene::{
-    Integrator, Light, LightSampling, Material, Scene, SceneError, Sky, parse_scene,
+    Integrator, Light, LightSampling, Material, Scene, SceneError, Sky, SkySampling, parse_scene,
 };
 use std::path::{Path, PathBuf};
 
@@ -37,6 +37,7 @@ fn minimal_scene_gets_documented_defaults() {
             max_depth: 8,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         }
     );
     assert!(s.sky.is_none() && s.lights.is_empty() && s.meshes.is_empty());
@@ -137,6 +138,7 @@ fn light_sampling_reads_all_and_one() {
                 max_depth: 5,
                 rr_depth: 3,
                 light_sampling: want,
+                sky_sampling: Default::default(),
             }
         );
     }
@@ -148,6 +150,46 @@ fn light_sampling_reads_all_and_one() {
             .contains("unknown light sampling 'power' (all, one)"),
         "{e}"
     );
+}
+
+#[test]
+fn sky_sampling_reads_auto_light_and_bsdf() {
+    for (value, want) in [
+        ("auto", SkySampling::Auto),
+        ("light", SkySampling::Light),
+        ("bsdf", SkySampling::Bsdf),
+    ] {
+        let s = parse(&format!(
+            "{MINIMAL}\n[integrator]\nsky_sampling = \"{value}\"\n"
+        ))
+        .unwrap();
+        let Integrator::Path { sky_sampling, .. } = s.integrator else {
+            panic!("{:?}", s.integrator)
+        };
+        assert_eq!(sky_sampling, want);
+    }
+    let e = err(&format!(
+        "{MINIMAL}\n[integrator]\nsky_sampling = \"never\"\n"
+    ));
+    assert_eq!(
+        (e.key.as_str(), e.line),
+        ("integrator.sky_sampling", Some(7)),
+        "{e}"
+    );
+    assert!(
+        e.to_string()
+            .contains("unknown sky sampling 'never' (auto, light, bsdf)"),
+        "{e}"
+    );
+    let e = err(&format!("{MINIMAL}\n[integrator]\nsky_sampling = true\n"));
+    assert!(e.to_string().contains("must be a string"), "{e}");
+    let e = err(&format!(
+        "{MINIMAL}\n[integrator]\ntype = \"paper\"\nsky_sampling = \"bsdf\"\n"
+    ));
+    assert_eq!(e.key, "integrator.sky_sampling", "{e}");
+    // Auto: BSDF samples for a constant sky, light samples for an image sky.
+    assert!(!SkySampling::Auto.light_samples(&Sky::Constant(glam::Vec3::ONE)));
+    assert!(SkySampling::Light.light_samples(&Sky::Constant(glam::Vec3::ONE)));
 }
 
 #[test]

@@ -147,6 +147,7 @@ pub fn pbr_square(material: lamina_scene::PbrMaterial, size: u32, spp: u32) -> S
             max_depth: 8,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: Vec3::new(0.15, 0.1, 1.0).normalize(),

@@ -121,6 +121,7 @@ pub fn canopy_scene(n: u32, width: u32, height: u32, spp: u32) -> Scene {
             max_depth: 8,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: Vec3::new(-0.4, 0.8, 0.45),

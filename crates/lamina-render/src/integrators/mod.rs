@@ -132,12 +132,13 @@ impl<'a> SceneContext<'a> {
     }
 
     /// The lights next-event estimation samples at a vertex: the index of the first, the
-    /// lights, and the probability with which they were drawn. Every light with
-    /// probability 1, or (`light_sampling = "one"`) one light drawn by a 1D sample of
-    /// `sampler`.
+    /// lights, and the probability with which they were drawn. Every light it samples
+    /// ([`LightSet::nee`](crate::lights::LightSet::nee): all, or all but a sky left to BSDF
+    /// samples) with probability 1, or (`light_sampling = "one"`) one of them drawn by a 1D
+    /// sample of `sampler`.
     #[inline]
     pub(crate) fn nee_lights(&self, sampler: &mut PixelSampler) -> (usize, &[AnyLight], f32) {
-        let lights = &self.lights.lights;
+        let lights = self.lights.nee();
         match &self.lights.pick {
             None => (0, lights, 1.0),
             Some(pick) => {

@@ -5,10 +5,13 @@
 //!   drawn by estimated power ([`crate::lights::LightPick`]; its density then includes the
 //!   probability of drawing it, for the estimate and for MIS), with a shadow ray that the
 //!   alpha test lets through holes; opaque geometry blocks it (light *through* leaves
-//!   arrives by the path's own transmission bounces instead).
+//!   arrives by the path's own transmission bounces instead). A sky left to BSDF samples
+//!   (`sky_sampling`, by default a constant sky: [`lamina_core::SkySampling`]) gets no
+//!   shadow rays; it is not among the lights NEE samples or draws from.
 //! * **MIS**: light samples and BSDF samples of non-delta lights (area lights, the sun's
 //!   disc, the sky) are combined with the power heuristic (β = 2), each light's density
-//!   against the BSDF's. Delta lights (point, zero-diameter sun) get NEE only, weight 1.
+//!   against the BSDF's; a BSDF sample that escapes to a sky NEE never samples counts in
+//!   full. Delta lights (point, zero-diameter sun) get NEE only, weight 1.
 //! * **Russian roulette** from `rr_depth` scattering events on: survival probability
 //!   `min(1, max channel of the throughput)`, throughput divided by it.
 //! * **max_depth** counts scattering events: 1 is direct light only (with the emission found

@@ -387,6 +387,7 @@ mod tests {
             lights: vec![AnyLight::Sky(SkyLight::Image(Box::new(map)))],
             sky_mean: Vec3::ONE,
             pick: None,
+            nee_count: 1,
         }
     }
 

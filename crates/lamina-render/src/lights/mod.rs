@@ -153,23 +153,44 @@ pub struct LightSet {
     /// ([`lamina_core::LightSampling::All`]); `Some` draws one
     /// ([`lamina_core::LightSampling::One`]).
     pub pick: Option<LightPick>,
+    /// How many of the lights, from the first, next-event estimation samples: all of them,
+    /// or all but the sky when BSDF samples alone reach it
+    /// ([`lamina_core::SkySampling`]); a BSDF sample that escapes to a light past this
+    /// count is counted in full (MIS weight 1).
+    pub nee_count: usize,
 }
 
 impl LightSet {
     /// Prepares the lights of `scene`. An error for non-finite values or a zero sun
     /// direction.
     /// With the scene's path integrator set to `light_sampling = "one"`, it draws one light
-    /// per vertex ([`LightPick`]).
+    /// per vertex ([`LightPick`]); with its `sky_sampling` leaving the sky to BSDF samples
+    /// ([`lamina_core::SkySampling`]), next-event estimation never samples the sky.
     pub fn new(scene: &Scene) -> Result<Self, RenderError> {
         let mut set = Self::from_parts(&scene.lights, scene.sky.as_ref())?;
         if let lamina_core::Integrator::Path {
-            light_sampling: lamina_core::LightSampling::One,
+            light_sampling,
+            sky_sampling,
             ..
         } = scene.integrator
         {
-            set.pick = LightPick::new(&set.lights, scene_radius(scene));
+            if let Some(sky) = &scene.sky
+                && !sky_sampling.light_samples(sky)
+            {
+                // The sky is the last light.
+                set.nee_count = set.lights.len() - 1;
+            }
+            if light_sampling == lamina_core::LightSampling::One {
+                set.pick = LightPick::new(&set.lights[..set.nee_count], scene_radius(scene));
+            }
         }
         Ok(set)
+    }
+
+    /// The lights next-event estimation samples (the first [`LightSet::nee_count`]).
+    #[inline]
+    pub fn nee(&self) -> &[AnyLight] {
+        &self.lights[..self.nee_count]
     }
 
     /// [`Self::new`] from a scene's lights and sky.
@@ -250,6 +271,7 @@ impl LightSet {
             lights.push(AnyLight::Sky(s));
         }
         Ok(LightSet {
+            nee_count: lights.len(),
             lights,
             sky_mean,
             pick: None,

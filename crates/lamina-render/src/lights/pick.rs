@@ -134,9 +134,13 @@ pub fn scene_radius(scene: &lamina_core::Scene) -> f32 {
 
 impl LightSet {
     /// The probability that next-event estimation draws light `i`: 1 when every light is
-    /// sampled at every vertex.
+    /// sampled at every vertex, 0 for a light it never samples (a sky left to BSDF samples,
+    /// [`LightSet::nee_count`]).
     #[inline]
     pub fn pick_prob(&self, i: usize) -> f32 {
+        if i >= self.nee_count {
+            return 0.0;
+        }
         self.pick.as_ref().map_or(1.0, |p| p.prob(i))
     }
 }

@@ -102,6 +102,7 @@ fn canopy(lai: f32, h: f32, cell: f32, band: (f32, f32, f32), sza: f32, seed: u6
             max_depth: 1024,
             rr_depth: 8,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: Vec3::new(s.sin(), s.cos(), 0.0),

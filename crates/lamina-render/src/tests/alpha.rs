@@ -32,6 +32,7 @@ fn alpha_matte_lets_camera_and_shadow_rays_through() {
             max_depth: 1,
             rr_depth: 5,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: Vec3::new(1.0, 0.0, 1.0),
@@ -90,6 +91,7 @@ fn alpha_tested_instances_cast_shadows_through_holes() {
                 max_depth: 1,
                 rr_depth: 5,
                 light_sampling: Default::default(),
+                sky_sampling: Default::default(),
             },
             lights: vec![Light::Sun {
                 direction: Vec3::new(sun_x, 0.0, 1.0),

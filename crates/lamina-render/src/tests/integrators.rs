@@ -29,6 +29,7 @@ fn lambertian_card_matches_analytic_sun_value() {
                     max_depth: 4,
                     rr_depth: 2,
                     light_sampling: Default::default(),
+                    sky_sampling: Default::default(),
                 },
                 Integrator::Paper {
                     ambient: Some(Vec3::ZERO),
@@ -100,6 +101,7 @@ pub(super) fn furnace_scene() -> Scene {
             max_depth: 100,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![],
         sky: Some(Sky::Constant(Vec3::ONE)),

@@ -36,6 +36,7 @@ fn scene(meshes: Vec<Mesh>, material: Material) -> Scene {
             max_depth: 4,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![sun(Vec3::new(0.3, 0.5, 1.0).normalize(), 3.0)],
         sky: Some(Sky::Constant(Vec3::splat(0.2))),
@@ -207,6 +208,7 @@ fn constant_normal_map_renders_like_tilted_vertex_normals() {
             max_depth: 4,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         Integrator::Paper { ambient: None },
     ];
@@ -296,6 +298,7 @@ fn pbr_furnace() {
                 max_depth: 100,
                 rr_depth: 100,
                 light_sampling: Default::default(),
+                sky_sampling: Default::default(),
             },
             lights: vec![],
             sky: Some(Sky::Constant(Vec3::ONE)),

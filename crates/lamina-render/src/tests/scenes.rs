@@ -126,6 +126,7 @@ pub(crate) fn small_canopy_scene() -> Scene {
             max_depth: 6,
             rr_depth: 2,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![
             Light::Sun {
@@ -172,6 +173,7 @@ pub(crate) fn sphere_scene(mesh: Mesh, lights: Vec<Light>, sky: Option<Sky>) -> 
             max_depth: 4,
             rr_depth: 2,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights,
         sky,

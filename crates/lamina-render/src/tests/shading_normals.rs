@@ -24,6 +24,7 @@ fn normals_equal_to_geometric_render_identically() {
                 max_depth: 4,
                 rr_depth: 2,
                 light_sampling: Default::default(),
+                sky_sampling: Default::default(),
             },
             Integrator::Paper { ambient: None },
         ] {
@@ -140,6 +141,7 @@ fn tilted_normals_do_not_leak_light() {
             max_depth: 4,
             rr_depth: 2,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         Integrator::Paper {
             ambient: Some(Vec3::ZERO),
@@ -193,6 +195,7 @@ fn furnace_with_shading_normals() {
             max_depth: 100,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![],
         sky: Some(Sky::Constant(Vec3::ONE)),

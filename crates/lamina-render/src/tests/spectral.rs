@@ -87,6 +87,7 @@ fn colour_chart() -> Scene {
             max_depth: 6,
             rr_depth: 3,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: vec![Light::Sun {
             direction: Vec3::new(0.3, 0.5, 1.0),
@@ -182,6 +183,7 @@ fn visible_emitters_keep_their_colour() {
                 max_depth: 2,
                 rr_depth: 2,
                 light_sampling: Default::default(),
+                sky_sampling: Default::default(),
             },
             lights: vec![],
             sky: Some(Sky::Constant(c)),
@@ -372,6 +374,7 @@ fn visible_one_light_per_vertex_keeps_the_image() {
         max_depth: 6,
         rr_depth: 2,
         light_sampling: lamina_core::LightSampling::One,
+        sky_sampling: Default::default(),
     };
     let one = render(&scene, &opts(512, 2)).unwrap();
     let (ma, mo) = (all.image.mean(), one.image.mean());

@@ -86,6 +86,7 @@ pub(super) fn scene(materials: Vec<Material>, meshes: Vec<Mesh>) -> Scene {
             max_depth: 1,
             rr_depth: 1,
             light_sampling: Default::default(),
+            sky_sampling: Default::default(),
         },
         lights: Vec::new(),
         sky: None,

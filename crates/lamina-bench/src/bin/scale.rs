@@ -49,10 +49,15 @@ struct Args {
     /// Render threads.
     #[arg(long, default_value_t = 2)]
     threads: usize,
-    /// The path integrator's light sampling: `all` (a shadow ray to the sun and one to the
-    /// sky at every vertex) or `one` (one of them, drawn by power).
+    /// The path integrator's light sampling: `all` (a shadow ray to every light NEE samples
+    /// at every vertex) or `one` (one of them, drawn by power).
     #[arg(long, default_value = "all", value_parser = ["all", "one"])]
     light_sampling: String,
+    /// The path integrator's sky sampling: `auto` (the default: the constant sky is left to
+    /// BSDF samples), `light` (NEE samples it too: a shadow ray to the sun and one to the
+    /// sky at every vertex with `--light-sampling all`) or `bsdf`.
+    #[arg(long, default_value = "auto", value_parser = ["auto", "light", "bsdf"])]
+    sky_sampling: String,
     /// Seed of the tree.
     #[arg(long, default_value_t = 11)]
     seed: u64,
@@ -95,11 +100,21 @@ fn child(args: &Args, rep: Representation) -> Result<Measurement> {
     let leaves_placed = plant.leaf_count() as u64;
     let copies = if rep.is_forest() { args.copies } else { 1 };
     let mut scene = tree_scene(plant, rep, copies, args.width, args.height, args.spp);
-    if let lamina_core::Integrator::Path { light_sampling, .. } = &mut scene.integrator {
+    if let lamina_core::Integrator::Path {
+        light_sampling,
+        sky_sampling,
+        ..
+    } = &mut scene.integrator
+    {
         *light_sampling = if args.light_sampling == "one" {
             lamina_core::LightSampling::One
         } else {
             lamina_core::LightSampling::All
+        };
+        *sky_sampling = match args.sky_sampling.as_str() {
+            "light" => lamina_core::SkySampling::Light,
+            "bsdf" => lamina_core::SkySampling::Bsdf,
+            _ => lamina_core::SkySampling::Auto,
         };
     }
     let (triangles, unique_triangles) = triangle_counts(&scene);
@@ -163,6 +178,7 @@ fn spawn(args: &Args, rep: &str, leaves: u32, copies: u32) -> Result<Measurement
         .args(["--spp", &args.spp.to_string()])
         .args(["--threads", &args.threads.to_string()])
         .args(["--light-sampling", &args.light_sampling])
+        .args(["--sky-sampling", &args.sky_sampling])
         .args(["--seed", &args.seed.to_string()])
         .arg("--out")
         .arg(&args.out)

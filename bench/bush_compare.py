@@ -39,6 +39,13 @@ from common import fmt_table  # noqa: E402
 
 
 def export_bush(lamina, out, size, spp):
+    # The light-sampling variants an earlier run wrote beside bush.toml: lamina refuses to
+    # export into a folder holding files it did not write.
+    for light in common.LIGHT_SAMPLING:
+        for sky in ("",) + common.SKY_SAMPLING:
+            mode = light + (":" + sky if sky else "")
+            if mode != "all":
+                (out / f"bush_{common.mode_tag(mode)}.toml").unlink(missing_ok=True)
     cmd = [str(lamina), "demo", "--export-bush", str(out), "--size", str(size), "--spp", str(spp)]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0 or not (out / "bush.toml").exists():
@@ -146,9 +153,12 @@ def main():
                          "ignored by shadow rays)")
     ap.add_argument("--mitsuba-sampler", default="independent",
                     help="Mitsuba sampler (independent, stratified, multijitter, orthogonal, ldsampler)")
-    ap.add_argument("--light-sampling", default="all,one",
-                    help="lamina's light_sampling values to time, comma list (all: a shadow ray to "
-                         "every light per vertex; one: one light per vertex, as Mitsuba does)")
+    ap.add_argument("--light-sampling", default="all,all:light,one:light",
+                    help="lamina modes to time, comma list of LIGHT[:SKY]: [integrator] "
+                         "light_sampling (all: a shadow ray to every light per vertex; one: one "
+                         "light per vertex, as Mitsuba does) and sky_sampling (auto, the "
+                         "default: the constant sky is left to BSDF samples; light: also "
+                         "light-sampled, as Mitsuba does; bsdf)")
     ap.add_argument("--out", default=str(common.DEFAULT_OUT / "bush_compare"))
     ap.add_argument("--warm-disk-cache", action="store_true",
                     help="reuse Dr.Jit's on-disk kernel cache (default: fresh, so run 1 includes the JIT compile)")

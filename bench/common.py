@@ -374,38 +374,57 @@ def run_lamina(binary, scene, outputs, spp, threads, seed):
 
 
 LIGHT_SAMPLING = ("all", "one")
+SKY_SAMPLING = ("auto", "light", "bsdf")
 
 
 def light_sampling_modes(text):
-    """`--light-sampling` of the comparison scripts: a comma list of lamina's `[integrator]
-    light_sampling` values (all: a shadow ray to every light per vertex; one: one light per
-    vertex drawn by power, as Mitsuba's path integrators sample one emitter)."""
+    """`--light-sampling` of the comparison scripts: a comma list of modes `LIGHT[:SKY]`,
+    lamina's `[integrator] light_sampling` (all: a shadow ray to every light per vertex;
+    one: one light per vertex drawn by power, as Mitsuba's path integrators sample one
+    emitter) and optionally its `sky_sampling` (auto, the default: a constant sky is left
+    to BSDF samples; light: next-event estimation samples the sky too, as Mitsuba does;
+    bsdf)."""
     modes = [m.strip() for m in text.split(",") if m.strip()]
-    bad = [m for m in modes if m not in LIGHT_SAMPLING]
+
+    def ok(m):
+        light, _, sky = m.partition(":")
+        return light in LIGHT_SAMPLING and (":" not in m or sky in SKY_SAMPLING)
+
+    bad = [m for m in modes if not ok(m)]
     if not modes or bad:
-        raise SystemExit(f"--light-sampling: {text!r} is not a comma list of {', '.join(LIGHT_SAMPLING)}")
+        raise SystemExit(f"--light-sampling: {text!r} is not a comma list of LIGHT[:SKY], "
+                         f"LIGHT one of {', '.join(LIGHT_SAMPLING)}, SKY one of {', '.join(SKY_SAMPLING)}")
     return modes
 
 
 def with_light_sampling(scene_toml, mode):
     """A copy of lamina scene `scene_toml` (beside it, `NAME_MODE.toml`) whose path
-    integrator samples lights by `mode`; the file itself for "all" (the default)."""
+    integrator samples lights by `mode` (`LIGHT[:SKY]`, see `light_sampling_modes`); the
+    file itself for "all" (the defaults)."""
     if mode == "all":
         return scene_toml
+    light, _, sky = mode.partition(":")
     text = scene_toml.read_text()
-    if "\n[integrator]\n" not in "\n" + text or "light_sampling" in text:
-        raise SystemExit(f"{scene_toml}: expected an [integrator] table without light_sampling")
-    text = ("\n" + text).replace("\n[integrator]\n", f'\n[integrator]\nlight_sampling = "{mode}"\n', 1)[1:]
-    out = scene_toml.with_name(f"{scene_toml.stem}_{mode}.toml")
+    if "\n[integrator]\n" not in "\n" + text or "light_sampling" in text or "sky_sampling" in text:
+        raise SystemExit(f"{scene_toml}: expected an [integrator] table without light_sampling "
+                         "and sky_sampling")
+    keys = f'light_sampling = "{light}"\n' + (f'sky_sampling = "{sky}"\n' if sky else "")
+    text = ("\n" + text).replace("\n[integrator]\n", f"\n[integrator]\n{keys}", 1)[1:]
+    out = scene_toml.with_name(f"{scene_toml.stem}_{mode_tag(mode)}.toml")
     out.write_text(text)
     return out
+
+
+def mode_tag(mode):
+    """`mode` in a file name (`one:light` -> `one_light`)."""
+    return mode.replace(":", "_")
 
 
 def run_lamina_mode(binary, scene_toml, out, mode, seed, spp, threads):
     """Renders `scene_toml` with light sampling `mode` (see `with_light_sampling`) and
     `seed` into `out/lamina[_MODE]_sSEED.{exr,png}`, prints its timing line, and returns
     (image, wall seconds, summary dict or None)."""
-    tag = "" if mode == "all" else f"_{mode}"
+    tag = "" if mode == "all" else f"_{mode_tag(mode)}"
     exr = out / f"lamina{tag}_s{seed}.exr"
     wall, summ, err = run_lamina(binary, with_light_sampling(scene_toml, mode),
                                  [exr, out / f"lamina{tag}_s{seed}.png"], spp, threads, seed)

@@ -488,11 +488,12 @@ fn irradiance_sensor_agrees_with_the_flux_budget() {
 
 /// The irradiance sensor's receiver picks lights as a path vertex does: with
 /// `light_sampling = "one"` its shadow rays go to one light, weighted by the probability of
-/// drawing it, and the MIS weights of its traced ray assume the same. Above the canopy the
-/// downwelling irradiance of a sun and a constant sky is `E cos θ + π L` in either mode,
-/// and below it the two modes agree.
+/// drawing it, and the MIS weights of its traced ray assume the same; a sky left to BSDF
+/// samples gets no shadow ray and counts in full along the traced ray. Above the canopy the
+/// downwelling irradiance of a sun and a constant sky is `E cos θ + π L` in each mode,
+/// and below it the modes agree.
 #[test]
-fn irradiance_is_the_same_with_one_light_per_vertex() {
+fn irradiance_is_the_same_however_the_lights_are_sampled() {
     let mut scene = canopy(2.0, 1.0, 3.0, (0.4957, 0.4409, 0.159), 20.0, 4);
     scene.sky = Some(Sky::Constant(Vec3::splat(0.1)));
     let plane = |height: f32| Sensor {
@@ -506,12 +507,18 @@ fn irradiance_is_the_same_with_one_light_per_vertex() {
             file: "e.csv".into(),
         },
     };
-    let measure_with = |ls| {
+    let measure_with = |ls, sky| {
         let mut s = scene.clone();
-        let Integrator::Path { light_sampling, .. } = &mut s.integrator else {
+        let Integrator::Path {
+            light_sampling,
+            sky_sampling,
+            ..
+        } = &mut s.integrator
+        else {
             unreachable!()
         };
         *light_sampling = ls;
+        *sky_sampling = sky;
         let out = run(&s, vec![plane(1.2), plane(0.001)], 2);
         out.iter()
             .map(|o| match &o.measurement {
@@ -520,10 +527,18 @@ fn irradiance_is_the_same_with_one_light_per_vertex() {
             })
             .collect::<Vec<_>>()
     };
-    let all = measure_with(lamina_core::LightSampling::All);
-    let one = measure_with(lamina_core::LightSampling::One);
+    use lamina_core::{LightSampling, SkySampling};
+    // The sky light-sampled, so that "one" draws between sun and sky; and left to the
+    // receiver's cosine-distributed ray (the default for a constant sky).
+    let all = measure_with(LightSampling::All, SkySampling::Light);
+    let one = measure_with(LightSampling::One, SkySampling::Light);
+    let bsdf = measure_with(LightSampling::All, SkySampling::Auto);
     let expect = 20f64.to_radians().cos() + std::f64::consts::PI * 0.1;
-    for (name, m) in [("all", &all), ("one", &one)] {
+    for (name, m) in [
+        ("all", &all),
+        ("one", &one),
+        ("sky by the traced ray", &bsdf),
+    ] {
         let (v, sd) = (m[0].down.value.x, m[0].down.std.x);
         eprintln!("{name}: downwelling above {v:.4} ± {sd:.4} (expected {expect:.4})");
         assert!(
@@ -536,8 +551,10 @@ fn irradiance_is_the_same_with_one_light_per_vertex() {
         "down at the soil: all {:.4} ± {:.4}, one {:.4} ± {:.4}",
         a.value.x, a.std.x, o.value.x, o.std.x
     );
-    let sd = (a.std.x.powi(2) + o.std.x.powi(2)).sqrt();
-    assert!((a.value.x - o.value.x).abs() < 4.0 * sd + 0.002);
+    for o in [one[1].down, bsdf[1].down] {
+        let sd = (a.std.x.powi(2) + o.std.x.powi(2)).sqrt();
+        assert!((a.value.x - o.value.x).abs() < 4.0 * sd + 0.002);
+    }
 }
 
 #[test]

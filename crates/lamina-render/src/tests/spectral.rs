@@ -364,23 +364,40 @@ fn visible_parts_add_up_to_the_whole() {
 
 /// `light_sampling = "one"` in a visible render (the spectral integrator draws the light
 /// from the scene's own lights and weighs every channel set by the same probability): the
-/// small canopy under five lights renders the same image mean as with every light sampled,
-/// within 0.5 % per channel.
+/// small canopy under five lights (the sky light-sampled) renders the same image mean as
+/// with every light sampled, within 0.5 % per channel; and so does it with the sky left to
+/// BSDF samples (`sky_sampling`'s default for this constant sky), every light or one.
 #[test]
 fn visible_one_light_per_vertex_keeps_the_image() {
-    let mut scene = visible(small_canopy_scene());
-    let all = render(&scene, &opts(512, 2)).unwrap();
-    scene.integrator = Integrator::Path {
-        max_depth: 6,
-        rr_depth: 2,
-        light_sampling: lamina_core::LightSampling::One,
-        sky_sampling: Default::default(),
+    use lamina_core::{LightSampling, SkySampling};
+    let scene = visible(small_canopy_scene());
+    let with = |light_sampling, sky_sampling| {
+        let mut s = scene.clone();
+        s.integrator = Integrator::Path {
+            max_depth: 6,
+            rr_depth: 2,
+            light_sampling,
+            sky_sampling,
+        };
+        render(&s, &opts(512, 2)).unwrap()
     };
-    let one = render(&scene, &opts(512, 2)).unwrap();
-    let (ma, mo) = (all.image.mean(), one.image.mean());
-    assert!(
-        ((mo - ma) / ma).abs().max_element() < 0.005,
-        "image means: one {mo} vs all {ma}"
-    );
-    assert!(one.stats.rays < all.stats.rays);
+    let all = with(LightSampling::All, SkySampling::Light);
+    let ma = all.image.mean();
+    for (what, ls, sky) in [
+        ("one", LightSampling::One, SkySampling::Light),
+        ("sky by BSDF samples", LightSampling::All, SkySampling::Auto),
+        (
+            "one, sky by BSDF samples",
+            LightSampling::One,
+            SkySampling::Auto,
+        ),
+    ] {
+        let other = with(ls, sky);
+        let mo = other.image.mean();
+        assert!(
+            ((mo - ma) / ma).abs().max_element() < 0.005,
+            "image means: {what} {mo} vs all {ma}"
+        );
+        assert!(other.stats.rays < all.stats.rays, "{what}: rays");
+    }
 }

@@ -153,12 +153,8 @@ def main():
                          "ignored by shadow rays)")
     ap.add_argument("--mitsuba-sampler", default="independent",
                     help="Mitsuba sampler (independent, stratified, multijitter, orthogonal, ldsampler)")
-    ap.add_argument("--light-sampling", default="all,all:light,one:light",
-                    help="lamina modes to time, comma list of LIGHT[:SKY]: [integrator] "
-                         "light_sampling (all: a shadow ray to every light per vertex; one: one "
-                         "light per vertex, as Mitsuba does) and sky_sampling (auto, the "
-                         "default: the constant sky is left to BSDF samples; light: also "
-                         "light-sampled, as Mitsuba does; bsdf)")
+    ap.add_argument("--light-sampling", default=common.LIGHT_SAMPLING_DEFAULT,
+                    help=common.LIGHT_SAMPLING_HELP)
     ap.add_argument("--out", default=str(common.DEFAULT_OUT / "bush_compare"))
     ap.add_argument("--warm-disk-cache", action="store_true",
                     help="reuse Dr.Jit's on-disk kernel cache (default: fresh, so run 1 includes the JIT compile)")

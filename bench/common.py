@@ -375,6 +375,11 @@ def run_lamina(binary, scene, outputs, spp, threads, seed):
 
 LIGHT_SAMPLING = ("all", "one")
 SKY_SAMPLING = ("auto", "light", "bsdf")
+LIGHT_SAMPLING_DEFAULT = "all,all:light,one:light"
+LIGHT_SAMPLING_HELP = ("lamina modes to time, comma list of LIGHT[:SKY]: [integrator] light_sampling "
+                       "(all: a shadow ray to every light per vertex; one: one light per vertex, as "
+                       "Mitsuba does) and sky_sampling (auto, the default: the constant sky is left "
+                       "to BSDF samples; light: also light-sampled, as Mitsuba does; bsdf)")
 
 
 def light_sampling_modes(text):

@@ -173,12 +173,8 @@ def main():
                     help="Mitsuba sampler (independent, stratified, multijitter, orthogonal, ldsampler)")
     ap.add_argument("--depth-check", action="store_true",
                     help="instead: lamina max_depth 1 against Mitsuba max_depth 1, 2, 3")
-    ap.add_argument("--light-sampling", default="all,all:light,one:light",
-                    help="lamina modes to time, comma list of LIGHT[:SKY]: [integrator] "
-                         "light_sampling (all: a shadow ray to every light per vertex; one: one "
-                         "light per vertex, as Mitsuba does) and sky_sampling (auto, the "
-                         "default: the constant sky is left to BSDF samples; light: also "
-                         "light-sampled, as Mitsuba does; bsdf)")
+    ap.add_argument("--light-sampling", default=common.LIGHT_SAMPLING_DEFAULT,
+                    help=common.LIGHT_SAMPLING_HELP)
     ap.add_argument("--exposure", type=float, default=None,
                     help="PNG exposure in stops (default: lamina image mean -> 0.2)")
     args = ap.parse_args()

@@ -428,12 +428,12 @@ fn brf_integrates_to_the_albedo() {
     assert!((b.irradiance.x - 30f64.to_radians().cos()).abs() < 1e-6);
 }
 
-#[test]
-fn irradiance_sensor_agrees_with_the_flux_budget() {
-    let scene = canopy(2.0, 1.0, 3.0, (0.4957, 0.4409, 0.159), 20.0, 4);
-    let plane = |height: f32| Sensor {
+/// An irradiance sensor over the whole cell at `height`, one grid cell, `samples` rays per
+/// hemisphere.
+fn irradiance_plane(height: f32, samples: u32) -> Sensor {
+    Sensor {
         name: format!("plane {height}"),
-        samples: 8192,
+        samples,
         channel: None,
         kind: SensorKind::Irradiance {
             height,
@@ -441,7 +441,13 @@ fn irradiance_sensor_agrees_with_the_flux_budget() {
             grid: [1, 1],
             file: "e.csv".into(),
         },
-    };
+    }
+}
+
+#[test]
+fn irradiance_sensor_agrees_with_the_flux_budget() {
+    let scene = canopy(2.0, 1.0, 3.0, (0.4957, 0.4409, 0.159), 20.0, 4);
+    let plane = |height: f32| irradiance_plane(height, 8192);
     let out = run(
         &scene,
         vec![plane(1.2), plane(0.001), absorbed_sensor(200_000)],
@@ -496,17 +502,7 @@ fn irradiance_sensor_agrees_with_the_flux_budget() {
 fn irradiance_is_the_same_however_the_lights_are_sampled() {
     let mut scene = canopy(2.0, 1.0, 3.0, (0.4957, 0.4409, 0.159), 20.0, 4);
     scene.sky = Some(Sky::Constant(Vec3::splat(0.1)));
-    let plane = |height: f32| Sensor {
-        name: format!("plane {height}"),
-        samples: 16384,
-        channel: None,
-        kind: SensorKind::Irradiance {
-            height,
-            area: None,
-            grid: [1, 1],
-            file: "e.csv".into(),
-        },
-    };
+    let plane = |height: f32| irradiance_plane(height, 16384);
     let measure_with = |ls, sky| {
         let mut s = scene.clone();
         let Integrator::Path {

@@ -434,6 +434,31 @@ impl<'a> Dict<'a> {
             .transpose()
     }
 
+    /// One of the named `options` (absent: `default`); another string is an error naming
+    /// it as an unknown `what` and listing the options.
+    pub(crate) fn choice<T: Copy>(
+        &self,
+        name: &str,
+        what: &str,
+        options: &[(&str, T)],
+        default: T,
+    ) -> Result<T, SceneError> {
+        let Some(v) = self.string(name)? else {
+            return Ok(default);
+        };
+        match options.iter().find(|(n, _)| *n == *v.get_ref()) {
+            Some(&(_, t)) => Ok(t),
+            None => {
+                let names: Vec<&str> = options.iter().map(|(n, _)| *n).collect();
+                Err(self.err(
+                    v.span(),
+                    name,
+                    format!("unknown {what} '{}' ({})", v.get_ref(), names.join(", ")),
+                ))
+            }
+        }
+    }
+
     /// A required string.
     pub(crate) fn req_string(&self, name: &str) -> Result<S<&'a str>, SceneError> {
         self.string(name)?.ok_or_else(|| self.missing(name))

@@ -71,35 +71,22 @@ pub(crate) fn read(ld: &Loader, t: Option<&S<Table>>) -> Result<Integrator, Scen
             let d = open(PATH)?;
             let max_depth = d.count("max_depth", 1, 1024, 8)?;
             let rr_depth = d.count("rr_depth", 1, 1024, 3)?;
-            let light_sampling = match d.string("light_sampling")? {
-                None => LightSampling::All,
-                Some(v) => match *v.get_ref() {
-                    "all" => LightSampling::All,
-                    "one" => LightSampling::One,
-                    other => {
-                        return Err(d.err(
-                            v.span(),
-                            "light_sampling",
-                            format!("unknown light sampling '{other}' (all, one)"),
-                        ));
-                    }
-                },
-            };
-            let sky_sampling = match d.string("sky_sampling")? {
-                None => SkySampling::Auto,
-                Some(v) => match *v.get_ref() {
-                    "auto" => SkySampling::Auto,
-                    "light" => SkySampling::Light,
-                    "bsdf" => SkySampling::Bsdf,
-                    other => {
-                        return Err(d.err(
-                            v.span(),
-                            "sky_sampling",
-                            format!("unknown sky sampling '{other}' (auto, light, bsdf)"),
-                        ));
-                    }
-                },
-            };
+            let light_sampling = d.choice(
+                "light_sampling",
+                "light sampling",
+                &[("all", LightSampling::All), ("one", LightSampling::One)],
+                LightSampling::All,
+            )?;
+            let sky_sampling = d.choice(
+                "sky_sampling",
+                "sky sampling",
+                &[
+                    ("auto", SkySampling::Auto),
+                    ("light", SkySampling::Light),
+                    ("bsdf", SkySampling::Bsdf),
+                ],
+                SkySampling::Auto,
+            )?;
             d.finish()?;
             Integrator::Path {
                 max_depth,

@@ -149,9 +149,9 @@ pub struct LightSet {
     pub lights: Vec<AnyLight>,
     /// Mean radiance of the sky over the sphere (zero without a sky).
     pub sky_mean: Vec3,
-    /// How next-event estimation picks lights: `None` samples every light at every vertex
-    /// ([`lamina_core::LightSampling::All`]); `Some` draws one
-    /// ([`lamina_core::LightSampling::One`]).
+    /// How next-event estimation picks lights: `None` samples every light of
+    /// [`LightSet::nee`] at every vertex ([`lamina_core::LightSampling::All`]); `Some` draws
+    /// one of them ([`lamina_core::LightSampling::One`]).
     pub pick: Option<LightPick>,
     /// How many of the lights, from the first, next-event estimation samples: all of them,
     /// or all but the sky when BSDF samples alone reach it

@@ -7,6 +7,7 @@ forest of instanced trees). With a third path, also a contact sheet of the runs'
 (`frame_*.png` beside scale.json, as the benchmark names them): one row per leaf count,
 flat | instanced, then the forests."""
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -18,7 +19,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 def main():
     src, dst = sys.argv[1], sys.argv[2]
-    rows = json.load(open(src))
+    data = json.load(open(src))
+    # {"generator": "lamina-bench scale", "runs": [...]} (a bare list before 2026-12-04).
+    rows = data["runs"] if isinstance(data, dict) else data
     reps = []
     for r in rows:
         if r["representation"] not in reps:
@@ -48,9 +51,19 @@ def main():
         % (r0["resolution"][0], r0["resolution"][1], r0["spp"], r0["threads"])
     )
     fig.tight_layout()
-    fig.savefig(dst, dpi=110)
+    save(fig, dst, dpi=110)
     if len(sys.argv) > 3:
         contact_sheet(rows, Path(src).parent, sys.argv[3])
+
+
+def save(fig, dst, dpi):
+    """Writes `fig` to the PNG `dst` with lamina's mark (a `Software` text chunk starting
+    with "lamina", so that the benchmark may replace it next time), through a temporary
+    file and a rename: never half-written."""
+    dst = Path(dst)
+    tmp = dst.with_name("." + dst.name + ".tmp.png")
+    fig.savefig(tmp, dpi=dpi, metadata={"Software": "lamina-bench scale (matplotlib)"})
+    os.replace(tmp, dst)
 
 
 def frame_name(r):
@@ -83,7 +96,7 @@ def contact_sheet(rows, folder, dst):
                 if r["representation"].startswith("forest") else count(r["leaves"]))
         ax.set_title("%s %s: %.1f s / frame" % (what, r["representation"], r["render_s"]), fontsize=11)
     fig.tight_layout()
-    fig.savefig(dst, dpi=80)
+    save(fig, dst, dpi=80)
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@
 
 pub mod frame;
 pub mod rays;
+pub mod report;
 
 pub use frame::{frame_forest_scene, frame_tree_scene};
 

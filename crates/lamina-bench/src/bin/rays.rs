@@ -39,7 +39,7 @@ use lamina_bench::rays::{
 use rayon::prelude::*;
 use serde::Serialize;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 #[cfg(feature = "embree")]
@@ -476,29 +476,6 @@ fn cross_check(case: &Case, e: &EmbreeAccel, matte: &LeafMatte) -> Mismatches {
 
 /// Writes `bytes` to `path` atomically: a temporary file beside it, then a rename (the
 /// folder is created if missing).
-/// Refuses a `--json` target that exists and is not an earlier report of this benchmark
-/// (unless `force`), and a folder always: checked before the run and again before writing.
-fn check_json_target(path: &Path, force: bool) -> Result<()> {
-    let Ok(meta) = std::fs::metadata(path) else {
-        return Ok(()); // nothing there
-    };
-    if meta.is_dir() {
-        bail!("--json {}: is a folder; name a file", path.display());
-    }
-    let ours = std::fs::read(path)
-        .ok()
-        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
-        .is_some_and(|v| v.get("generator").and_then(|g| g.as_str()) == Some(REPORT_GENERATOR));
-    if !ours && !force {
-        bail!(
-            "--json {}: the file exists and is not a report of this benchmark; \
-             it is left as it is (pass --force to replace it, or name another file)",
-            path.display()
-        );
-    }
-    Ok(())
-}
-
 fn run_cases(
     cases: &[Case],
     args: &Args,
@@ -611,7 +588,7 @@ fn main() -> Result<()> {
         bail!("--cases: no case '{bad}' (cases: {})", CASES.join(", "));
     }
     if let Some(path) = &args.json {
-        check_json_target(path, args.force)?;
+        lamina_bench::report::check_json_target(path, REPORT_GENERATOR, args.force, "--json")?;
     }
     if args.embree && !cfg!(feature = "embree") {
         eprintln!(
@@ -789,7 +766,7 @@ fn main() -> Result<()> {
             builds,
         };
         let json = serde_json::to_vec_pretty(&report)?;
-        check_json_target(path, args.force)?;
+        lamina_bench::report::check_json_target(path, REPORT_GENERATOR, args.force, "--json")?;
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }

@@ -8,7 +8,9 @@
 //! `--child`), so the peak memory (VmHWM) is that level's alone. Prints the table and
 //! writes `scale.csv`, `scale.json`, one PNG frame per run and, through
 //! `crates/lamina-bench/plot_scale.py` (matplotlib), the scaling plot `scale.png` into `--out`
-//! (default `crates/lamina-bench/results`).
+//! (default `crates/lamina-bench/results`). It replaces only files an earlier run wrote
+//! (`scale.json`'s `"generator"`, lamina's mark on the CSV and the PNGs; `--force` to
+//! replace others), checked before the first run.
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
@@ -67,6 +69,10 @@ struct Args {
     /// Skip the plot (no Python needed).
     #[arg(long)]
     no_plot: bool,
+    /// Replace output files in `--out` that this benchmark did not write (without it such
+    /// files are kept and the benchmark refuses to start).
+    #[arg(long)]
+    force: bool,
     /// Internal: measure one level in this process and print it as a `RESULT` JSON line.
     #[arg(long, hide = true)]
     child: Option<String>,
@@ -134,12 +140,11 @@ fn child(args: &Args, rep: Representation) -> Result<Measurement> {
     let s = out.stats;
     let render_s = (s.elapsed - s.accel_build).as_secs_f64();
     std::fs::create_dir_all(&args.out)?;
-    let name = if rep.is_forest() {
-        format!("frame_{rep}_{copies}x{leaves}.png")
-    } else {
-        format!("frame_{rep}_{leaves}.png")
-    };
-    write_image(&args.out.join(name), &out.image, &scene.film)?;
+    write_image(
+        &args.out.join(frame_file(rep, leaves, copies)),
+        &out.image,
+        &scene.film,
+    )?;
     let scene_leaves = leaves_placed * copies as u64;
     let mem = s.accel_memory;
     Ok(Measurement {
@@ -237,8 +242,52 @@ fn print_table(rows: &[Measurement]) {
     }
 }
 
+/// `"generator"` of `scale.json` and the detail of `scale.csv`'s mark line.
+const GENERATOR: &str = "lamina-bench scale";
+
+/// The frame a run writes (`plot_scale.py`'s `frame_name` reads the same names).
+fn frame_file(rep: Representation, leaves: u32, copies: u32) -> String {
+    if rep.is_forest() {
+        format!("frame_{rep}_{copies}x{leaves}.png")
+    } else {
+        format!("frame_{rep}_{leaves}.png")
+    }
+}
+
+/// Refuses to start when a file the benchmark would write in `--out` (the table, the
+/// report, a frame, a plot) exists and an earlier run did not write it, unless `--force`.
+fn check_outputs(args: &Args, forest: &[u32]) -> Result<()> {
+    use lamina_bench::report::{check_json_target, check_marked_target};
+    let out = &args.out;
+    check_json_target(&out.join("scale.json"), GENERATOR, args.force, "--out")?;
+    let mut marked = vec![out.join("scale.csv")];
+    for &leaves in &args.levels {
+        for rep in &args.reps {
+            marked.push(out.join(frame_file(parse_rep(rep)?, leaves, 1)));
+        }
+    }
+    for &copies in forest {
+        marked.push(out.join(frame_file(Representation::Forest, args.levels[0], copies)));
+        if args.forest_curved {
+            marked.push(out.join(frame_file(
+                Representation::ForestCurved,
+                args.levels[0],
+                copies,
+            )));
+        }
+    }
+    if !args.no_plot {
+        marked.extend([out.join("scale.png"), out.join("frames.png")]);
+    }
+    for path in &marked {
+        check_marked_target(path, args.force)?;
+    }
+    Ok(())
+}
+
 fn write_csv(path: &std::path::Path, rows: &[Measurement]) -> Result<()> {
-    let mut s = String::from(
+    let mut s = lamina_io::text_mark_line(GENERATOR) + "\n";
+    s.push_str(
         "leaves,representation,trees,triangles,unique_triangles,primitives,instances,generate_s,bvh_build_s,bvh_bytes,bvh_world_bytes,bvh_prototype_bytes,bvh_instance_bytes,bvh_bytes_per_leaf,bytes_per_instance,peak_rss_bytes,mrays_per_s,render_s,spp,width,height,threads\n",
     );
     for r in rows {
@@ -291,6 +340,7 @@ fn main() -> Result<()> {
         .filter(|s| !s.is_empty())
         .map(|s| s.parse().context("--forest takes copy counts"))
         .collect::<Result<_>>()?;
+    check_outputs(&args, &forest)?;
     std::fs::create_dir_all(&args.out)?;
     let (csv, json) = (args.out.join("scale.csv"), args.out.join("scale.json"));
     let mut rows = Vec::new();
@@ -298,7 +348,8 @@ fn main() -> Result<()> {
     let mut record = |m: Measurement| -> Result<()> {
         rows.push(m);
         write_csv(&csv, &rows)?;
-        lamina_io::write_bytes(&json, serde_json::to_string_pretty(&rows)?.as_bytes())?;
+        let report = serde_json::json!({ "generator": GENERATOR, "runs": &rows });
+        lamina_io::write_bytes(&json, serde_json::to_string_pretty(&report)?.as_bytes())?;
         Ok(())
     };
     for &leaves in &args.levels {

@@ -56,7 +56,7 @@ pub fn luminance(c: Vec3) -> f32 {
 /// A 32-bit integer hash with good avalanche (C. Wellons' `lowbias32` finaliser), shared by
 /// the renderer's sampler and the procedural noise of the leaf maps.
 #[inline]
-pub fn hash_u32(mut x: u32) -> u32 {
+pub const fn hash_u32(mut x: u32) -> u32 {
     x ^= x >> 16;
     x = x.wrapping_mul(0x7feb_352d);
     x ^= x >> 15;

@@ -32,52 +32,76 @@ fn laine_karras(mut x: u32, seed: u32) -> u32 {
     x
 }
 
-/// Nested uniform (Owen) scrambling of a 32-bit fixed-point value in `[0, 1)`.
-#[inline]
-fn owen_scramble(x: u32, seed: u32) -> u32 {
-    laine_karras(x.reverse_bits(), seed).reverse_bits()
-}
-
-/// Second Sobol dimension (generator: the Pascal matrix mod 2), branch-free: the bit
-/// loop over the generator's columns (XOR of column `k` for every set bit `k` of `i`) is
-/// the Pascal matrix applied to the reversed index, which five shift-and-XOR steps compute
-/// (each doubles the span of the binomial recurrence). Equal to the loop for every `u32`
-/// (test `sobol1_matches_the_generator_loop`); the loop's branches cost 6 % of a render.
-#[inline]
-fn sobol1(i: u32) -> u32 {
-    let mut x = i.reverse_bits();
-    x ^= (x & 0x5555_5555) << 1;
-    x ^= (x & 0x3333_3333) << 2;
-    x ^= (x & 0x0f0f_0f0f) << 4;
-    x ^= (x & 0x00ff_00ff) << 8;
-    x ^= (x & 0x0000_ffff) << 16;
-    x
-}
-
 /// 32-bit fixed point to a float in `[0, 1)`.
 #[inline]
 fn to_unit(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
+/// The second Sobol dimension (generator: the Pascal matrix mod 2) of index `i`, bits
+/// reversed: the Pascal matrix applied to `i` by five shift-and-XOR steps (each doubles
+/// the span of the binomial recurrence), written in reversed bit order so that no bit
+/// reversal is needed (each costs a dozen instructions on x86). The reference (the
+/// generator's bit loop, and the sequences as first written) is in the tests.
+#[inline]
+fn sobol1_reversed(i: u32) -> u32 {
+    let mut x = i;
+    x ^= (x & 0xaaaa_aaaa) >> 1;
+    x ^= (x & 0xcccc_cccc) >> 2;
+    x ^= (x & 0xf0f0_f0f0) >> 4;
+    x ^= (x & 0xff00_ff00) >> 8;
+    x ^= (x & 0xffff_0000) >> 16;
+    x
+}
+
+/// The shuffled sample index for dimension seed `seed`: the index Owen-scrambled (the
+/// Laine-Karras permutation between two bit reversals), from `rindex`, the index with its
+/// bits reversed.
+#[inline]
+fn shuffled(rindex: u32, seed: u32) -> u32 {
+    laine_karras(rindex, seed).reverse_bits()
+}
+
+/// The 2D point of shuffled index `i` for dimension seed `seed`: the van der Corput radical
+/// inverse of `i` and the second Sobol dimension, each Owen-scrambled with its own seed.
+/// Both are computed in reversed bit order, where the radical inverse is `i` itself, so
+/// one bit reversal per coordinate remains.
+#[inline]
+fn point_2d(i: u32, seed: u32) -> Vec2 {
+    let x = laine_karras(i, hash_u32(seed ^ 0x5bd1_e995)).reverse_bits();
+    let y = laine_karras(sobol1_reversed(i), hash_u32(seed ^ 0x1b87_3593)).reverse_bits();
+    Vec2::new(to_unit(x), to_unit(y))
+}
+
+/// The 1D point of shuffled index `i` for dimension seed `seed`.
+#[inline]
+fn point_1d(i: u32, seed: u32) -> f32 {
+    to_unit(laine_karras(i, hash_u32(seed ^ 0x5bd1_e995)).reverse_bits())
+}
+
 /// Sample `index` of the shuffled, Owen-scrambled 2D Sobol sequence for `seed`.
 #[inline]
 pub fn sobol_2d(index: u32, seed: u32) -> Vec2 {
-    let i = owen_scramble(index, seed);
-    let x = owen_scramble(i.reverse_bits(), hash_u32(seed ^ 0x5bd1_e995));
-    let y = owen_scramble(sobol1(i), hash_u32(seed ^ 0x1b87_3593));
-    Vec2::new(to_unit(x), to_unit(y))
+    point_2d(shuffled(index.reverse_bits(), seed), seed)
 }
 
 /// Sample `index` of the shuffled, Owen-scrambled 1D van der Corput sequence for `seed`.
 #[inline]
 pub fn sobol_1d(index: u32, seed: u32) -> f32 {
-    let i = owen_scramble(index, seed);
-    to_unit(owen_scramble(
-        i.reverse_bits(),
-        hash_u32(seed ^ 0x5bd1_e995),
-    ))
+    point_1d(shuffled(index.reverse_bits(), seed), seed)
 }
+
+/// `hash_u32(dim)` for the first dimensions, which every sample draws: a table instead
+/// of a hash per draw.
+const DIM_HASHES: [u32; 64] = {
+    let mut t = [0u32; 64];
+    let mut d = 0;
+    while d < 64 {
+        t[d] = hash_u32(d as u32);
+        d += 1;
+    }
+    t
+};
 
 /// Folds a 64-bit user seed to the 32-bit seed of the hashes.
 #[inline]
@@ -90,7 +114,8 @@ pub fn fold_seed(seed: u64) -> u32 {
 #[derive(Clone, Copy, Debug)]
 pub struct PixelSampler {
     pixel_seed: u32,
-    index: u32,
+    /// The sample index, bits reversed (what the index shuffle starts from).
+    rindex: u32,
     dim: u32,
 }
 
@@ -101,35 +126,59 @@ impl PixelSampler {
         let pixel_seed = hash_combine(hash_combine(seed, x), y ^ 0xa511_e9b3);
         PixelSampler {
             pixel_seed,
-            index,
+            rindex: index.reverse_bits(),
             dim: 0,
         }
     }
 
+    /// The next dimension's seed: `hash_combine(pixel_seed, dim)`.
     #[inline]
     fn next_seed(&mut self) -> u32 {
-        let s = hash_combine(self.pixel_seed, self.dim);
+        let h = match DIM_HASHES.get(self.dim as usize) {
+            Some(&h) => h,
+            None => hash_u32(self.dim),
+        };
         self.dim += 1;
-        s
+        hash_u32(self.pixel_seed ^ h.wrapping_add(0x9e37_79b9))
     }
 
     /// The next dimension pair, in `[0, 1)²`.
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
         let s = self.next_seed();
-        sobol_2d(self.index, s)
+        point_2d(shuffled(self.rindex, s), s)
     }
 
     /// The next single dimension, in `[0, 1)`.
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
         let s = self.next_seed();
-        sobol_1d(self.index, s)
+        point_1d(shuffled(self.rindex, s), s)
     }
 }
 
 #[cfg(test)]
 mod tests {
+    /// Nested uniform (Owen) scrambling of a 32-bit fixed-point value in `[0, 1)`.
+    fn owen_scramble(x: u32, seed: u32) -> u32 {
+        laine_karras(x.reverse_bits(), seed).reverse_bits()
+    }
+
+    /// Second Sobol dimension (generator: the Pascal matrix mod 2), branch-free: the bit
+    /// loop over the generator's columns (XOR of column `k` for every set bit `k` of `i`) is
+    /// the Pascal matrix applied to the reversed index, which five shift-and-XOR steps compute
+    /// (each doubles the span of the binomial recurrence). Equal to the loop for every `u32`
+    /// (test `sobol1_matches_the_generator_loop`); the loop's branches cost 6 % of a render.
+    fn sobol1(i: u32) -> u32 {
+        let mut x = i.reverse_bits();
+        x ^= (x & 0x5555_5555) << 1;
+        x ^= (x & 0x3333_3333) << 2;
+        x ^= (x & 0x0f0f_0f0f) << 4;
+        x ^= (x & 0x00ff_00ff) << 8;
+        x ^= (x & 0x0000_ffff) << 16;
+        x
+    }
+
     /// The generator loop `sobol1` replaced.
     fn sobol1_loop(mut i: u32) -> u32 {
         let mut v = 0x8000_0000u32;
@@ -148,14 +197,73 @@ mod tests {
     fn sobol1_matches_the_generator_loop() {
         let mut h = 1u32;
         for i in 0..70_000u32 {
-            assert_eq!(super::sobol1(i), sobol1_loop(i), "{i}");
+            assert_eq!(sobol1(i), sobol1_loop(i), "{i}");
             h = hash_u32(h ^ i);
-            assert_eq!(super::sobol1(h), sobol1_loop(h), "{h}");
+            assert_eq!(sobol1(h), sobol1_loop(h), "{h}");
         }
-        assert_eq!(super::sobol1(u32::MAX), sobol1_loop(u32::MAX));
+        assert_eq!(sobol1(u32::MAX), sobol1_loop(u32::MAX));
     }
 
     use super::*;
+
+    /// The sequences as first written (2026-11): each coordinate Owen-scrambled with its
+    /// bits reversed around the permutation, `sobol1` from the shuffled index.
+    fn sobol_2d_reference(index: u32, seed: u32) -> Vec2 {
+        let i = owen_scramble(index, seed);
+        let x = owen_scramble(i.reverse_bits(), hash_u32(seed ^ 0x5bd1_e995));
+        let y = owen_scramble(sobol1(i), hash_u32(seed ^ 0x1b87_3593));
+        Vec2::new(to_unit(x), to_unit(y))
+    }
+
+    fn sobol_1d_reference(index: u32, seed: u32) -> f32 {
+        let i = owen_scramble(index, seed);
+        to_unit(owen_scramble(
+            i.reverse_bits(),
+            hash_u32(seed ^ 0x5bd1_e995),
+        ))
+    }
+
+    /// The reordered arithmetic gives the same bits as the reference, so renders are
+    /// unchanged: every sample index and dimension a render uses, and hashed ones.
+    #[test]
+    fn sequences_match_the_reference_bit_for_bit() {
+        let mut h = 3u32;
+        for k in 0..200_000u32 {
+            h = hash_u32(h ^ k);
+            assert_eq!(sobol1_reversed(h), sobol1(h).reverse_bits(), "{h}");
+            let (index, seed) = if k % 2 == 0 { (k, h) } else { (h, k) };
+            let (a, b) = (sobol_2d(index, seed), sobol_2d_reference(index, seed));
+            assert_eq!(
+                (a.x.to_bits(), a.y.to_bits()),
+                (b.x.to_bits(), b.y.to_bits())
+            );
+            assert_eq!(
+                sobol_1d(index, seed).to_bits(),
+                sobol_1d_reference(index, seed).to_bits()
+            );
+        }
+        for (x, y, i) in [
+            (0, 0, 0),
+            (511, 7, 63),
+            (1919, 1079, 4095),
+            (3, 4, u32::MAX),
+        ] {
+            let mut s = PixelSampler::new(fold_seed(42), x, y, i);
+            let pixel_seed = hash_combine(hash_combine(fold_seed(42), x), y ^ 0xa511_e9b3);
+            for dim in 0..100u32 {
+                let seed = hash_combine(pixel_seed, dim);
+                if dim % 3 == 0 {
+                    assert_eq!(s.next_1d().to_bits(), sobol_1d_reference(i, seed).to_bits());
+                } else {
+                    let (a, b) = (s.next_2d(), sobol_2d_reference(i, seed));
+                    assert_eq!(
+                        (a.x.to_bits(), a.y.to_bits()),
+                        (b.x.to_bits(), b.y.to_bits())
+                    );
+                }
+            }
+        }
+    }
 
     #[test]
     fn sobol_prefixes_are_stratified() {

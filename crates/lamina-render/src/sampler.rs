@@ -155,6 +155,36 @@ impl PixelSampler {
         let s = self.next_seed();
         point_1d(shuffled(self.rindex, s), s)
     }
+
+    /// What [`PixelSampler::next_2d`] will return after `ahead` more draws, without
+    /// drawing: so that a value needed later can be computed before work whose branches
+    /// would otherwise hold it up. Take it with [`PixelSampler::skip`] when its turn comes.
+    #[inline]
+    pub fn peek_2d(&self, ahead: u32) -> Vec2 {
+        let mut s = PixelSampler {
+            dim: self.dim + ahead,
+            ..*self
+        };
+        s.next_2d()
+    }
+
+    /// What [`PixelSampler::next_1d`] will return after `ahead` more draws, without
+    /// drawing.
+    #[inline]
+    pub fn peek_1d(&self, ahead: u32) -> f32 {
+        let mut s = PixelSampler {
+            dim: self.dim + ahead,
+            ..*self
+        };
+        s.next_1d()
+    }
+
+    /// Skips `n` draws (values taken earlier with [`PixelSampler::peek_1d`] or
+    /// [`PixelSampler::peek_2d`]).
+    #[inline]
+    pub fn skip(&mut self, n: u32) {
+        self.dim += n;
+    }
 }
 
 #[cfg(test)]
@@ -263,6 +293,27 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A value drawn ahead is the one the draw gives when its turn comes, and skipping it
+    /// leaves the stream where drawing would.
+    #[test]
+    fn peeked_values_are_the_drawn_ones() {
+        let start = PixelSampler::new(fold_seed(7), 12, 34, 5);
+        let mut drawn = start;
+        let seq: Vec<(f32, Vec2)> = (0..8).map(|_| (drawn.next_1d(), drawn.next_2d())).collect();
+        for (k, &(a, b)) in seq.iter().enumerate() {
+            let k = 2 * k as u32;
+            assert_eq!(start.peek_1d(k).to_bits(), a.to_bits());
+            assert_eq!(start.peek_2d(k + 1), b);
+        }
+        let mut skipped = start;
+        skipped.skip(3);
+        let mut s = start;
+        for _ in 0..3 {
+            s.next_2d();
+        }
+        assert_eq!(skipped.next_2d(), s.next_2d());
     }
 
     #[test]

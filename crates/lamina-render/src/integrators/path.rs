@@ -115,6 +115,11 @@ fn trace(
         let wo = frame.to_local(-ray.dir);
 
         let (_, picked, pick) = ctx.nee_lights(sampler);
+        // The BSDF's numbers are the draws after the lights' (one each); drawn ahead and
+        // the direction sampled now, they are ready when the shadow rays are done.
+        let ahead = picked.len() as u32;
+        let (u1, u2) = (sampler.peek_1d(ahead), sampler.peek_2d(ahead + 1));
+        let sampled = bsdf.sample(wo, Vec3::new(u1, u2.x, u2.y));
         for light in picked {
             let u = sampler.next_2d();
             let Some(mut ls) = light.sample(p, u) else {
@@ -140,9 +145,8 @@ fn trace(
             l += beta * f * ls.li * (w / ls.pdf);
         }
 
-        let u1 = sampler.next_1d();
-        let u2 = sampler.next_2d();
-        let Some(bs) = bsdf.sample(wo, Vec3::new(u1, u2.x, u2.y)) else {
+        sampler.skip(2);
+        let Some(bs) = sampled else {
             break;
         };
         if !(bs.pdf > 0.0) {

@@ -529,32 +529,49 @@ fn render_tile<E: Estimator>(
     let mut sums = vec![0.0f64; (tile.w * tile.h) as usize * c];
     let mut vals = vec![0.0f32; c];
     let mut rays = 0u64;
+    // Sample `i` of pixel `(x, y)`: its sampler (past the film and lens draws) and camera
+    // ray.
+    let camera = |x: u32, y: u32, i: u32| {
+        let mut sampler = PixelSampler::new(seed, x, y, i);
+        let film_u = sampler.next_2d();
+        let lens_u = sampler.next_2d();
+        let pos = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + ctx.filter.sample(film_u);
+        let (origin, dir) = ctx.camera.generate_ray(pos, lens_u);
+        let ray = Ray {
+            origin,
+            dir,
+            tmax: f32::INFINITY,
+        };
+        (sampler, ray)
+    };
+    // Follows a sample's path and adds it to its pixel's sums (starting at `at`).
+    let mut run = |(at, (mut sampler, ray)): (usize, (PixelSampler, Ray))| {
+        vals.fill(0.0);
+        est.estimate(ctx, ray, &mut sampler, &mut rays, &mut vals);
+        // A NaN or infinite sample (a numerical accident) counts as black.
+        if vals.iter().all(|v| v.is_finite()) {
+            for (s, v) in sums[at..at + c].iter_mut().zip(&vals) {
+                *s += *v as f64;
+            }
+        }
+    };
+    // Each sample's camera ray is made before the previous sample's path is followed, so
+    // that the sampler's and the camera's arithmetic overlaps that path's ray walks
+    // rather than holding up the next camera ray. The order of the additions is the same.
+    let mut pending = None;
     let mut at = 0usize;
     for y in tile.y0..tile.y0 + tile.h {
         for x in tile.x0..tile.x0 + tile.w {
-            let sum = &mut sums[at..at + c];
             for i in s0..s1 {
-                let mut sampler = PixelSampler::new(seed, x, y, i);
-                let film_u = sampler.next_2d();
-                let lens_u = sampler.next_2d();
-                let pos = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + ctx.filter.sample(film_u);
-                let (origin, dir) = ctx.camera.generate_ray(pos, lens_u);
-                let ray = Ray {
-                    origin,
-                    dir,
-                    tmax: f32::INFINITY,
-                };
-                vals.fill(0.0);
-                est.estimate(ctx, ray, &mut sampler, &mut rays, &mut vals);
-                // A NaN or infinite sample (a numerical accident) counts as black.
-                if vals.iter().all(|v| v.is_finite()) {
-                    for (s, v) in sum.iter_mut().zip(&vals) {
-                        *s += *v as f64;
-                    }
+                if let Some(p) = pending.replace((at, camera(x, y, i))) {
+                    run(p);
                 }
             }
             at += c;
         }
+    }
+    if let Some(p) = pending {
+        run(p);
     }
     (sums, rays)
 }

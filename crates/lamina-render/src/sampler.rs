@@ -156,34 +156,35 @@ impl PixelSampler {
         point_1d(shuffled(self.rindex, s), s)
     }
 
+    /// This stream after `n` more draws, this one left as it is.
+    #[inline]
+    fn after(&self, n: u32) -> PixelSampler {
+        PixelSampler {
+            dim: self.dim + n,
+            ..*self
+        }
+    }
+
     /// What [`PixelSampler::next_2d`] will return after `ahead` more draws, without
     /// drawing: so that a value needed later can be computed before work whose branches
     /// would otherwise hold it up. Take it with [`PixelSampler::skip`] when its turn comes.
     #[inline]
     pub fn peek_2d(&self, ahead: u32) -> Vec2 {
-        let mut s = PixelSampler {
-            dim: self.dim + ahead,
-            ..*self
-        };
-        s.next_2d()
+        self.after(ahead).next_2d()
     }
 
     /// What [`PixelSampler::next_1d`] will return after `ahead` more draws, without
     /// drawing.
     #[inline]
     pub fn peek_1d(&self, ahead: u32) -> f32 {
-        let mut s = PixelSampler {
-            dim: self.dim + ahead,
-            ..*self
-        };
-        s.next_1d()
+        self.after(ahead).next_1d()
     }
 
     /// Skips `n` draws (values taken earlier with [`PixelSampler::peek_1d`] or
     /// [`PixelSampler::peek_2d`]).
     #[inline]
     pub fn skip(&mut self, n: u32) {
-        self.dim += n;
+        *self = self.after(n);
     }
 }
 

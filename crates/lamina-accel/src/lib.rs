@@ -42,6 +42,7 @@
 
 pub mod build;
 pub mod desc;
+pub mod direction;
 #[cfg(feature = "embree")]
 pub mod embree;
 mod kernel;
@@ -55,6 +56,7 @@ mod traverse;
 
 pub use build::Aabb;
 pub use desc::{Geometry, Instance, Prim, PrimAlpha, SceneDesc, Sphere};
+pub use direction::DirectionStats;
 pub use mask::{MaskWrap, OpacityMask};
 
 use glam::{Vec2, Vec3};
@@ -336,6 +338,8 @@ pub struct AccelMemory {
     pub instances: usize,
     /// Opacity masks.
     pub masks: usize,
+    /// Grids for shadow rays toward distant lights ([`Accel::index_direction`]).
+    pub directions: usize,
     /// Number of instances in the top level.
     pub instance_count: usize,
 }
@@ -343,7 +347,7 @@ pub struct AccelMemory {
 impl AccelMemory {
     /// All of it.
     pub fn total(&self) -> usize {
-        self.world + self.prototypes + self.instances + self.masks
+        self.world + self.prototypes + self.instances + self.masks + self.directions
     }
 
     /// Bytes per instance of the instance level; 0 without instances.
@@ -452,6 +456,7 @@ fn build_levels<const W: usize>(desc: &SceneDesc, trav_cost: f32) -> Result<Leve
             })
             .collect(),
         masks: desc.masks.clone(),
+        dirs: Vec::new(),
     })
 }
 
@@ -598,6 +603,33 @@ impl Accel {
         })
     }
 
+    /// Adds a grid that answers [`Accel::occluded`] for rays toward a distant light along
+    /// `axis` (world space, any length; the sun's direction) with a few leaf tests instead
+    /// of a tree walk (the [`direction`] module; answers are the walk's, bit for bit).
+    /// Rays in other directions keep the walk. `None` (nothing added) for a zero or
+    /// non-finite axis, an empty scene, or one larger than the grid is built for
+    /// ([`direction::MAX_PACKS`], [`direction::MAX_ENTRIES`]).
+    pub fn index_direction(&mut self, axis: Vec3) -> Option<DirectionStats> {
+        fn add<const W: usize>(l: &mut Levels<W>, axis: Vec3) -> Option<DirectionStats> {
+            let ix = direction::DirIndex::build(l, axis)?;
+            let s = ix.stats();
+            l.dirs.push(ix);
+            Some(s)
+        }
+        match &mut self.engine {
+            Engine::W8(l) => add(l, axis),
+            Engine::W4(l) => add(l, axis),
+        }
+    }
+
+    /// The grids [`Accel::index_direction`] added.
+    pub fn directions(&self) -> Vec<DirectionStats> {
+        match &self.engine {
+            Engine::W8(l) => l.dirs.iter().map(|d| d.stats()).collect(),
+            Engine::W4(l) => l.dirs.iter().map(|d| d.stats()).collect(),
+        }
+    }
+
     /// The kernel queries run with.
     pub fn kernel(&self) -> Kernel {
         self.kernel
@@ -695,6 +727,7 @@ impl Accel {
                 prototypes: l.protos.iter().map(Blas::bytes).sum(),
                 instances: tlas + l.recs.len() * std::mem::size_of::<InstRec>(),
                 masks: l.masks.iter().flatten().map(OpacityMask::bytes).sum(),
+                directions: l.dirs.iter().map(|d| d.bytes()).sum(),
                 instance_count: count,
             }
         }

@@ -582,3 +582,142 @@ fn kernel_choice_names_a_bad_override() {
         assert!(w.expect("a warning").contains("cannot run"));
     }
 }
+
+/// The grid along a sun's axis ([`Accel::index_direction`]) answers occlusion exactly as
+/// the tree walk does, for every kernel: rays along the axis, in narrow and wide cones
+/// around it and in any direction, from free space and from surfaces (skipping the one
+/// they leave), with and without `tmax`, on the world level and through instances; with a
+/// ground far larger than the grid's cells (listed apart for rays that leave the grid) and
+/// a column of cards too crowded for a cell's list (its rays take the walk).
+#[test]
+fn direction_grid_answers_as_the_walk() {
+    let f = |_: u32, uv: Vec2| matte(uv);
+    for (s, instances, ground) in [(3, false, false), (4, true, false), (6, true, true)] {
+        let mut desc = scene(s, instances);
+        if ground {
+            desc.world.prims.push(Prim::parallelogram(
+                Vec3::new(-100.0, -0.3, 100.0),
+                Vec3::new(200.0, 0.0, 0.0),
+                Vec3::new(0.0, 0.0, -200.0),
+            ));
+            for k in 0..400 {
+                let c = Vec3::new(1.5, 0.01 * k as f32, 1.5);
+                desc.world
+                    .prims
+                    .push(Prim::parallelogram(c, Vec3::X * 0.1, Vec3::Z * 0.1));
+            }
+        }
+        for kernel in kernels() {
+            let opts = BuildOptions {
+                kernel,
+                ..Default::default()
+            };
+            let walk = Accel::build_with(&desc, opts).unwrap();
+            let mut r = rng(s * 31 + 7);
+            let axes = [
+                unit(&mut r),
+                Vec3::Y,
+                Vec3::new(-0.0, 1.0, -0.0),
+                Vec3::new(0.3, -0.8, 0.2),
+            ];
+            for axis in axes {
+                let mut grid = walk.clone();
+                let st = grid.index_direction(axis).expect("a grid");
+                assert!(st.entries >= st.packs && st.bytes > 0, "{st:?}");
+                assert_eq!(grid.directions(), vec![st]);
+                assert_eq!(
+                    grid.memory().total(),
+                    walk.memory().total() + st.bytes,
+                    "the grid's bytes are counted"
+                );
+                let a = axis.normalize();
+                let (u, v) = a.any_orthonormal_pair();
+                let (mut served, mut along) = (0, 0);
+                for i in 0..3000 {
+                    // Directions: the axis itself, a sun of 0.5° and of 10°, anything.
+                    let dir = match i % 4 {
+                        0 => a,
+                        1 | 2 => {
+                            let w = if i % 4 == 1 { 0.0046 } else { 0.18 };
+                            let phi = std::f32::consts::TAU * r();
+                            let rad = w * r().sqrt();
+                            (a + (u * phi.cos() + v * phi.sin()) * rad).normalize()
+                        }
+                        _ => unit(&mut r),
+                    };
+                    let spread = if ground && i % 8 == 4 { 60.0 } else { 5.0 };
+                    let mut ray = Ray {
+                        origin: Vec3::new(r(), r(), r()) * spread - 0.1 * spread,
+                        dir: dir * if i % 5 == 0 { 3.0 } else { 1.0 },
+                        tmax: if i % 3 == 0 {
+                            0.2 + 2.0 * r()
+                        } else {
+                            f32::INFINITY
+                        },
+                    };
+                    let mut skip = PrimRef::NONE;
+                    if i % 2 == 1 {
+                        // From a surface: where a random ray lands, leaving that primitive.
+                        let probe = Ray {
+                            dir: unit(&mut r),
+                            tmax: f32::INFINITY,
+                            ..ray
+                        };
+                        if let Some(h) = walk
+                            .intersect(&probe, PrimRef::NONE, &f)
+                            .filter(|h| h.prim.inst != SPHERE)
+                        {
+                            ray.origin = probe.origin + probe.dir * h.t;
+                            skip = h.prim;
+                        }
+                    }
+                    let stats = TraversalStats::default();
+                    let want = walk.occluded(&ray, skip, &f);
+                    let got = grid.occluded_counted(&ray, skip, &f, &stats);
+                    assert_eq!(
+                        got, want,
+                        "{kernel:?} axis {axis} ray {i}: {ray:?} skip {skip:?}"
+                    );
+                    if i % 4 == 0 {
+                        along += 1;
+                        // A ray the grid serves walks no tree node.
+                        if stats.nodes.get() == 0 {
+                            served += 1;
+                        }
+                    }
+                }
+                // All but the few that start in the crowded column.
+                assert!(
+                    served * 50 >= along * 49,
+                    "{kernel:?} axis {axis}: {served} of {along} served"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn direction_grid_is_refused_without_a_direction_or_geometry() {
+    let mut a = Accel::build(&scene(5, true)).unwrap();
+    assert!(a.index_direction(Vec3::ZERO).is_none());
+    assert!(a.index_direction(Vec3::new(f32::NAN, 1.0, 0.0)).is_none());
+    assert!(a.directions().is_empty());
+    let mut empty = Accel::build(&SceneDesc::default()).unwrap();
+    assert!(empty.index_direction(Vec3::Y).is_none());
+    // Spheres only: no packs, no grid, and occlusion still sees the sphere.
+    let mut spheres = Accel::build(&SceneDesc {
+        spheres: vec![Sphere {
+            center: Vec3::new(0.0, 2.0, 0.0),
+            radius: 0.5,
+        }],
+        ..Default::default()
+    })
+    .unwrap();
+    assert!(spheres.index_direction(Vec3::Y).is_none());
+    let up = Ray {
+        origin: Vec3::ZERO,
+        dir: Vec3::Y,
+        tmax: f32::INFINITY,
+    };
+    assert!(spheres.occluded(&up, PrimRef::NONE, &|_, _| true));
+}

@@ -313,7 +313,7 @@ unsafe fn pack_closest<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
 /// # Safety
 /// As [`walk`].
 #[inline(always)]
-unsafe fn pack_any<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
+pub(crate) unsafe fn pack_any<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
     blas: &Blas<W>,
     masks: &[Option<OpacityMask>],
     p: &Pack,
@@ -582,6 +582,8 @@ pub(crate) struct Levels<const W: usize> {
     pub recs: Vec<InstRec>,
     pub spheres: Vec<Sphere>,
     pub masks: Vec<Option<OpacityMask>>,
+    /// Grids for shadow rays toward distant lights ([`crate::direction`]).
+    pub dirs: Vec<crate::direction::DirIndex>,
 }
 
 #[inline(always)]
@@ -641,7 +643,7 @@ impl<const W: usize> Levels<W> {
 
     /// Instance `i`'s prototype and the ray in its object space.
     #[inline(always)]
-    fn enter(&self, i: u32, o: Vec3A, d: Vec3A, skip: PrimRef) -> (&Blas<W>, LRay) {
+    pub(crate) fn enter(&self, i: u32, o: Vec3A, d: Vec3A, skip: PrimRef) -> (&Blas<W>, LRay) {
         let rec = &self.recs[i as usize];
         (
             &self.protos[rec.proto as usize],
@@ -767,6 +769,14 @@ impl<const W: usize> Levels<W> {
         // One prepared world ray serves the world level and the top level.
         // SAFETY: forwarded.
         let tr = unsafe { K::prep(&wr) };
+        for ix in &self.dirs {
+            // SAFETY: forwarded.
+            if let Some(hit) =
+                unsafe { ix.occluded::<W, K, F, C>(self, ray, skip, &tr, wr.skip, f, c) }
+            {
+                return hit;
+            }
+        }
         // SAFETY: forwarded.
         if unsafe { blas_any::<K, W, F, C>(&self.world, &self.masks, &tr, wr.skip, ray.tmax, f, c) }
         {

@@ -104,6 +104,16 @@ impl Core {
         }
     }
 
+    /// Adds lamina-accel's grid for shadow rays along `axis` (see
+    /// `lamina_accel::Accel::index_direction`); nothing on Embree.
+    pub fn index_direction(&mut self, axis: glam::Vec3) -> Option<lamina_accel::DirectionStats> {
+        match self {
+            Core::Lamina(a) => a.index_direction(axis),
+            #[cfg(feature = "embree")]
+            Core::Embree(_) => None,
+        }
+    }
+
     /// Which backend this is.
     pub fn backend(&self) -> Backend {
         match self {
@@ -174,6 +184,7 @@ impl Core {
                 prototypes: 0,
                 instances: e.w2o.len() * std::mem::size_of::<Affine3A>(),
                 masks: 0,
+                directions: 0,
                 instance_count: e.w2o.len(),
             },
         }

@@ -446,7 +446,19 @@ impl Accel {
             spheres,
             masks: alpha.iter().map(AlphaTest::mask).collect(),
         };
-        let core = Core::build(&desc, backend, kernel).map_err(accel_error)?;
+        let mut core = Core::build(&desc, backend, kernel).map_err(accel_error)?;
+        // Sun shadow rays, most of a sunlit scene's shadow rays, take the grid along the
+        // sun instead of a tree walk (same answers).
+        let mut axes: Vec<Vec3> = Vec::new();
+        for l in &scene.lights {
+            if let Light::Sun { direction, .. } = l {
+                let a = direction.normalize_or_zero();
+                if a != Vec3::ZERO && !axes.contains(&a) {
+                    axes.push(a);
+                    core.index_direction(a);
+                }
+            }
+        }
         let measuring = scene.radiometry != lamina_core::Radiometry::default();
         let origins = measuring.then(|| Origins {
             meshes: mesh_origins,
@@ -507,6 +519,7 @@ impl Accel {
             prototypes: m.prototypes + self.prototypes.iter().map(Blas::bytes).sum::<usize>(),
             instances: m.instances,
             masks: m.masks,
+            directions: m.directions,
             instance_count: m.instance_count,
         }
     }

@@ -402,3 +402,64 @@ fn tiny_instanced_prototypes_match_flattened_geometry() {
     assert!(second > n / 40, "{second} of {n} rays hit twice");
     assert!(disagree * 100 < n, "{disagree} of {n} rays disagree");
 }
+
+/// A scene with a sun gets lamina-accel's grid along it (counted in `memory`), and shadow
+/// rays toward the sun (from free space and from surfaces) are answered as without it.
+#[test]
+fn sun_shadow_rays_take_the_grid_with_the_same_answers() {
+    let (mut scene, _) = instanced_and_flat(&test_transforms());
+    scene
+        .lights
+        .retain(|l| !matches!(l, lamina_core::Light::Sun { .. }));
+    let plain = Accel::build(&scene).unwrap();
+    assert_eq!(plain.memory().directions, 0, "no sun, no grid");
+    let sun = Vec3::new(0.3, 0.5, 0.8).normalize();
+    scene.lights.push(lamina_core::Light::Sun {
+        direction: sun,
+        irradiance: Vec3::ONE,
+        angular_diameter_deg: 0.53,
+    });
+    let grid = Accel::build(&scene).unwrap();
+    assert!(grid.memory().directions > 0, "a grid along the sun");
+    let (mut blocked, mut n) = (0, 0);
+    for i in 0..4000u32 {
+        let s = crate::sampler::sobol_2d(i, 5);
+        let q = crate::sampler::sobol_2d(i, 6);
+        let origin = Vec3::new(s.x * 4.0 - 2.0, s.y * 4.0 - 2.0, q.x * 4.0 - 2.0);
+        // The sun's axis and directions within its disc.
+        let tilt = Vec3::new(q.y - 0.5, s.x - 0.5, 0.0) * if i % 2 == 0 { 0.0 } else { 0.009 };
+        let ray = Ray {
+            origin,
+            dir: (sun + tilt).normalize(),
+            tmax: f32::INFINITY,
+        };
+        let want = plain.occluded(&ray);
+        assert_eq!(grid.occluded(&ray), want, "ray {i}: {ray:?}");
+        blocked += want as u32;
+        // From the surface a probe ray lands on, leaving it.
+        let probe = Ray {
+            dir: -ray.dir,
+            ..ray
+        };
+        if let Some(Hit {
+            t,
+            kind: HitKind::Triangle { prim, .. },
+        }) = plain.intersect(&probe)
+        {
+            let from = Ray {
+                origin: probe.origin + probe.dir * t,
+                ..ray
+            };
+            n += 1;
+            assert_eq!(
+                grid.occluded_skip(&from, prim),
+                plain.occluded_skip(&from, prim),
+                "ray {i} from {prim:?}"
+            );
+        }
+    }
+    assert!(
+        blocked > 200 && n > 200,
+        "{blocked} blocked, {n} from surfaces"
+    );
+}

@@ -45,6 +45,7 @@ pub mod desc;
 pub mod direction;
 #[cfg(feature = "embree")]
 pub mod embree;
+pub mod grid;
 mod kernel;
 mod layout;
 pub mod mask;
@@ -608,7 +609,7 @@ impl Accel {
     /// of a tree walk (the [`direction`] module; answers are the walk's, bit for bit).
     /// Rays in other directions keep the walk. `None` (nothing added) for a zero or
     /// non-finite axis, an empty scene, or one larger than the grid is built for
-    /// ([`direction::MAX_PACKS`], [`direction::MAX_ENTRIES`]).
+    /// ([`grid::MAX_PACKS`], [`grid::MAX_ENTRIES`]).
     pub fn index_direction(&mut self, axis: Vec3) -> Option<DirectionStats> {
         fn add<const W: usize>(l: &mut Levels<W>, axis: Vec3) -> Option<DirectionStats> {
             let ix = direction::DirIndex::build(l, axis)?;

@@ -273,7 +273,7 @@ fn alpha_opaque<const W: usize, F: AlphaFilter, C: Counter>(
 /// # Safety
 /// As [`walk`].
 #[inline(always)]
-unsafe fn pack_closest<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
+pub(crate) unsafe fn pack_closest<K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter>(
     blas: &Blas<W>,
     masks: &[Option<OpacityMask>],
     p: &Pack,

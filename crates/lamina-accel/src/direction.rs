@@ -29,7 +29,7 @@
 //! whose grid would exceed [`MAX_ENTRIES`](crate::grid::MAX_ENTRIES), get none.
 
 use crate::grid::{
-    Cells, Entry, Footprint, LaneFoot, PackRef, PackTests, median_size, sort_entries,
+    Cells, Entry, Footprint, GridStats, LaneFoot, PackRef, PackTests, median_size, sort_entries,
 };
 use crate::kernel::Lanes;
 use crate::traverse::Levels;
@@ -39,23 +39,6 @@ use rayon::prelude::*;
 
 /// A primitive this many times the median size is "big": it does not size the grid.
 const BIG: f32 = 64.0;
-
-/// What a built grid holds, for reports.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DirectionStats {
-    /// Unit axis toward the light.
-    pub axis: Vec3,
-    /// Leaf packs listed (world and instances).
-    pub packs: usize,
-    /// Grid size (cells across `u`, across `v`).
-    pub cells: (usize, usize),
-    /// Cell side (world units).
-    pub cell: f32,
-    /// Pack-in-cell entries.
-    pub entries: usize,
-    /// Bytes held.
-    pub bytes: usize,
-}
 
 /// The grid of one axis (module docs). Entry keys are the largest depth along the axis
 /// the pack reaches in the cell; lists run deepest first.
@@ -194,9 +177,10 @@ impl DirIndex {
     }
 
     /// What the grid holds.
-    pub(crate) fn stats(&self) -> DirectionStats {
-        DirectionStats {
+    pub(crate) fn stats(&self) -> GridStats {
+        GridStats {
             axis: Vec3::from(self.axis),
+            eye: None,
             packs: self.refs.len(),
             cells: (self.cells.n[0], self.cells.n[1]),
             cell: self.cells.cell,

@@ -7,7 +7,7 @@ use crate::kernel::Lanes;
 use crate::layout::Pack;
 use crate::traverse::{Levels, pack_any, pack_closest};
 use crate::{AlphaFilter, Counter, NO_INSTANCE, PrimRef};
-use glam::{Affine3A, Vec3A};
+use glam::{Affine3A, Vec3, Vec3A};
 use rayon::prelude::*;
 
 /// Most leaf packs, placed in world space, a grid is built over. A grid pays for itself
@@ -26,6 +26,26 @@ const MAX_GRID: usize = 1 << 22;
 const CELL_OF_LANE: f32 = 0.5;
 /// Most packs listed in one cell; a more crowded cell leaves its rays to the tree walk.
 const MAX_CELL_ENTRIES: usize = 64;
+
+/// What a built grid holds, for reports.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridStats {
+    /// Unit axis: toward the light (a sun's grid), or the view direction (a camera's).
+    pub axis: Vec3,
+    /// The eye of a camera's grid; `None` for a sun's.
+    pub eye: Option<Vec3>,
+    /// Leaf packs listed (world and instances).
+    pub packs: usize,
+    /// Grid size in cells (across, up).
+    pub cells: (usize, usize),
+    /// Cell side: world units across the sun's axis; for a camera, units of the tangent
+    /// of the angle from the view direction.
+    pub cell: f32,
+    /// Pack-in-cell entries.
+    pub entries: usize,
+    /// Bytes held.
+    pub bytes: usize,
+}
 
 /// One pack placed in the world: the world level's (`inst == NO_INSTANCE`) or an
 /// instance's.
@@ -127,6 +147,8 @@ pub(crate) struct LaneFoot {
     /// +1 for a counter-clockwise outline, -1 for a clockwise one, 0 for one of no area
     /// (counted by its bounds).
     pub sign: f32,
+    /// The lane's own rounding margin in projected units, on top of the grid's.
+    pub pad: f32,
 }
 
 impl LaneFoot {
@@ -160,6 +182,7 @@ impl LaneFoot {
             poly,
             k,
             sign,
+            pad: 0.0,
         }
     }
 
@@ -172,6 +195,7 @@ impl LaneFoot {
     /// overlap and no edge of the outline separates them. An outline of no area counts by
     /// its bounds.
     pub fn touches(&self, x: [f32; 2], y: [f32; 2], pad: f32) -> bool {
+        let pad = pad + self.pad;
         let (x, y) = ([x[0] - pad, x[1] + pad], [y[0] - pad, y[1] + pad]);
         if self.lo[0] > x[1] || self.hi[0] < x[0] || self.lo[1] > y[1] || self.hi[1] < y[0] {
             return false;
@@ -207,8 +231,8 @@ impl Footprint {
     pub fn new(lanes: Vec<LaneFoot>) -> Self {
         let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
         for l in &lanes {
-            lo = [lo[0].min(l.lo[0]), lo[1].min(l.lo[1])];
-            hi = [hi[0].max(l.hi[0]), hi[1].max(l.hi[1])];
+            lo = [lo[0].min(l.lo[0] - l.pad), lo[1].min(l.lo[1] - l.pad)];
+            hi = [hi[0].max(l.hi[0] + l.pad), hi[1].max(l.hi[1] + l.pad)];
         }
         Footprint { lo, hi, lanes }
     }

@@ -54,10 +54,11 @@ mod memory;
 mod tests;
 mod top;
 mod traverse;
+pub mod view;
 
 pub use build::Aabb;
 pub use desc::{Geometry, Instance, Prim, PrimAlpha, SceneDesc, Sphere};
-pub use direction::DirectionStats;
+pub use grid::GridStats;
 pub use mask::{MaskWrap, OpacityMask};
 
 use glam::{Vec2, Vec3};
@@ -339,8 +340,9 @@ pub struct AccelMemory {
     pub instances: usize,
     /// Opacity masks.
     pub masks: usize,
-    /// Grids for shadow rays toward distant lights ([`Accel::index_direction`]).
-    pub directions: usize,
+    /// Grids for shadow rays toward distant lights ([`Accel::index_direction`]) and for
+    /// camera rays ([`Accel::index_view`]).
+    pub grids: usize,
     /// Number of instances in the top level.
     pub instance_count: usize,
 }
@@ -348,7 +350,7 @@ pub struct AccelMemory {
 impl AccelMemory {
     /// All of it.
     pub fn total(&self) -> usize {
-        self.world + self.prototypes + self.instances + self.masks + self.directions
+        self.world + self.prototypes + self.instances + self.masks + self.grids
     }
 
     /// Bytes per instance of the instance level; 0 without instances.
@@ -458,6 +460,7 @@ fn build_levels<const W: usize>(desc: &SceneDesc, trav_cost: f32) -> Result<Leve
             .collect(),
         masks: desc.masks.clone(),
         dirs: Vec::new(),
+        view: None,
     })
 }
 
@@ -610,8 +613,8 @@ impl Accel {
     /// Rays in other directions keep the walk. `None` (nothing added) for a zero or
     /// non-finite axis, an empty scene, or one larger than the grid is built for
     /// ([`grid::MAX_PACKS`], [`grid::MAX_ENTRIES`]).
-    pub fn index_direction(&mut self, axis: Vec3) -> Option<DirectionStats> {
-        fn add<const W: usize>(l: &mut Levels<W>, axis: Vec3) -> Option<DirectionStats> {
+    pub fn index_direction(&mut self, axis: Vec3) -> Option<GridStats> {
+        fn add<const W: usize>(l: &mut Levels<W>, axis: Vec3) -> Option<GridStats> {
             let ix = direction::DirIndex::build(l, axis)?;
             let s = ix.stats();
             l.dirs.push(ix);
@@ -623,8 +626,47 @@ impl Accel {
         }
     }
 
+    /// Adds a grid that answers [`Accel::intersect`] for rays starting exactly at `eye` (a
+    /// pinhole camera's rays) with a few leaf tests instead of a tree walk (the [`view`]
+    /// module), looking along `forward` with `up` fixing the roll, over the picture
+    /// `window = [x0, x1, y0, y1]` (tangents of the angles right and up of `forward`; rays
+    /// outside it keep the walk). Replaces an earlier one. `None` (nothing added) for a
+    /// degenerate frame or window, or a scene larger than the grid is built for.
+    pub fn index_view(
+        &mut self,
+        eye: Vec3,
+        forward: Vec3,
+        up: Vec3,
+        window: [f32; 4],
+    ) -> Option<GridStats> {
+        fn add<const W: usize>(
+            l: &mut Levels<W>,
+            eye: Vec3,
+            forward: Vec3,
+            up: Vec3,
+            window: [f32; 4],
+        ) -> Option<GridStats> {
+            let ix = view::ViewIndex::build(l, eye, forward, up, window)?;
+            let s = ix.stats();
+            l.view = Some(ix);
+            Some(s)
+        }
+        match &mut self.engine {
+            Engine::W8(l) => add(l, eye, forward, up, window),
+            Engine::W4(l) => add(l, eye, forward, up, window),
+        }
+    }
+
+    /// The grid [`Accel::index_view`] added.
+    pub fn view_grid(&self) -> Option<GridStats> {
+        match &self.engine {
+            Engine::W8(l) => l.view.as_ref().map(|v| v.stats()),
+            Engine::W4(l) => l.view.as_ref().map(|v| v.stats()),
+        }
+    }
+
     /// The grids [`Accel::index_direction`] added.
-    pub fn directions(&self) -> Vec<DirectionStats> {
+    pub fn directions(&self) -> Vec<GridStats> {
         match &self.engine {
             Engine::W8(l) => l.dirs.iter().map(|d| d.stats()).collect(),
             Engine::W4(l) => l.dirs.iter().map(|d| d.stats()).collect(),
@@ -728,7 +770,8 @@ impl Accel {
                 prototypes: l.protos.iter().map(Blas::bytes).sum(),
                 instances: tlas + l.recs.len() * std::mem::size_of::<InstRec>(),
                 masks: l.masks.iter().flatten().map(OpacityMask::bytes).sum(),
-                directions: l.dirs.iter().map(|d| d.bytes()).sum(),
+                grids: l.dirs.iter().map(|d| d.bytes()).sum::<usize>()
+                    + l.view.as_ref().map_or(0, |v| v.bytes()),
                 instance_count: count,
             }
         }

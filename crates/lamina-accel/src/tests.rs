@@ -721,3 +721,94 @@ fn direction_grid_is_refused_without_a_direction_or_geometry() {
     };
     assert!(spheres.occluded(&up, PrimRef::NONE, &|_, _| true));
 }
+
+/// The grid from a camera's eye ([`Accel::index_view`]) finds the walk's closest hit for
+/// every kernel: rays from the eye inside and outside the picture window, with and
+/// without `tmax`, on the world level and through instances, with a ground crossing the
+/// eye's plane and a column of cards too crowded for a cell's list; rays from elsewhere
+/// keep the walk.
+#[test]
+fn view_grid_finds_the_walks_hits() {
+    let f = |_: u32, uv: Vec2| matte(uv);
+    for (s, instances, ground) in [(7, false, false), (8, true, false), (9, true, true)] {
+        let mut desc = scene(s, instances);
+        if ground {
+            desc.world.prims.push(Prim::parallelogram(
+                Vec3::new(-100.0, -0.3, 100.0),
+                Vec3::new(200.0, 0.0, 0.0),
+                Vec3::new(0.0, 0.0, -200.0),
+            ));
+            for k in 0..400 {
+                let c = Vec3::new(1.5, 1.5, 0.01 * k as f32);
+                desc.world
+                    .prims
+                    .push(Prim::parallelogram(c, Vec3::X * 0.1, Vec3::Y * 0.1));
+            }
+        }
+        for kernel in kernels() {
+            let opts = BuildOptions {
+                kernel,
+                ..Default::default()
+            };
+            let walk = Accel::build_with(&desc, opts).unwrap();
+            let mut r = rng(s * 17 + 3);
+            // Eyes outside the scene looking in, and inside it.
+            let eyes = [
+                (Vec3::new(2.0, 2.0, 9.0), Vec3::new(-0.1, -0.1, -1.0)),
+                (Vec3::new(1.6, 1.55, 6.0), Vec3::new(0.0, 0.0, -1.0)),
+                (Vec3::new(2.0, 1.0, 2.0), unit(&mut r)),
+            ];
+            let window = [-0.6, 0.6, -0.45, 0.45];
+            for (eye, fwd) in eyes {
+                let mut grid = walk.clone();
+                // An eye inside the geometry may cut too many primitives with its plane
+                // for a grid; then queries keep the walk.
+                let st = grid.index_view(eye, fwd, Vec3::Y, window);
+                assert!(st.is_some() || eye == eyes[2].0, "a grid for eyes outside");
+                assert_eq!(grid.view_grid(), st);
+                let bytes = st.map_or(0, |st| st.bytes);
+                assert_eq!(grid.memory().total(), walk.memory().total() + bytes);
+                let f3 = fwd.normalize();
+                let right = f3.cross(Vec3::Y).normalize();
+                let up = right.cross(f3);
+                let (mut served, mut inside, mut hits) = (0, 0, 0);
+                for i in 0..3000 {
+                    // Mostly inside the window, some just outside it.
+                    let (x, y) = (1.3 * r() - 0.65, 1.0 * r() - 0.5);
+                    let ray = Ray {
+                        origin: if i % 10 == 9 {
+                            eye + Vec3::X * 1e-3
+                        } else {
+                            eye
+                        },
+                        dir: (f3 + right * x + up * y) * if i % 5 == 0 { 2.0 } else { 1.0 },
+                        tmax: if i % 3 == 0 {
+                            1.0 + 6.0 * r()
+                        } else {
+                            f32::INFINITY
+                        },
+                    };
+                    let stats = TraversalStats::default();
+                    let want = walk.intersect(&ray, PrimRef::NONE, &f);
+                    let got = grid.intersect_counted(&ray, PrimRef::NONE, &f, &stats);
+                    assert_eq!(got, want, "{kernel:?} eye {eye} ray {i}: {ray:?}");
+                    hits += want.is_some() as u32;
+                    let in_window = x.abs() < 0.59 && y.abs() < 0.44 && i % 10 != 9;
+                    if in_window {
+                        inside += 1;
+                        // A ray the grid serves walks no tree node.
+                        if stats.nodes.get() == 0 && stats.instances.get() == 0 {
+                            served += 1;
+                        }
+                    }
+                }
+                assert!(hits > 100, "{kernel:?} eye {eye}: {hits} hits");
+                // All but the few under the crowded column.
+                assert!(
+                    st.is_none() || served * 50 >= inside * 49,
+                    "{kernel:?} eye {eye}: {served} of {inside} served"
+                );
+            }
+        }
+    }
+}

@@ -584,6 +584,8 @@ pub(crate) struct Levels<const W: usize> {
     pub masks: Vec<Option<OpacityMask>>,
     /// Grids for shadow rays toward distant lights ([`crate::direction`]).
     pub dirs: Vec<crate::direction::DirIndex>,
+    /// The grid for rays from a camera's eye ([`crate::view`]).
+    pub view: Option<crate::view::ViewIndex>,
 }
 
 #[inline(always)]
@@ -651,6 +653,48 @@ impl<const W: usize> Levels<W> {
         )
     }
 
+    /// The closest accepted hit by walking the world level and the top level, improving
+    /// `best`; whether one was found.
+    ///
+    /// # Safety
+    /// `K`'s instruction set must be available.
+    #[inline(always)]
+    unsafe fn walk_closest<K: Lanes<W>, F: AlphaFilter, C: Counter>(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        skip: PrimRef,
+        tr: &K::R,
+        wskip: u32,
+        best: &mut Best,
+        f: &F,
+        c: &C,
+    ) -> bool {
+        // SAFETY: forwarded.
+        let mut found = unsafe {
+            blas_closest::<K, W, F, C>(&self.world, &self.masks, tr, wskip, best, NO_INSTANCE, f, c)
+        };
+        if let Some(tlas) = &self.tlas {
+            let t0 = best.t;
+            let mut v = TlasClosest::<K, W, F, C> {
+                kernel: PhantomData,
+                levels: self,
+                o,
+                d,
+                skip,
+                best: *best,
+                found: false,
+                f,
+                c,
+            };
+            // SAFETY: forwarded.
+            unsafe { walk::<K, W, 8, [QNode], true, C>(&tlas.nodes, tlas.root, tr, t0, c, &mut v) };
+            *best = v.best;
+            found |= v.found;
+        }
+        found
+    }
+
     /// The closest accepted hit.
     ///
     /// # Safety
@@ -683,39 +727,20 @@ impl<const W: usize> Levels<W> {
         // One prepared world ray serves the world level and the top level.
         // SAFETY: forwarded.
         let tr = unsafe { K::prep(&wr) };
-        // SAFETY: forwarded.
-        let mut found = unsafe {
-            blas_closest::<K, W, F, C>(
-                &self.world,
-                &self.masks,
-                &tr,
-                wr.skip,
-                &mut best,
-                NO_INSTANCE,
-                f,
-                c,
-            )
-        };
-        if let Some(tlas) = &self.tlas {
-            let t0 = best.t;
-            let mut v = TlasClosest::<K, W, F, C> {
-                kernel: PhantomData,
-                levels: self,
-                o,
-                d,
-                skip,
-                best,
-                found: false,
-                f,
-                c,
-            };
+        let from_eye = match &self.view {
             // SAFETY: forwarded.
-            unsafe {
-                walk::<K, W, 8, [QNode], true, C>(&tlas.nodes, tlas.root, &tr, t0, c, &mut v)
-            };
-            best = v.best;
-            found |= v.found;
-        }
+            Some(v) => unsafe {
+                v.closest::<W, K, F, C>(self, ray, skip, &tr, wr.skip, f, c, &mut best)
+            },
+            None => None,
+        };
+        let mut found = match from_eye {
+            Some(found) => found,
+            // SAFETY: forwarded.
+            None => unsafe {
+                self.walk_closest::<K, F, C>(o, d, skip, &tr, wr.skip, &mut best, f, c)
+            },
+        };
         for (k, s) in self.spheres.iter().enumerate() {
             let t = intersect_sphere(s, ray.origin, ray.dir, best.t);
             if t < best.t {

@@ -68,6 +68,23 @@ impl CameraModel {
         })
     }
 
+    /// For a pinhole camera (no aperture): the eye, the view direction, the up direction
+    /// and the picture `[x0, x1, y0, y1]` its rays cover (tangents of the angles right
+    /// and up of the view direction; the film with an 8-pixel margin for the pixel
+    /// filter), as lamina-accel's camera grid takes them. `None` for a thin lens, whose
+    /// rays leave the lens from different points.
+    pub fn pinhole_view(&self) -> Option<(Vec3, Vec3, Vec3, [f32; 4])> {
+        if self.aperture > 0.0 {
+            return None;
+        }
+        let margin = 16.0 * self.inv_width;
+        let (x, y) = (
+            (1.0 + margin) * self.tan_half,
+            (self.aspect + margin) * self.tan_half,
+        );
+        Some((self.origin, self.forward, self.up, [-x, x, -y, y]))
+    }
+
     /// The ray (origin, unit direction) through film position `film` (pixels), using
     /// `lens ∈ [0, 1)²` to pick a point on the lens.
     #[inline]

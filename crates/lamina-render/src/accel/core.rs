@@ -106,9 +106,25 @@ impl Core {
 
     /// Adds lamina-accel's grid for shadow rays along `axis` (see
     /// `lamina_accel::Accel::index_direction`); nothing on Embree.
-    pub fn index_direction(&mut self, axis: glam::Vec3) -> Option<lamina_accel::DirectionStats> {
+    pub fn index_direction(&mut self, axis: glam::Vec3) -> Option<lamina_accel::GridStats> {
         match self {
             Core::Lamina(a) => a.index_direction(axis),
+            #[cfg(feature = "embree")]
+            Core::Embree(_) => None,
+        }
+    }
+
+    /// Adds lamina-accel's grid for rays from a camera's eye (see
+    /// `lamina_accel::Accel::index_view`); nothing on Embree.
+    pub fn index_view(
+        &mut self,
+        eye: glam::Vec3,
+        forward: glam::Vec3,
+        up: glam::Vec3,
+        window: [f32; 4],
+    ) -> Option<lamina_accel::GridStats> {
+        match self {
+            Core::Lamina(a) => a.index_view(eye, forward, up, window),
             #[cfg(feature = "embree")]
             Core::Embree(_) => None,
         }
@@ -184,7 +200,7 @@ impl Core {
                 prototypes: 0,
                 instances: e.w2o.len() * std::mem::size_of::<Affine3A>(),
                 masks: 0,
-                directions: 0,
+                grids: 0,
                 instance_count: e.w2o.len(),
             },
         }

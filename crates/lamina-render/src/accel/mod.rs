@@ -459,6 +459,14 @@ impl Accel {
                 }
             }
         }
+        // Camera rays from a pinhole take the grid from the eye (same answers).
+        if let Some((eye, forward, up, window)) =
+            crate::camera::CameraModel::new(&scene.camera, &scene.film)
+                .ok()
+                .and_then(|c| c.pinhole_view())
+        {
+            core.index_view(eye, forward, up, window);
+        }
         let measuring = scene.radiometry != lamina_core::Radiometry::default();
         let origins = measuring.then(|| Origins {
             meshes: mesh_origins,
@@ -519,7 +527,7 @@ impl Accel {
             prototypes: m.prototypes + self.prototypes.iter().map(Blas::bytes).sum::<usize>(),
             instances: m.instances,
             masks: m.masks,
-            directions: m.directions,
+            grids: m.grids,
             instance_count: m.instance_count,
         }
     }

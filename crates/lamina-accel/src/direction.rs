@@ -29,11 +29,12 @@
 //! whose grid would exceed [`MAX_ENTRIES`](crate::grid::MAX_ENTRIES), get none.
 
 use crate::grid::{
-    Cells, Entry, Footprint, GridStats, LaneFoot, PackRef, PackTests, median_size, sort_entries,
+    Cells, Entry, Footprint, GridStats, LaneFoot, Listing, PackRef, PackTests, median_size,
+    sort_entries,
 };
 use crate::kernel::Lanes;
 use crate::traverse::Levels;
-use crate::{AlphaFilter, Counter, PrimRef, Ray};
+use crate::{AlphaFilter, Counter, Ray};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
@@ -51,11 +52,9 @@ pub(crate) struct DirIndex {
     top: f32,
     /// Rounding margin (world units) on depths and cell bounds.
     pad: f32,
-    refs: Vec<PackRef>,
-    cells: Cells,
-    /// The packs larger than the grid is sized for (a ground): what a ray that leaves the
-    /// grid's area may meet there; deepest reach first.
-    big: Vec<Entry>,
+    /// The cells, and apart from them the packs larger than the grid is sized for (a
+    /// ground): what a ray that leaves the grid's area may meet there; deepest reach first.
+    grid: Listing,
 }
 
 impl DirIndex {
@@ -170,49 +169,35 @@ impl DirIndex {
             v,
             top: top + pad,
             pad,
-            refs,
-            cells,
-            big: bigs,
+            grid: Listing {
+                refs,
+                cells,
+                apart: bigs,
+            },
         })
     }
 
     /// What the grid holds.
     pub(crate) fn stats(&self) -> GridStats {
-        GridStats {
-            axis: Vec3::from(self.axis),
-            eye: None,
-            packs: self.refs.len(),
-            cells: (self.cells.n[0], self.cells.n[1]),
-            cell: self.cells.cell,
-            entries: self.cells.len(),
-            bytes: self.bytes(),
-        }
+        self.grid.stats(Vec3::from(self.axis), None)
     }
 
     /// Bytes held.
     pub(crate) fn bytes(&self) -> usize {
-        self.refs.len() * std::mem::size_of::<PackRef>()
-            + self.cells.bytes()
-            + self.big.len() * std::mem::size_of::<Entry>()
+        self.grid.bytes()
     }
 
-    /// Whether `ray` meets an accepted primitive of `lv` (the levels this grid was built
-    /// over) within `(0, tmax)`, not counting `skip`: `None` when the grid does not serve
-    /// this ray (the tree walk answers it). `tr` is the world ray as the kernel prepared
-    /// it, `wskip` the world primitive to skip.
+    /// Whether `ray` meets an accepted primitive within `(0, tmax)` (by `tests`, of the
+    /// levels this grid was built over, skipping what they skip): `None` when the grid does
+    /// not serve this ray (the tree walk answers it).
     ///
     /// # Safety
     /// `K`'s instruction set must be available.
     #[inline(always)]
-    pub(crate) unsafe fn occluded<const W: usize, K: Lanes<W>, F: AlphaFilter, C: Counter>(
-        &self,
-        lv: &Levels<W>,
+    pub(crate) unsafe fn occluded<'a, const W: usize, K: Lanes<W>, F: AlphaFilter, C: Counter>(
+        &'a self,
         ray: &Ray,
-        skip: PrimRef,
-        tr: &K::R,
-        wskip: u32,
-        f: &F,
-        c: &C,
+        tests: &mut PackTests<'a, K, W, F, C>,
     ) -> Option<bool> {
         let o = Vec3A::from(ray.origin);
         let d = Vec3A::from(ray.dir);
@@ -234,31 +219,20 @@ impl DirIndex {
         if !(s[0] <= s[1] && q[0] <= q[1]) {
             return None; // NaN: the walk decides
         }
-        let (lo, hi) = (self.cells.lo, self.cells.hi());
+        let (lo, hi) = (self.grid.cells.lo, self.grid.cells.hi());
         let on_grid = s[1] >= lo[0] && s[0] <= hi[0] && q[1] >= lo[1] && q[0] <= hi[1];
         let off_grid = s[0] < lo[0] || s[1] > hi[0] || q[0] < lo[1] || q[1] > hi[1];
         let cover = if on_grid {
-            Some(self.cells.cover(s, q)?)
+            Some(self.grid.cells.cover(s, q)?)
         } else {
             None
         };
         let behind = d0 - self.pad;
-        let mut tests = PackTests::<K, W, F, C> {
-            lv,
-            refs: &self.refs,
-            o,
-            d,
-            skip,
-            tr,
-            wskip,
-            f,
-            c,
-            local: None,
-        };
+        tests.refs = &self.grid.refs;
         if let Some((x, y)) = cover {
             for y in y[0]..=y[1] {
                 for x in x[0]..=x[1] {
-                    for e in self.cells.list(x, y) {
+                    for e in self.grid.cells.list(x, y) {
                         if e.key <= behind {
                             break;
                         }
@@ -272,7 +246,7 @@ impl DirIndex {
         }
         if off_grid {
             // Beyond the grid only the big packs reach.
-            for e in &self.big {
+            for e in &self.grid.apart {
                 if e.key <= behind {
                     break;
                 }

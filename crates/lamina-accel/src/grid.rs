@@ -252,6 +252,37 @@ pub(crate) fn median_size(feet: &[Footprint]) -> Option<f32> {
     Some(*sizes.select_nth_unstable_by(mid, f32::total_cmp).1)
 }
 
+/// What both grids hold: the packs they were built over (entries index them), the cells,
+/// and a list apart (the sun's big packs, the packs crossing the eye's plane).
+#[derive(Clone, Debug)]
+pub(crate) struct Listing {
+    pub refs: Vec<PackRef>,
+    pub cells: Cells,
+    pub apart: Vec<Entry>,
+}
+
+impl Listing {
+    /// What it holds, for a grid along `axis` (and from `eye`).
+    pub fn stats(&self, axis: Vec3, eye: Option<Vec3>) -> GridStats {
+        GridStats {
+            axis,
+            eye,
+            packs: self.refs.len(),
+            cells: (self.cells.n[0], self.cells.n[1]),
+            cell: self.cells.cell,
+            entries: self.cells.len(),
+            bytes: self.bytes(),
+        }
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.refs.len() * std::mem::size_of::<PackRef>()
+            + self.cells.bytes()
+            + self.apart.len() * std::mem::size_of::<Entry>()
+    }
+}
+
 /// A uniform 2D grid of cells, each with its list of [`Entry`]s.
 #[derive(Clone, Debug)]
 pub(crate) struct Cells {
@@ -495,6 +526,34 @@ pub(crate) struct PackTests<'a, K: Lanes<W>, const W: usize, F, C> {
 }
 
 impl<'a, K: Lanes<W>, const W: usize, F: AlphaFilter, C: Counter> PackTests<'a, K, W, F, C> {
+    /// The tests of the world ray `o + t·d` as the kernel prepared it (`tr`), skipping
+    /// `skip` (`wskip` in the world level), in `lv`; entries index `refs`, set by the grid
+    /// that runs them.
+    #[inline(always)]
+    pub fn new(
+        lv: &'a Levels<W>,
+        o: Vec3A,
+        d: Vec3A,
+        skip: PrimRef,
+        tr: &'a K::R,
+        wskip: u32,
+        f: &'a F,
+        c: &'a C,
+    ) -> Self {
+        PackTests {
+            lv,
+            refs: &[],
+            o,
+            d,
+            skip,
+            tr,
+            wskip,
+            f,
+            c,
+            local: None,
+        }
+    }
+
     /// Pack `r`'s level, the prepared ray there and the primitive to skip.
     #[inline(always)]
     fn level(&mut self, r: PackRef) -> (&'a crate::layout::Blas<W>, K::R, u32) {

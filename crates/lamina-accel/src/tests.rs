@@ -583,6 +583,28 @@ fn kernel_choice_names_a_bad_override() {
     }
 }
 
+/// [`scene`], with (`ground`) a ground far larger than everything else and a column of
+/// 400 cards stacked along `stack`, too crowded for one cell's list of a grid looking
+/// along it.
+fn grid_scene(s: u64, instances: bool, ground: bool, stack: Vec3) -> SceneDesc {
+    let mut desc = scene(s, instances);
+    if ground {
+        desc.world.prims.push(Prim::parallelogram(
+            Vec3::new(-100.0, -0.3, 100.0),
+            Vec3::new(200.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -200.0),
+        ));
+        let (a, b) = stack.any_orthonormal_pair();
+        for k in 0..400 {
+            let c = Vec3::new(1.5, 1.5, 1.5) + stack * (0.01 * k as f32);
+            desc.world
+                .prims
+                .push(Prim::parallelogram(c, a * 0.1, b * 0.1));
+        }
+    }
+    desc
+}
+
 /// The grid along a sun's axis ([`Accel::index_direction`]) answers occlusion exactly as
 /// the tree walk does, for every kernel: rays along the axis, in narrow and wide cones
 /// around it and in any direction, from free space and from surfaces (skipping the one
@@ -593,20 +615,7 @@ fn kernel_choice_names_a_bad_override() {
 fn direction_grid_answers_as_the_walk() {
     let f = |_: u32, uv: Vec2| matte(uv);
     for (s, instances, ground) in [(3, false, false), (4, true, false), (6, true, true)] {
-        let mut desc = scene(s, instances);
-        if ground {
-            desc.world.prims.push(Prim::parallelogram(
-                Vec3::new(-100.0, -0.3, 100.0),
-                Vec3::new(200.0, 0.0, 0.0),
-                Vec3::new(0.0, 0.0, -200.0),
-            ));
-            for k in 0..400 {
-                let c = Vec3::new(1.5, 0.01 * k as f32, 1.5);
-                desc.world
-                    .prims
-                    .push(Prim::parallelogram(c, Vec3::X * 0.1, Vec3::Z * 0.1));
-            }
-        }
+        let desc = grid_scene(s, instances, ground, Vec3::Y);
         for kernel in kernels() {
             let opts = BuildOptions {
                 kernel,
@@ -731,20 +740,7 @@ fn direction_grid_is_refused_without_a_direction_or_geometry() {
 fn view_grid_finds_the_walks_hits() {
     let f = |_: u32, uv: Vec2| matte(uv);
     for (s, instances, ground) in [(7, false, false), (8, true, false), (9, true, true)] {
-        let mut desc = scene(s, instances);
-        if ground {
-            desc.world.prims.push(Prim::parallelogram(
-                Vec3::new(-100.0, -0.3, 100.0),
-                Vec3::new(200.0, 0.0, 0.0),
-                Vec3::new(0.0, 0.0, -200.0),
-            ));
-            for k in 0..400 {
-                let c = Vec3::new(1.5, 1.5, 0.01 * k as f32);
-                desc.world
-                    .prims
-                    .push(Prim::parallelogram(c, Vec3::X * 0.1, Vec3::Y * 0.1));
-            }
-        }
+        let desc = grid_scene(s, instances, ground, Vec3::Z);
         for kernel in kernels() {
             let opts = BuildOptions {
                 kernel,

@@ -3,6 +3,7 @@
 //! with alpha decided by the opacity masks and only unknown cells asking the caller.
 
 use crate::desc::Sphere;
+use crate::grid::PackTests;
 use crate::kernel::{LRay, Lanes};
 use crate::layout::{
     ALPHA, ALPHA_IDENTITY_UV, Blas, EMPTY, FLAG_INDEX, InstRec, LEAF, Node, Pack, STACK, Tlas,
@@ -728,10 +729,11 @@ impl<const W: usize> Levels<W> {
         // SAFETY: forwarded.
         let tr = unsafe { K::prep(&wr) };
         let from_eye = match &self.view {
-            // SAFETY: forwarded.
-            Some(v) => unsafe {
-                v.closest::<W, K, F, C>(self, ray, skip, &tr, wr.skip, f, c, &mut best)
-            },
+            Some(v) => {
+                let mut tests = PackTests::<K, W, F, C>::new(self, o, d, skip, &tr, wr.skip, f, c);
+                // SAFETY: forwarded.
+                unsafe { v.closest(ray, &mut tests, &mut best) }
+            }
             None => None,
         };
         let mut found = match from_eye {
@@ -794,12 +796,13 @@ impl<const W: usize> Levels<W> {
         // One prepared world ray serves the world level and the top level.
         // SAFETY: forwarded.
         let tr = unsafe { K::prep(&wr) };
-        for ix in &self.dirs {
-            // SAFETY: forwarded.
-            if let Some(hit) =
-                unsafe { ix.occluded::<W, K, F, C>(self, ray, skip, &tr, wr.skip, f, c) }
-            {
-                return hit;
+        if !self.dirs.is_empty() {
+            let mut tests = PackTests::<K, W, F, C>::new(self, o, d, skip, &tr, wr.skip, f, c);
+            for ix in &self.dirs {
+                // SAFETY: forwarded.
+                if let Some(hit) = unsafe { ix.occluded(ray, &mut tests) } {
+                    return hit;
+                }
             }
         }
         // SAFETY: forwarded.

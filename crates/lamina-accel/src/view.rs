@@ -19,11 +19,11 @@
 //! exactly the same distance along a ray may be reported in another order.
 
 use crate::grid::{
-    Cells, Entry, Footprint, GridStats, LaneFoot, PackRef, PackTests, median_size, sort_entries,
+    Cells, Entry, Footprint, GridStats, LaneFoot, Listing, PackTests, median_size, sort_entries,
 };
 use crate::kernel::Lanes;
 use crate::traverse::{Best, Levels};
-use crate::{AlphaFilter, Counter, PrimRef, Ray};
+use crate::{AlphaFilter, Counter, Ray};
 use glam::{Vec2, Vec3, Vec3A};
 use rayon::prelude::*;
 
@@ -42,10 +42,9 @@ pub(crate) struct ViewIndex {
     pad: f32,
     /// Margin in world units on depths.
     zpad: f32,
-    refs: Vec<PackRef>,
-    cells: Cells,
-    /// Packs crossing the eye's plane: every ray tests them.
-    near: Vec<Entry>,
+    /// The cells, and apart from them the packs crossing the eye's plane: every ray
+    /// tests those.
+    grid: Listing,
 }
 
 impl ViewIndex {
@@ -157,49 +156,36 @@ impl ViewIndex {
             fwd,
             pad,
             zpad,
-            refs,
-            cells,
-            near,
+            grid: Listing {
+                refs,
+                cells,
+                apart: near,
+            },
         })
     }
 
     /// What the grid holds.
     pub(crate) fn stats(&self) -> GridStats {
-        GridStats {
-            axis: Vec3::from(self.fwd),
-            eye: Some(self.eye),
-            packs: self.refs.len(),
-            cells: (self.cells.n[0], self.cells.n[1]),
-            cell: self.cells.cell,
-            entries: self.cells.len(),
-            bytes: self.bytes(),
-        }
+        self.grid.stats(Vec3::from(self.fwd), Some(self.eye))
     }
 
     /// Bytes held.
     pub(crate) fn bytes(&self) -> usize {
-        self.refs.len() * std::mem::size_of::<PackRef>()
-            + self.cells.bytes()
-            + self.near.len() * std::mem::size_of::<Entry>()
+        self.grid.bytes()
     }
 
-    /// The closest accepted hit of `ray` with `lv` (the levels this grid was built over)
-    /// nearer than `best.t`, not counting `skip`, written to `best`: `Some(found)`, or
-    /// `None` when the grid does not serve this ray (the tree walk answers it). `tr` is
-    /// the world ray as the kernel prepared it, `wskip` the world primitive to skip.
+    /// The closest accepted hit of `ray` nearer than `best.t` (by `tests`, of the levels
+    /// this grid was built over, skipping what they skip), written to `best`:
+    /// `Some(found)`, or `None` when the grid does not serve this ray (the tree walk
+    /// answers it).
     ///
     /// # Safety
     /// `K`'s instruction set must be available.
     #[inline(always)]
-    pub(crate) unsafe fn closest<const W: usize, K: Lanes<W>, F: AlphaFilter, C: Counter>(
-        &self,
-        lv: &Levels<W>,
+    pub(crate) unsafe fn closest<'a, const W: usize, K: Lanes<W>, F: AlphaFilter, C: Counter>(
+        &'a self,
         ray: &Ray,
-        skip: PrimRef,
-        tr: &K::R,
-        wskip: u32,
-        f: &F,
-        c: &C,
+        tests: &mut PackTests<'a, K, W, F, C>,
         best: &mut Best,
     ) -> Option<bool> {
         if ray.origin != self.eye {
@@ -212,24 +198,13 @@ impl ViewIndex {
         }
         let (s, t) = (d.dot(self.right) / z, d.dot(self.up) / z);
         let (s, t) = ([s - self.pad, s + self.pad], [t - self.pad, t + self.pad]);
-        let (lo, hi) = (self.cells.lo, self.cells.hi());
+        let (lo, hi) = (self.grid.cells.lo, self.grid.cells.hi());
         // Outside the window (or NaN): the walk answers.
         if !(s[0] >= lo[0] && s[1] <= hi[0] && t[0] >= lo[1] && t[1] <= hi[1]) {
             return None;
         }
-        let (x, y) = self.cells.cover(s, t)?;
-        let mut tests = PackTests::<K, W, F, C> {
-            lv,
-            refs: &self.refs,
-            o: Vec3A::from(ray.origin),
-            d,
-            skip,
-            tr,
-            wskip,
-            f,
-            c,
-            local: None,
-        };
+        let (x, y) = self.grid.cells.cover(s, t)?;
+        tests.refs = &self.grid.refs;
         let mut found = false;
         let mut take = |h: Option<(f32, u32, u32, f32, f32)>, best: &mut Best| {
             if let Some((t, inst, prim, b1, b2)) = h {
@@ -242,13 +217,13 @@ impl ViewIndex {
                 found = true;
             }
         };
-        for e in &self.near {
+        for e in &self.grid.apart {
             // SAFETY: forwarded.
             take(unsafe { tests.closest(e, best.t) }, best);
         }
         for y in y[0]..=y[1] {
             for x in x[0]..=x[1] {
-                for e in self.cells.list(x, y) {
+                for e in self.grid.cells.list(x, y) {
                     // Nearest first: once a pack starts beyond the best hit, so do the rest.
                     if e.key > best.t * z + self.zpad {
                         break;

@@ -392,6 +392,23 @@ pub fn shadow_rays(bx: (Vec3, Vec3), n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
+/// The sun of the `sun_any_alpha` case: unit direction toward it (45° up, from the side).
+pub const SUN: Vec3 = Vec3::new(0.5, std::f32::consts::FRAC_1_SQRT_2, 0.5);
+
+/// `n` sun shadow rays: origins uniform in the box `(lo, hi)`, direction `sun`
+/// (normalised), no `tmax`.
+pub fn sun_rays(bx: (Vec3, Vec3), n: usize, seed: u64, sun: Vec3) -> Vec<Ray> {
+    let mut r = Rng(seed);
+    let dir = sun.normalize();
+    (0..n)
+        .map(|_| Ray {
+            origin: r.in_box(bx.0, bx.1),
+            dir,
+            tmax: f32::INFINITY,
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

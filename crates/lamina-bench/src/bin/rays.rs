@@ -15,6 +15,7 @@
 //! | `random_closest` | cards_opaque | 2²⁰ random (origins in the box, uniform directions) | closest hit |
 //! | `random_closest_alpha` | cards | the same random rays | closest hit, matte |
 //! | `shadow_any_alpha` | cards | 2²⁰ between two random points of the box | any hit, matte |
+//! | `sun_any_alpha` | cards | 2²⁰ from random points of the box toward the sun ([`SUN`]); lamina with its grid along the sun (`Accel::index_direction`), as the renderer builds for a `sun` | any hit, matte |
 //! | `tree_camera_closest` | tree | 1024² camera rays | closest hit |
 //! | `tree_random_closest` | tree | 2²⁰ random rays in the tree's box | closest hit |
 //! | `tree_shadow_any` | tree | 2²⁰ shadow rays in the tree's box | any hit |
@@ -33,8 +34,8 @@ use clap::Parser;
 use glam::Vec2;
 use lamina_accel::{Accel, Kernel, PrimRef, Ray, SceneDesc, TraversalStats};
 use lamina_bench::rays::{
-    CARDS_BOX, CARDS_VIEW, LeafMatte, MATTE_SIZE, Scale, TREE_BOX, TREE_VIEW, View, camera_rays,
-    cards_scene, random_rays, shadow_rays, tree_scene,
+    CARDS_BOX, CARDS_VIEW, LeafMatte, MATTE_SIZE, SUN, Scale, TREE_BOX, TREE_VIEW, View,
+    camera_rays, cards_scene, random_rays, shadow_rays, sun_rays, tree_scene,
 };
 use rayon::prelude::*;
 use serde::Serialize;
@@ -121,6 +122,8 @@ enum Query {
 struct Case<'a> {
     name: &'static str,
     scene: &'a Built,
+    /// lamina's structure for the case: the scene's, or a copy with a grid added.
+    lamina: &'a Accel,
     rays: &'a [Ray],
     query: Query,
     alpha: bool,
@@ -371,14 +374,10 @@ fn counters(case: &Case, matte: &LeafMatte) -> Counters {
     for r in rays {
         match case.query {
             Query::Closest => {
-                case.scene
-                    .lamina
-                    .intersect_counted(r, PrimRef::NONE, &f, &stats);
+                case.lamina.intersect_counted(r, PrimRef::NONE, &f, &stats);
             }
             Query::Occluded => {
-                case.scene
-                    .lamina
-                    .occluded_counted(r, PrimRef::NONE, &f, &stats);
+                case.lamina.occluded_counted(r, PrimRef::NONE, &f, &stats);
             }
         }
     }
@@ -405,7 +404,7 @@ fn cross_check(case: &Case, e: &EmbreeAccel, matte: &LeafMatte) -> Mismatches {
         ..Default::default()
     };
     // lamina names instances in its top level's order, Embree by scene index.
-    let order = case.scene.lamina.scene_instances(&case.scene.desc);
+    let order = case.lamina.scene_instances(&case.scene.desc);
     let to_scene = |h: lamina_accel::Hit| match h.prim.inst {
         lamina_accel::NO_INSTANCE | lamina_accel::SPHERE => h,
         k => lamina_accel::Hit {
@@ -462,7 +461,7 @@ fn cross_check(case: &Case, e: &EmbreeAccel, matte: &LeafMatte) -> Mismatches {
                 }
             }
             Query::Occluded => {
-                let a = case.scene.lamina.occluded(r, PrimRef::NONE, &f);
+                let a = case.lamina.occluded(r, PrimRef::NONE, &f);
                 let b = e.occluded(r, PrimRef::NONE, &f);
                 if a != b {
                     m.hit_miss += 1;
@@ -498,7 +497,7 @@ fn run_cases(
         #[cfg(not(feature = "embree"))]
         let mismatches: Option<Mismatches> = None;
         for (threads, pool) in pools {
-            let lamina = &case.scene.lamina;
+            let lamina = case.lamina;
             let (lamina_mrays, hits) = match case.query {
                 Query::Closest => throughput(pool, case.rays, args.repeat, |r| {
                     lamina.intersect(r, PrimRef::NONE, &f).is_some()
@@ -545,7 +544,7 @@ fn run_cases(
                 instances_per_ray: c.instances_per_ray,
                 alpha_candidates_per_ray: c.alpha_candidates_per_ray,
                 mask_share: c.mask_share,
-                world_sah_cost: case.scene.lamina.world_sah_cost(),
+                world_sah_cost: case.lamina.world_sah_cost(),
                 mismatches,
             });
         }
@@ -572,11 +571,12 @@ fn print_builds(builds: &[BuildRow]) {
 }
 
 /// Every case's name, for `--cases`.
-const CASES: [&str; 7] = [
+const CASES: [&str; 8] = [
     "camera_closest",
     "random_closest",
     "random_closest_alpha",
     "shadow_any_alpha",
+    "sun_any_alpha",
     "tree_camera_closest",
     "tree_random_closest",
     "tree_shadow_any",
@@ -687,10 +687,26 @@ fn main() -> Result<()> {
         let camera = camera_rays(&CARDS_VIEW, scale.camera, scale.camera);
         let random = random_rays(CARDS_BOX, scale.rays, 11);
         let shadow = shadow_rays(CARDS_BOX, scale.rays, 12);
+        let sun = sun_rays(CARDS_BOX, scale.rays, 13, SUN);
+        // lamina with its grid along the sun, as the renderer builds for a `sun` light.
+        let mut with_sun = cards.lamina.clone();
+        let t = Instant::now();
+        let grid = with_sun
+            .index_direction(SUN)
+            .context("a grid along the sun over the cards scene")?;
+        println!(
+            "cards          lamina sun grid: {:.3} s, {}x{} cells, {} entries, {:.1} MB",
+            t.elapsed().as_secs_f64(),
+            grid.cells.0,
+            grid.cells.1,
+            grid.entries,
+            grid.bytes as f64 / 1e6
+        );
         let cases = [
             Case {
                 name: "camera_closest",
                 scene: &cards,
+                lamina: &cards.lamina,
                 rays: &camera,
                 query: Query::Closest,
                 alpha: true,
@@ -698,6 +714,7 @@ fn main() -> Result<()> {
             Case {
                 name: "random_closest",
                 scene: &opaque,
+                lamina: &opaque.lamina,
                 rays: &random,
                 query: Query::Closest,
                 alpha: false,
@@ -705,6 +722,7 @@ fn main() -> Result<()> {
             Case {
                 name: "random_closest_alpha",
                 scene: &cards,
+                lamina: &cards.lamina,
                 rays: &random,
                 query: Query::Closest,
                 alpha: true,
@@ -712,7 +730,16 @@ fn main() -> Result<()> {
             Case {
                 name: "shadow_any_alpha",
                 scene: &cards,
+                lamina: &cards.lamina,
                 rays: &shadow,
+                query: Query::Occluded,
+                alpha: true,
+            },
+            Case {
+                name: "sun_any_alpha",
+                scene: &cards,
+                lamina: &with_sun,
+                rays: &sun,
                 query: Query::Occluded,
                 alpha: true,
             },
@@ -734,6 +761,7 @@ fn main() -> Result<()> {
             Case {
                 name: "tree_camera_closest",
                 scene: &tree,
+                lamina: &tree.lamina,
                 rays: &camera,
                 query: Query::Closest,
                 alpha: false,
@@ -741,6 +769,7 @@ fn main() -> Result<()> {
             Case {
                 name: "tree_random_closest",
                 scene: &tree,
+                lamina: &tree.lamina,
                 rays: &random,
                 query: Query::Closest,
                 alpha: false,
@@ -748,6 +777,7 @@ fn main() -> Result<()> {
             Case {
                 name: "tree_shadow_any",
                 scene: &tree,
+                lamina: &tree.lamina,
                 rays: &shadow,
                 query: Query::Occluded,
                 alpha: false,

@@ -605,6 +605,20 @@ fn grid_scene(s: u64, instances: bool, ground: bool, stack: Vec3) -> SceneDesc {
     desc
 }
 
+/// `desc` built for every kernel this CPU runs (no grids: the tree walk's answers).
+fn walks(desc: &SceneDesc) -> Vec<(Kernel, Accel)> {
+    kernels()
+        .into_iter()
+        .map(|kernel| {
+            let opts = BuildOptions {
+                kernel,
+                ..Default::default()
+            };
+            (kernel, Accel::build_with(desc, opts).unwrap())
+        })
+        .collect()
+}
+
 /// The grid along a sun's axis ([`Accel::index_direction`]) answers occlusion exactly as
 /// the tree walk does, for every kernel: rays along the axis, in narrow and wide cones
 /// around it and in any direction, from free space and from surfaces (skipping the one
@@ -616,12 +630,7 @@ fn direction_grid_answers_as_the_walk() {
     let f = |_: u32, uv: Vec2| matte(uv);
     for (s, instances, ground) in [(3, false, false), (4, true, false), (6, true, true)] {
         let desc = grid_scene(s, instances, ground, Vec3::Y);
-        for kernel in kernels() {
-            let opts = BuildOptions {
-                kernel,
-                ..Default::default()
-            };
-            let walk = Accel::build_with(&desc, opts).unwrap();
+        for (kernel, walk) in walks(&desc) {
             let mut r = rng(s * 31 + 7);
             let axes = [
                 unit(&mut r),
@@ -741,12 +750,7 @@ fn view_grid_finds_the_walks_hits() {
     let f = |_: u32, uv: Vec2| matte(uv);
     for (s, instances, ground) in [(7, false, false), (8, true, false), (9, true, true)] {
         let desc = grid_scene(s, instances, ground, Vec3::Z);
-        for kernel in kernels() {
-            let opts = BuildOptions {
-                kernel,
-                ..Default::default()
-            };
-            let walk = Accel::build_with(&desc, opts).unwrap();
+        for (kernel, walk) in walks(&desc) {
             let mut r = rng(s * 17 + 3);
             // Eyes outside the scene looking in, and inside it.
             let eyes = [

@@ -4,19 +4,23 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
 /// Concentric map of the unit square to the unit disk (Shirley & Chiu 1997).
+///
+/// Written without a branch on which of `|x|`, `|y|` is larger: the two cases share one
+/// division and pick their operands by selects, since with random `u` that branch is
+/// mispredicted half the time (it was a tenth of a diffuse BSDF sample's cost).
 #[inline]
 pub fn square_to_disk(u: Vec2) -> Vec2 {
     let p = 2.0 * u - Vec2::ONE;
     if p.x == 0.0 && p.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if p.x.abs() > p.y.abs() {
-        (p.x, std::f32::consts::FRAC_PI_4 * (p.y / p.x))
+    let x_major = p.x.abs() > p.y.abs();
+    let (r, other) = if x_major { (p.x, p.y) } else { (p.y, p.x) };
+    let a = std::f32::consts::FRAC_PI_4 * (other / r);
+    let theta = if x_major {
+        a
     } else {
-        (
-            p.y,
-            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (p.x / p.y),
-        )
+        std::f32::consts::FRAC_PI_2 - a
     };
     r * Vec2::new(theta.cos(), theta.sin())
 }
@@ -63,4 +67,50 @@ pub const fn hash_u32(mut x: u32) -> u32 {
     x = x.wrapping_mul(0x846c_a68b);
     x ^= x >> 16;
     x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::march::Pcg32;
+
+    /// Shirley & Chiu's map as first written, with a branch per case.
+    fn square_to_disk_branched(u: Vec2) -> Vec2 {
+        let p = 2.0 * u - Vec2::ONE;
+        if p.x == 0.0 && p.y == 0.0 {
+            return Vec2::ZERO;
+        }
+        let (r, theta) = if p.x.abs() > p.y.abs() {
+            (p.x, std::f32::consts::FRAC_PI_4 * (p.y / p.x))
+        } else {
+            (
+                p.y,
+                std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (p.x / p.y),
+            )
+        };
+        r * Vec2::new(theta.cos(), theta.sin())
+    }
+
+    #[test]
+    fn square_to_disk_is_the_branched_map_bit_for_bit() {
+        let mut rng = Pcg32::new(17);
+        let mut points: Vec<Vec2> = (0..200_000)
+            .map(|_| Vec2::new(rng.next_f32(), rng.next_f32()))
+            .collect();
+        // The centre, the diagonals (|x| = |y|), the axes and the corners.
+        for &a in &[0.0, 0.25, 0.5, 0.75, 1.0 - f32::EPSILON / 2.0] {
+            for &b in &[0.0, 0.25, 0.5, 0.75, 1.0 - f32::EPSILON / 2.0, a, 1.0 - a] {
+                points.push(Vec2::new(a, b));
+            }
+        }
+        for u in points {
+            let (got, want) = (square_to_disk(u), square_to_disk_branched(u));
+            assert_eq!(
+                got.to_array().map(f32::to_bits),
+                want.to_array().map(f32::to_bits),
+                "{u}"
+            );
+            assert!(got.length() <= 1.0 + 1e-6, "{u}: {got}");
+        }
+    }
 }

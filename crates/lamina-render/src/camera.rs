@@ -85,6 +85,13 @@ impl CameraModel {
         Some((self.origin, self.forward, self.up, [-x, x, -y, y]))
     }
 
+    /// Whether [`CameraModel::generate_ray`] reads its `lens` sample: only a thin lens
+    /// (aperture above zero) does. A pinhole's caller may skip drawing it.
+    #[inline]
+    pub fn uses_lens(&self) -> bool {
+        self.aperture > 0.0
+    }
+
     /// The ray (origin, unit direction) through film position `film` (pixels), using
     /// `lens ∈ [0, 1)²` to pick a point on the lens.
     #[inline]

@@ -534,7 +534,8 @@ fn render_tile<E: Estimator>(
     let camera = |x: u32, y: u32, i: u32| {
         let mut sampler = PixelSampler::new(seed, x, y, i);
         let film_u = sampler.next_2d();
-        let lens_u = sampler.next_2d();
+        // A pinhole reads no lens sample: its draw is skipped, not made (the same stream).
+        let lens_u = sampler.next_2d_if(ctx.camera.uses_lens());
         let pos = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + ctx.filter.sample(film_u);
         let (origin, dir) = ctx.camera.generate_ray(pos, lens_u);
         let ray = Ray {

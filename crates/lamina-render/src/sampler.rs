@@ -149,6 +149,19 @@ impl PixelSampler {
         point_2d(shuffled(self.rindex, s), s)
     }
 
+    /// [`PixelSampler::next_2d`] where `used`, else that draw skipped (zero returned):
+    /// for a consumer that reads its numbers only sometimes (a delta light), the stream
+    /// advances the same either way, so the later draws do not change.
+    #[inline]
+    pub fn next_2d_if(&mut self, used: bool) -> Vec2 {
+        if used {
+            self.next_2d()
+        } else {
+            self.skip(1);
+            Vec2::ZERO
+        }
+    }
+
     /// The next single dimension, in `[0, 1)`.
     #[inline]
     pub fn next_1d(&mut self) -> f32 {

@@ -50,7 +50,7 @@ pub fn radiance(
     let wo = frame.to_local(-ray.dir);
     let mut l = Vec3::ZERO;
     for light in lights.iter().filter(|l| !matches!(l, AnyLight::Sky(_))) {
-        let u = sampler.next_2d();
+        let u = sampler.next_2d_if(light.uses_sample());
         let Some(ls) = light.sample(p, u) else {
             continue;
         };

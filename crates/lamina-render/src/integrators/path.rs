@@ -121,7 +121,7 @@ fn trace(
         let (u1, u2) = (sampler.peek_1d(ahead), sampler.peek_2d(ahead + 1));
         let sampled = bsdf.sample(wo, Vec3::new(u1, u2.x, u2.y));
         for light in picked {
-            let u = sampler.next_2d();
+            let u = sampler.next_2d_if(light.uses_sample());
             let Some(mut ls) = light.sample(p, u) else {
                 continue;
             };

@@ -269,7 +269,7 @@ pub fn radiance_sets<const G: usize>(
 
         let (first, picked, pick) = ctx.nee_lights(sampler);
         for (i, light) in (first..).zip(picked) {
-            let u = sampler.next_2d();
+            let u = sampler.next_2d_if(light.uses_sample());
             let Some(mut ls) = light.sample(p, u) else {
                 continue;
             };

@@ -74,6 +74,17 @@ impl AnyLight {
         }
     }
 
+    /// Whether [`AnyLight::sample`] reads its `u`: a delta sun and a point light do not,
+    /// so a caller may skip drawing it (the stream then advances as if it had).
+    #[inline]
+    pub fn uses_sample(&self) -> bool {
+        match self {
+            AnyLight::Sun(l) => !l.is_delta(),
+            AnyLight::Point(_) => false,
+            AnyLight::Quad(_) | AnyLight::Sphere(_) | AnyLight::Sky(_) => true,
+        }
+    }
+
     /// Whether the light sits at infinity (seen by rays that escape the scene).
     #[inline]
     pub fn is_infinite(&self) -> bool {

@@ -50,7 +50,7 @@ fn irradiance_at(run: &Run, p: Vec3, n: Vec3, s: &mut PixelSampler, rays: &mut u
     // `path::radiance_sampled`) assume these densities, the pick probability included.
     let (_, picked, pick) = ctx.nee_lights(s);
     for light in picked {
-        let u = s.next_2d();
+        let u = s.next_2d_if(light.uses_sample());
         let Some(mut ls) = light.sample(p, u) else {
             continue;
         };

@@ -328,6 +328,12 @@ mod tests {
             s.next_2d();
         }
         assert_eq!(skipped.next_2d(), s.next_2d());
+        // A draw made only where it is used: the same value, and the same stream after.
+        let (mut used, mut unused, mut plain) = (start, start, start);
+        assert_eq!(used.next_2d_if(true), plain.next_2d());
+        assert_eq!(unused.next_2d_if(false), Vec2::ZERO);
+        assert_eq!(used.next_1d().to_bits(), plain.next_1d().to_bits());
+        assert_eq!(unused.next_1d().to_bits(), start.peek_1d(1).to_bits());
     }
 
     #[test]

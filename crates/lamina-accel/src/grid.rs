@@ -348,18 +348,32 @@ impl Cells {
     pub fn cover(&self, s: [f32; 2], t: [f32; 2]) -> Option<([usize; 2], [usize; 2])> {
         let (x0, x1) = self.span(s[0], s[1], 0);
         let (y0, y1) = self.span(t[0], t[1], 1);
-        if (x1 - x0 + 1) * (y1 - y0 + 1) > MAX_CELLS {
-            return None;
+        self.listed([x0, x1], [y0, y1])
+            .then_some(([x0, x1], [y0, y1]))
+    }
+
+    /// Whether the cells `[x0, x1] × [y0, y1]` are at most [`MAX_CELLS`], none of them too
+    /// crowded: what [`Cells::cover`] serves.
+    #[inline(always)]
+    pub fn listed(&self, x: [usize; 2], y: [usize; 2]) -> bool {
+        if (x[1] - x[0] + 1) * (y[1] - y[0] + 1) > MAX_CELLS {
+            return false;
         }
-        for y in y0..=y1 {
-            for x in x0..=x1 {
+        for y in y[0]..=y[1] {
+            for x in x[0]..=x[1] {
                 let c = y * self.n[0] + x;
                 if self.walk[c / 64] & (1 << (c % 64)) != 0 {
-                    return None;
+                    return false;
                 }
             }
         }
-        Some(([x0, x1], [y0, y1]))
+        true
+    }
+
+    /// `1 / cell`, the factor [`Cells::span`] scales by.
+    #[inline(always)]
+    pub fn inv_cell(&self) -> f32 {
+        self.inv_cell
     }
 
     /// The entries of cell `(x, y)`.

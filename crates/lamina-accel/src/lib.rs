@@ -685,6 +685,56 @@ impl Accel {
         dispatch!(self, closest, ray, skip, f, &())
     }
 
+    /// [`Accel::intersect`] of each of `rays` (no primitive skipped) into `out`, which must
+    /// be as long: the same answers, bit for bit. Rays from the eye of a grid added by
+    /// [`Accel::index_view`] (a pixel's camera rays) are tested eight at a time, each pack
+    /// against all of them at once, where they cross the same cells of a grid over the
+    /// world level alone; the others, and every ray without the AVX2 kernel, one by one.
+    ///
+    /// # Panics
+    /// When `out` is not as long as `rays`.
+    pub fn intersect_many<F: AlphaFilter>(&self, rays: &[Ray], f: &F, out: &mut [Option<Hit>]) {
+        self.intersect_many_counted(rays, f, &(), out);
+    }
+
+    /// [`Accel::intersect_many`], counting what the traversal does into `c`.
+    ///
+    /// # Panics
+    /// When `out` is not as long as `rays`.
+    pub fn intersect_many_counted<F: AlphaFilter, C: Counter>(
+        &self,
+        rays: &[Ray],
+        f: &F,
+        c: &C,
+        out: &mut [Option<Hit>],
+    ) {
+        assert_eq!(rays.len(), out.len(), "one answer per ray");
+        match (&self.engine, self.kernel) {
+            #[cfg(target_arch = "x86_64")]
+            (Engine::W8(l), Kernel::Avx2) => {
+                #[target_feature(enable = "avx2,fma")]
+                unsafe fn go<F: AlphaFilter, C: Counter>(
+                    l: &Levels<8>,
+                    rays: &[Ray],
+                    f: &F,
+                    c: &C,
+                    out: &mut [Option<Hit>],
+                ) {
+                    // SAFETY: this function's own target features are AVX2 + FMA.
+                    unsafe { l.closest_rays(rays, f, c, out) }
+                }
+                // SAFETY: an `Accel` holds `Kernel::Avx2` only after `Kernel::available`
+                // confirmed AVX2 and FMA on this CPU (`Accel::build_with`).
+                unsafe { go(l, rays, f, c, out) }
+            }
+            _ => {
+                for (ray, out) in rays.iter().zip(out.iter_mut()) {
+                    *out = dispatch!(self, closest, ray, PrimRef::NONE, f, c);
+                }
+            }
+        }
+    }
+
     /// Whether any accepted hit lies along `ray` within `(0, tmax)`, not counting `skip`.
     #[inline]
     pub fn occluded<F: AlphaFilter>(&self, ray: &Ray, skip: PrimRef, f: &F) -> bool {

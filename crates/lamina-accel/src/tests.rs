@@ -812,3 +812,73 @@ fn view_grid_finds_the_walks_hits() {
         }
     }
 }
+
+/// [`Accel::intersect_many`] answers each ray exactly as [`Accel::intersect`] does, for
+/// every kernel: bundles of rays from a pinhole's eye through one small patch of the
+/// picture (tested together where they cross the same cells), spread over it (several
+/// groups), some from just off the eye or outside the window, with and without `tmax`,
+/// in slices of 1 to 13 rays; on the world level with and without a ground crossing the
+/// eye's plane (tested by every ray) and a crowded column (its cells keep the walk), and
+/// through instances (no packets: one by one).
+#[test]
+fn intersect_many_answers_as_intersect() {
+    let f = |_: u32, uv: Vec2| matte(uv);
+    for (s, instances, ground) in [(11, false, false), (12, false, true), (13, true, false)] {
+        let desc = grid_scene(s, instances, ground, Vec3::Z);
+        for (kernel, walk) in walks(&desc) {
+            let mut r = rng(s * 13 + 1);
+            let (eye, fwd) = (Vec3::new(1.6, 1.55, 6.0), Vec3::new(0.02, -0.01, -1.0));
+            let mut grid = walk.clone();
+            assert!(
+                grid.index_view(eye, fwd, Vec3::Y, [-0.6, 0.6, -0.45, 0.45])
+                    .is_some()
+            );
+            let f3 = fwd.normalize();
+            let right = f3.cross(Vec3::Y).normalize();
+            let up = right.cross(f3);
+            let (mut hits, mut rays_total) = (0, 0);
+            for bundle in 0..400 {
+                // Mostly over the scene, some past the window's edge.
+                let (cx, cy) = if bundle % 10 == 9 {
+                    (1.3 * r() - 0.65, 1.0 * r() - 0.5)
+                } else {
+                    (0.5 * r() - 0.25, 0.5 * r() - 0.25)
+                };
+                // A pixel's spread, or a wide one.
+                let spread = if bundle % 4 == 3 { 0.2 } else { 2e-3 };
+                let n = 1 + bundle % 13;
+                let rays: Vec<Ray> = (0..n)
+                    .map(|i| {
+                        let (x, y) = (cx + spread * (r() - 0.5), cy + spread * (r() - 0.5));
+                        Ray {
+                            origin: if (bundle + i) % 17 == 5 {
+                                eye + Vec3::X * 1e-3
+                            } else {
+                                eye
+                            },
+                            dir: f3 + right * x + up * y,
+                            tmax: if bundle % 3 == 0 {
+                                1.0 + 8.0 * r()
+                            } else {
+                                f32::INFINITY
+                            },
+                        }
+                    })
+                    .collect();
+                let mut got = vec![None; n];
+                grid.intersect_many(&rays, &f, &mut got);
+                for (i, (ray, got)) in rays.iter().zip(&got).enumerate() {
+                    let want = walk.intersect(ray, PrimRef::NONE, &f);
+                    assert_eq!(*got, want, "{kernel:?} bundle {bundle} ray {i}: {ray:?}");
+                    assert_eq!(*got, grid.intersect(ray, PrimRef::NONE, &f));
+                    hits += want.is_some() as u32;
+                    rays_total += 1;
+                }
+            }
+            assert!(
+                hits * 5 > rays_total,
+                "{kernel:?}: {hits} hits of {rays_total}"
+            );
+        }
+    }
+}

@@ -230,7 +230,7 @@ pub(crate) unsafe fn walk<
 
 /// Whether the alpha-tested lane `flags` of a pack in `blas` is opaque at `(b1, b2)`.
 #[inline(always)]
-fn alpha_opaque<const W: usize, F: AlphaFilter, C: Counter>(
+pub(crate) fn alpha_opaque<const W: usize, F: AlphaFilter, C: Counter>(
     blas: &Blas<W>,
     masks: &[Option<OpacityMask>],
     flags: u32,
@@ -736,13 +736,20 @@ impl<const W: usize> Levels<W> {
             }
             None => None,
         };
-        let mut found = match from_eye {
+        let found = match from_eye {
             Some(found) => found,
             // SAFETY: forwarded.
             None => unsafe {
                 self.walk_closest::<K, F, C>(o, d, skip, &tr, wr.skip, &mut best, f, c)
             },
         };
+        self.finish(ray, best, found)
+    }
+
+    /// The hit of `ray` from the best triangle or card hit `best` (`found`), after the
+    /// spheres (tested last, against `best.t`).
+    #[inline(always)]
+    fn finish(&self, ray: &Ray, mut best: Best, mut found: bool) -> Option<Hit> {
         for (k, s) in self.spheres.iter().enumerate() {
             let t = intersect_sphere(s, ray.origin, ray.dir, best.t);
             if t < best.t {
@@ -828,5 +835,48 @@ impl<const W: usize> Levels<W> {
             walk::<K, W, 8, [QNode], false, C>(&tlas.nodes, tlas.root, &tr, ray.tmax, c, &mut v)
         };
         v.hit
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Levels<8> {
+    /// [`Levels::closest`] of each of `rays` with no primitive skipped, into `out` (as
+    /// long): rays from a pinhole's eye eight at a time through
+    /// [`crate::view::ViewIndex::closest_rays`] where it serves them, the others one by one.
+    /// The same answers, bit for bit.
+    ///
+    /// # Safety
+    /// AVX2 and FMA must be available.
+    #[inline(always)]
+    pub(crate) unsafe fn closest_rays<F: AlphaFilter, C: Counter>(
+        &self,
+        rays: &[Ray],
+        f: &F,
+        c: &C,
+        out: &mut [Option<Hit>],
+    ) {
+        use crate::kernel::avx2::Avx2;
+        for (rays, out) in rays.chunks(8).zip(out.chunks_mut(8)) {
+            let mut best = [Best {
+                t: 0.0,
+                prim: u32::MAX,
+                inst: NO_INSTANCE,
+                bary: Vec2::ZERO,
+            }; 8];
+            let mut found = [false; 8];
+            let served = match &self.view {
+                // SAFETY: AVX2 is available (caller).
+                Some(v) => unsafe { v.closest_rays(self, rays, f, c, &mut best, &mut found) },
+                None => 0,
+            };
+            for (k, (ray, out)) in rays.iter().zip(out.iter_mut()).enumerate() {
+                *out = if served & (1 << k) != 0 {
+                    self.finish(ray, best[k], found[k])
+                } else {
+                    // SAFETY: AVX2 and FMA are available (caller).
+                    unsafe { self.closest::<Avx2, F, C>(ray, PrimRef::NONE, f, c) }
+                };
+            }
+        }
     }
 }

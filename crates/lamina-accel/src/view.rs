@@ -24,8 +24,16 @@ use crate::grid::{
 use crate::kernel::Lanes;
 use crate::traverse::{Best, Levels};
 use crate::{AlphaFilter, Counter, Ray};
+#[cfg(target_arch = "x86_64")]
+use crate::{
+    kernel::avx2::{Rays8, leaf_rays},
+    layout::{ALPHA, Pack},
+    traverse::alpha_opaque,
+};
 use glam::{Vec2, Vec3, Vec3A};
 use rayon::prelude::*;
+#[cfg(target_arch = "x86_64")]
+use std::arch::x86_64::*;
 
 /// Most packs crossing the eye's plane (tested by every ray) a grid accepts.
 const MAX_NEAR: usize = 16;
@@ -45,6 +53,9 @@ pub(crate) struct ViewIndex {
     /// The cells, and apart from them the packs crossing the eye's plane: every ray
     /// tests those.
     grid: Listing,
+    /// Whether every listed pack is of the world level (no instances): what
+    /// [`ViewIndex::closest_rays`] serves.
+    world_only: bool,
 }
 
 impl ViewIndex {
@@ -149,7 +160,9 @@ impl ViewIndex {
         if !cells.fill(&feet, pad, false, |l, _, _| l.dmin) {
             return None;
         }
+        let world_only = refs.iter().all(|r| r.inst == crate::NO_INSTANCE);
         Some(ViewIndex {
+            world_only,
             eye,
             right,
             up,
@@ -174,20 +187,11 @@ impl ViewIndex {
         self.grid.bytes()
     }
 
-    /// The closest accepted hit of `ray` nearer than `best.t` (by `tests`, of the levels
-    /// this grid was built over, skipping what they skip), written to `best`:
-    /// `Some(found)`, or `None` when the grid does not serve this ray (the tree walk
-    /// answers it).
-    ///
-    /// # Safety
-    /// `K`'s instruction set must be available.
+    /// The depth per unit length of `ray` along the view direction and the cells it
+    /// crosses (`[x0, x1]`, `[y0, y1]`), or `None` when the grid does not serve it (not from
+    /// the eye, outside the window, crowded cells).
     #[inline(always)]
-    pub(crate) unsafe fn closest<'a, const W: usize, K: Lanes<W>, F: AlphaFilter, C: Counter>(
-        &'a self,
-        ray: &Ray,
-        tests: &mut PackTests<'a, K, W, F, C>,
-        best: &mut Best,
-    ) -> Option<bool> {
+    fn cells_of(&self, ray: &Ray) -> Option<(f32, [usize; 2], [usize; 2])> {
         if ray.origin != self.eye {
             return None;
         }
@@ -204,6 +208,189 @@ impl ViewIndex {
             return None;
         }
         let (x, y) = self.grid.cells.cover(s, t)?;
+        Some((z, x, y))
+    }
+
+    /// [`ViewIndex::cells_of`] for eight rays from the eye with directions `d`, in lanes:
+    /// their depths per unit length, the lanes the window serves (bit `k`), and per lane
+    /// its cells `x0, x1, y0, y1` (meaningful in served lanes). The arithmetic is
+    /// `cells_of`'s, operation by operation; whether the cells are listed is left to
+    /// [`Cells::listed`].
+    ///
+    /// # Safety
+    /// AVX2 must be available.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn cells_of_rays(&self, d: &[[f32; 3]; 8]) -> (__m256, u32, [[i32; 8]; 4]) {
+        let cells = &self.grid.cells;
+        let (lo, hi) = (cells.lo, cells.hi());
+        let last = [cells.n[0] as f32 - 1.0, cells.n[1] as f32 - 1.0];
+        let mut soa = [[0.0f32; 8]; 3];
+        for (k, d) in d.iter().enumerate() {
+            for a in 0..3 {
+                soa[a][k] = d[a];
+            }
+        }
+        let mut out = [[0i32; 8]; 4];
+        // SAFETY: AVX2 is available (caller); the loads read whole `[f32; 8]` rows and the
+        // stores write whole `[i32; 8]` rows.
+        unsafe {
+            let dv = [
+                _mm256_loadu_ps(soa[0].as_ptr()),
+                _mm256_loadu_ps(soa[1].as_ptr()),
+                _mm256_loadu_ps(soa[2].as_ptr()),
+            ];
+            // glam's `dot` on x86: `(x·x' + y·y') + z·z'`.
+            macro_rules! dot {
+                ($v:expr) => {
+                    _mm256_add_ps(
+                        _mm256_add_ps(
+                            _mm256_mul_ps(dv[0], _mm256_set1_ps($v.x)),
+                            _mm256_mul_ps(dv[1], _mm256_set1_ps($v.y)),
+                        ),
+                        _mm256_mul_ps(dv[2], _mm256_set1_ps($v.z)),
+                    )
+                };
+            }
+            let z = dot!(self.fwd);
+            let s = _mm256_div_ps(dot!(self.right), z);
+            let t = _mm256_div_ps(dot!(self.up), z);
+            let pad = _mm256_set1_ps(self.pad);
+            let (s0, s1) = (_mm256_sub_ps(s, pad), _mm256_add_ps(s, pad));
+            let (t0, t1) = (_mm256_sub_ps(t, pad), _mm256_add_ps(t, pad));
+            let ok = _mm256_and_ps(
+                _mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_GT_OQ>(z, _mm256_setzero_ps()),
+                    _mm256_cmp_ps::<_CMP_GE_OQ>(s0, _mm256_set1_ps(lo[0])),
+                ),
+                _mm256_and_ps(
+                    _mm256_and_ps(
+                        _mm256_cmp_ps::<_CMP_LE_OQ>(s1, _mm256_set1_ps(hi[0])),
+                        _mm256_cmp_ps::<_CMP_GE_OQ>(t0, _mm256_set1_ps(lo[1])),
+                    ),
+                    _mm256_cmp_ps::<_CMP_LE_OQ>(t1, _mm256_set1_ps(hi[1])),
+                ),
+            );
+            // `Cells::span`: `((x - lo) · inv_cell).floor().clamp(0, last)` (in the window,
+            // never NaN; where not, the lane is not used).
+            let inv = _mm256_set1_ps(cells.inv_cell());
+            for (row, (x, k)) in out.iter_mut().zip([(s0, 0), (s1, 0), (t0, 1), (t1, 1)]) {
+                let f =
+                    _mm256_floor_ps(_mm256_mul_ps(_mm256_sub_ps(x, _mm256_set1_ps(lo[k])), inv));
+                let f = _mm256_min_ps(
+                    _mm256_max_ps(f, _mm256_setzero_ps()),
+                    _mm256_set1_ps(last[k]),
+                );
+                _mm256_storeu_si256(row.as_mut_ptr() as *mut __m256i, _mm256_cvttps_epi32(f));
+            }
+            (z, _mm256_movemask_ps(ok) as u32, out)
+        }
+    }
+
+    /// [`ViewIndex::closest`] for up to eight rays at once, each pack tested against
+    /// several of them with the rays in SIMD lanes ([`leaf_rays`]), in groups of rays
+    /// crossing the same cells (a pixel's camera rays mostly do), for a grid over the world
+    /// level alone: for the rays it serves (bit `k` of the mask returned), `best[k]` and
+    /// `found[k]` as `closest` leaves them for `rays[k]` (the same packs in the same order,
+    /// the same arithmetic); the others are left to the caller (0: all of them, as for
+    /// grids that list instanced packs).
+    ///
+    /// # Safety
+    /// AVX2 must be available.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn closest_rays<F: AlphaFilter, C: Counter>(
+        &self,
+        lv: &Levels<8>,
+        rays: &[Ray],
+        f: &F,
+        c: &C,
+        best: &mut [Best; 8],
+        found: &mut [bool; 8],
+    ) -> u32 {
+        let n = rays.len().min(8);
+        if !self.world_only {
+            return 0;
+        }
+        let mut os = [[0.0f32; 3]; 8];
+        let mut ds = [[0.0f32; 3]; 8];
+        let mut tmax = [0.0f32; 8];
+        let mut from_eye = 0u32;
+        for (k, ray) in rays.iter().take(8).enumerate() {
+            os[k] = ray.origin.to_array();
+            ds[k] = ray.dir.to_array();
+            tmax[k] = ray.tmax;
+            from_eye |= u32::from(ray.origin == self.eye) << k;
+        }
+        // SAFETY: AVX2 is available (caller).
+        let (zv, window, cell) = unsafe { self.cells_of_rays(&ds) };
+        let mut todo = window & from_eye & ((1u32 << n) - 1);
+        let mut served = 0u32;
+        let packs = &lv.world.packs;
+        let pack = |e: &Entry| &packs[self.grid.refs[e.r as usize].pack as usize];
+        // SAFETY: AVX2 is available (caller).
+        let mut b = unsafe { Bests::new(&os[..n], &ds[..n], &tmax) };
+        while todo != 0 {
+            // The rays crossing the same cells as the first one left.
+            let k0 = todo.trailing_zeros() as usize;
+            let mut group = 0u32;
+            for k in k0..n {
+                if todo & (1 << k) != 0 && (0..4).all(|i| cell[i][k] == cell[i][k0]) {
+                    group |= 1 << k;
+                }
+            }
+            todo &= !group;
+            let x = [cell[0][k0] as usize, cell[1][k0] as usize];
+            let y = [cell[2][k0] as usize, cell[3][k0] as usize];
+            if !self.grid.cells.listed(x, y) {
+                continue; // crowded: the walk answers these
+            }
+            served |= group;
+            // SAFETY: AVX2 is available (caller).
+            unsafe {
+                for e in &self.grid.apart {
+                    b.test(lv, pack(e), group, f, c);
+                }
+                let zpad = _mm256_set1_ps(self.zpad);
+                for y in y[0]..=y[1] {
+                    for x in x[0]..=x[1] {
+                        let mut active = group;
+                        for e in self.grid.cells.list(x, y) {
+                            // Nearest first: once a pack starts beyond a ray's best hit, so
+                            // do the rest, for that ray (`key > t·z + zpad`, as `closest`).
+                            let lim = _mm256_add_ps(_mm256_mul_ps(b.t, zv), zpad);
+                            let key = _mm256_set1_ps(e.key);
+                            let beyond = _mm256_cmp_ps::<_CMP_GT_OQ>(key, lim);
+                            active &= !(_mm256_movemask_ps(beyond) as u32);
+                            if active == 0 {
+                                break;
+                            }
+                            b.test(lv, pack(e), active, f, c);
+                        }
+                    }
+                }
+            }
+        }
+        // SAFETY: AVX2 is available (caller).
+        unsafe { b.write(best, found) };
+        served
+    }
+
+    /// The closest accepted hit of `ray` nearer than `best.t` (by `tests`, of the levels
+    /// this grid was built over, skipping what they skip), written to `best`:
+    /// `Some(found)`, or `None` when the grid does not serve this ray (the tree walk
+    /// answers it).
+    ///
+    /// # Safety
+    /// `K`'s instruction set must be available.
+    #[inline(always)]
+    pub(crate) unsafe fn closest<'a, const W: usize, K: Lanes<W>, F: AlphaFilter, C: Counter>(
+        &'a self,
+        ray: &Ray,
+        tests: &mut PackTests<'a, K, W, F, C>,
+        best: &mut Best,
+    ) -> Option<bool> {
+        let (z, x, y) = self.cells_of(ray)?;
         tests.refs = &self.grid.refs;
         let mut found = false;
         let mut take = |h: Option<(f32, u32, u32, f32, f32)>, best: &mut Best| {
@@ -234,5 +421,178 @@ impl ViewIndex {
             }
         }
         Some(found)
+    }
+}
+
+/// Eight rays' best hits so far, lanes being rays, for [`ViewIndex::closest_rays`].
+#[cfg(target_arch = "x86_64")]
+struct Bests {
+    r: Rays8,
+    t: __m256,
+    prim: __m256i,
+    b1: __m256,
+    b2: __m256,
+    /// Bit `k`: ray `k` has a hit.
+    found: u32,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Bests {
+    /// Rays `o[k] + t·d[k]` with nothing found before `tmax[k]`.
+    ///
+    /// # Safety
+    /// AVX2 must be available.
+    #[inline(always)]
+    unsafe fn new(o: &[[f32; 3]], d: &[[f32; 3]], tmax: &[f32; 8]) -> Bests {
+        // SAFETY: AVX2 is available (caller); the load reads all of `tmax`.
+        unsafe {
+            Bests {
+                r: Rays8::new(o, d),
+                t: _mm256_loadu_ps(tmax.as_ptr()),
+                prim: _mm256_set1_epi32(-1),
+                b1: _mm256_setzero_ps(),
+                b2: _mm256_setzero_ps(),
+                found: 0,
+            }
+        }
+    }
+
+    /// World pack `p` against the rays of `active` (bit `k`: ray `k`), each within its
+    /// best `t`: for each, what [`crate::traverse::pack_closest`] gives it, taken as its
+    /// best. Without alpha-tested primitives all in lanes: per ray the nearest primitive
+    /// that hits, ties to the lower one (`pack_closest`'s order). With them, ray by ray.
+    ///
+    /// # Safety
+    /// AVX2 must be available.
+    #[inline(always)]
+    unsafe fn test<F: AlphaFilter, C: Counter>(
+        &mut self,
+        lv: &Levels<8>,
+        p: &Pack,
+        active: u32,
+        f: &F,
+        c: &C,
+    ) {
+        for _ in 0..active.count_ones() {
+            c.count(crate::Event::Pack);
+        }
+        // SAFETY: AVX2 is available (caller); stores write whole `[f32; 8]` arrays.
+        unsafe {
+            let mut tmax = [0.0f32; 8];
+            _mm256_storeu_ps(tmax.as_mut_ptr(), self.t);
+            // The world level skips nothing here (the rays leave no primitive):
+            // `u32::MAX`, as `closest` passes for `PrimRef::NONE`.
+            let h = leaf_rays(p, &self.r, &tmax, u32::MAX);
+            let alpha = (0..4).any(|j| p.id[j] != u32::MAX && p.flags[j] & ALPHA != 0);
+            if !alpha {
+                let act = lane_mask(active);
+                let mut t = _mm256_set1_ps(f32::INFINITY);
+                let mut take_any = _mm256_setzero_ps();
+                let (mut prim, mut b1, mut b2) = (self.prim, self.b1, self.b2);
+                for j in 0..4 {
+                    if h.mask[j] & active == 0 {
+                        continue;
+                    }
+                    let tj = _mm256_loadu_ps(h.t[j].as_ptr());
+                    let take = _mm256_and_ps(
+                        _mm256_and_ps(lane_mask(h.mask[j]), act),
+                        _mm256_cmp_ps::<_CMP_LT_OQ>(tj, t),
+                    );
+                    t = _mm256_blendv_ps(t, tj, take);
+                    let id = _mm256_castps_si256(_mm256_set1_ps(f32::from_bits(p.id[j])));
+                    prim = _mm256_castps_si256(_mm256_blendv_ps(
+                        _mm256_castsi256_ps(prim),
+                        _mm256_castsi256_ps(id),
+                        take,
+                    ));
+                    b1 = _mm256_blendv_ps(b1, _mm256_loadu_ps(h.b1[j].as_ptr()), take);
+                    b2 = _mm256_blendv_ps(b2, _mm256_loadu_ps(h.b2[j].as_ptr()), take);
+                    take_any = _mm256_or_ps(take_any, take);
+                }
+                self.t = _mm256_blendv_ps(self.t, t, take_any);
+                (self.prim, self.b1, self.b2) = (prim, b1, b2);
+                self.found |= _mm256_movemask_ps(take_any) as u32;
+                return;
+            }
+            let (mut bt, mut bp, mut bb1, mut bb2) = ([0.0f32; 8], [0u32; 8], [0.0; 8], [0.0; 8]);
+            _mm256_storeu_ps(bt.as_mut_ptr(), self.t);
+            _mm256_storeu_si256(bp.as_mut_ptr() as *mut __m256i, self.prim);
+            _mm256_storeu_ps(bb1.as_mut_ptr(), self.b1);
+            _mm256_storeu_ps(bb2.as_mut_ptr(), self.b2);
+            let mut act = active;
+            while act != 0 {
+                let k = act.trailing_zeros() as usize;
+                act &= act - 1;
+                // `pack_closest` for ray `k`.
+                let mut m = 0u32;
+                for (j, mask) in h.mask.iter().enumerate() {
+                    m |= ((mask >> k) & 1) << j;
+                }
+                while m != 0 {
+                    let mut i = m.trailing_zeros() as usize;
+                    let mut rest = m & (m - 1);
+                    while rest != 0 {
+                        let j = rest.trailing_zeros() as usize;
+                        rest &= rest - 1;
+                        if h.t[j][k] < h.t[i][k] {
+                            i = j;
+                        }
+                    }
+                    m &= !(1 << i);
+                    let fl = p.flags[i];
+                    let (b1, b2) = (h.b1[i][k], h.b2[i][k]);
+                    if fl & ALPHA != 0 && !alpha_opaque(&lv.world, &lv.masks, fl, b1, b2, f, c) {
+                        continue;
+                    }
+                    (bt[k], bp[k], bb1[k], bb2[k]) = (h.t[i][k], p.id[i], b1, b2);
+                    self.found |= 1 << k;
+                    break;
+                }
+            }
+            self.t = _mm256_loadu_ps(bt.as_ptr());
+            self.prim = _mm256_loadu_si256(bp.as_ptr() as *const __m256i);
+            self.b1 = _mm256_loadu_ps(bb1.as_ptr());
+            self.b2 = _mm256_loadu_ps(bb2.as_ptr());
+        }
+    }
+
+    /// The rays' bests into `best` and `found`.
+    ///
+    /// # Safety
+    /// AVX2 must be available.
+    #[inline(always)]
+    unsafe fn write(&self, best: &mut [Best; 8], found: &mut [bool; 8]) {
+        let (mut t, mut prim, mut b1, mut b2) = ([0.0f32; 8], [0u32; 8], [0.0; 8], [0.0; 8]);
+        // SAFETY: AVX2 is available (caller); each store writes a whole 32-byte array.
+        unsafe {
+            _mm256_storeu_ps(t.as_mut_ptr(), self.t);
+            _mm256_storeu_si256(prim.as_mut_ptr() as *mut __m256i, self.prim);
+            _mm256_storeu_ps(b1.as_mut_ptr(), self.b1);
+            _mm256_storeu_ps(b2.as_mut_ptr(), self.b2);
+        }
+        for k in 0..8 {
+            best[k] = Best {
+                t: t[k],
+                prim: prim[k],
+                inst: crate::NO_INSTANCE,
+                bary: Vec2::new(b1[k], b2[k]),
+            };
+            found[k] = self.found & (1 << k) != 0;
+        }
+    }
+}
+
+/// All-ones lanes where bit `k` of `bits` is set.
+///
+/// # Safety
+/// AVX2 must be available.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn lane_mask(bits: u32) -> __m256 {
+    // SAFETY: AVX2 is available (caller).
+    unsafe {
+        let bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let v = _mm256_and_si256(_mm256_set1_epi32(bits as i32), bit);
+        _mm256_castsi256_ps(_mm256_cmpeq_epi32(v, bit))
     }
 }

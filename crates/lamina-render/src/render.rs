@@ -24,7 +24,7 @@
 //! samples' magnitudes, far below the f32 image's own rounding of `2⁻²⁴`). With
 //! [`RenderOptions::keep_sums`] the output carries those f64 sums for an exact merge.
 
-use crate::accel::{AccelMemory, Ray};
+use crate::accel::{AccelMemory, Hit, Ray};
 use crate::error::RenderError;
 use crate::film::Accumulator;
 use crate::integrators::{SceneContext, paper, path};
@@ -284,6 +284,26 @@ pub(crate) trait Estimator: Sync {
         rays: &mut u64,
         out: &mut [f32],
     );
+    /// Whether [`Estimator::estimate_hit`] takes the camera ray's first hit found
+    /// beforehand (else the renderer calls [`Estimator::estimate`]).
+    fn takes_first_hit(&self) -> bool {
+        false
+    }
+    /// [`Estimator::estimate`] given the camera ray's first hit `hit` (what
+    /// [`crate::accel::Accel::intersect`] returns for `ray`): the same values. Called only
+    /// where [`Estimator::takes_first_hit`]; by default `hit` is found again.
+    fn estimate_hit(
+        &self,
+        ctx: &SceneContext,
+        ray: Ray,
+        hit: Option<Hit>,
+        sampler: &mut PixelSampler,
+        rays: &mut u64,
+        out: &mut [f32],
+    ) {
+        let _ = hit;
+        self.estimate(ctx, ray, sampler, rays, out);
+    }
 }
 
 /// The RGB render: the scene's integrator, linear Rec.709.
@@ -326,6 +346,31 @@ impl Estimator for RgbEstimator {
                 rr_depth,
                 ..
             } => path::radiance(ctx, ray, sampler, max_depth, rr_depth, rays),
+            Integrator::Paper { .. } => paper::radiance(ctx, ray, sampler, self.ambient, rays),
+        };
+        out.copy_from_slice(&l.to_array());
+    }
+
+    fn takes_first_hit(&self) -> bool {
+        matches!(self.integrator, Integrator::Path { .. })
+    }
+
+    #[inline]
+    fn estimate_hit(
+        &self,
+        ctx: &SceneContext,
+        ray: Ray,
+        hit: Option<Hit>,
+        sampler: &mut PixelSampler,
+        rays: &mut u64,
+        out: &mut [f32],
+    ) {
+        let l = match self.integrator {
+            Integrator::Path {
+                max_depth,
+                rr_depth,
+                ..
+            } => path::radiance_hit(ctx, ray, hit, sampler, max_depth, rr_depth, rays),
             Integrator::Paper { .. } => paper::radiance(ctx, ray, sampler, self.ambient, rays),
         };
         out.copy_from_slice(&l.to_array());
@@ -517,6 +562,9 @@ impl Job {
 /// Samples `[s0, s1)` of every pixel of `tile`: per-pixel sums (row-major, `channels` per
 /// pixel, f64 so that splitting a pixel's samples into parts changes only the order of f64
 /// additions) and rays traced.
+/// Camera rays whose first hits [`render_tile`] finds in a row before following their paths.
+const FIRST_HITS: usize = crate::accel::Accel::MANY;
+
 fn render_tile<E: Estimator>(
     ctx: &SceneContext,
     est: &E,
@@ -545,10 +593,15 @@ fn render_tile<E: Estimator>(
         };
         (sampler, ray)
     };
-    // Follows a sample's path and adds it to its pixel's sums (starting at `at`).
-    let mut run = |(at, (mut sampler, ray)): (usize, (PixelSampler, Ray))| {
+    // Follows a sample's path (from its first hit, if found) and adds it to its pixel's
+    // sums (starting at `at`).
+    let mut run = |(at, (mut sampler, ray)): (usize, (PixelSampler, Ray)),
+                   hit: Option<Option<Hit>>| {
         vals.fill(0.0);
-        est.estimate(ctx, ray, &mut sampler, &mut rays, &mut vals);
+        match hit {
+            Some(hit) => est.estimate_hit(ctx, ray, hit, &mut sampler, &mut rays, &mut vals),
+            None => est.estimate(ctx, ray, &mut sampler, &mut rays, &mut vals),
+        }
         // A NaN or infinite sample (a numerical accident) counts as black.
         if vals.iter().all(|v| v.is_finite()) {
             for (s, v) in sums[at..at + c].iter_mut().zip(&vals) {
@@ -559,20 +612,54 @@ fn render_tile<E: Estimator>(
     // Each sample's camera ray is made before the previous sample's path is followed, so
     // that the sampler's and the camera's arithmetic overlaps that path's ray walks
     // rather than holding up the next camera ray. The order of the additions is the same.
-    let mut pending = None;
     let mut at = 0usize;
+    if est.takes_first_hit() {
+        // A pixel's samples in groups: their camera rays made, then their first hits found
+        // one after the other (independent walks the CPU overlaps, where each path's own
+        // work depends on the walk before it), then their paths followed from there.
+        let none = Ray {
+            origin: Vec3::ZERO,
+            dir: Vec3::Z,
+            tmax: 0.0,
+        };
+        let mut cams = [(PixelSampler::new(0, 0, 0, 0), none); FIRST_HITS];
+        let mut hits = [None; FIRST_HITS];
+        let mut batch = [none; FIRST_HITS];
+        for y in tile.y0..tile.y0 + tile.h {
+            for x in tile.x0..tile.x0 + tile.w {
+                let mut i = s0;
+                while i < s1 {
+                    let n = (s1 - i).min(FIRST_HITS as u32) as usize;
+                    for (k, cam) in cams[..n].iter_mut().enumerate() {
+                        *cam = camera(x, y, i + k as u32);
+                    }
+                    for (ray, cam) in batch[..n].iter_mut().zip(&cams[..n]) {
+                        *ray = cam.1;
+                    }
+                    ctx.accel.intersect_many(&batch[..n], &mut hits[..n]);
+                    for (cam, hit) in cams[..n].iter().zip(&hits[..n]) {
+                        run((at, *cam), Some(*hit));
+                    }
+                    i += n as u32;
+                }
+                at += c;
+            }
+        }
+        return (sums, rays);
+    }
+    let mut pending = None;
     for y in tile.y0..tile.y0 + tile.h {
         for x in tile.x0..tile.x0 + tile.w {
             for i in s0..s1 {
                 if let Some(p) = pending.replace((at, camera(x, y, i))) {
-                    run(p);
+                    run(p, None);
                 }
             }
             at += c;
         }
     }
     if let Some(p) = pending {
-        run(p);
+        run(p, None);
     }
     (sums, rays)
 }

@@ -116,3 +116,149 @@ impl Lanes<8> for Avx2 {
         unsafe { leaf4(p, &r.four, tmax, skip) }
     }
 }
+
+/// Eight rays broadcast across lanes (lane `k` = ray `k`), for [`leaf_rays`].
+#[derive(Clone, Copy)]
+pub(crate) struct Rays8 {
+    pub o: [__m256; 3],
+    pub d: [__m256; 3],
+}
+
+impl Rays8 {
+    /// The rays `o[k] + t·d[k]` in lanes `k` (lanes past `o.len()` repeat ray 0).
+    ///
+    /// # Safety
+    /// AVX must be available.
+    #[inline(always)]
+    pub(crate) unsafe fn new(o: &[[f32; 3]], d: &[[f32; 3]]) -> Rays8 {
+        // Per axis, the rays' coordinates side by side (lanes past the rays repeat ray 0).
+        let mut soa = [
+            [o[0][0]; 8],
+            [o[0][1]; 8],
+            [o[0][2]; 8],
+            [d[0][0]; 8],
+            [d[0][1]; 8],
+            [d[0][2]; 8],
+        ];
+        for (k, (o, d)) in o.iter().zip(d).enumerate().take(8) {
+            for a in 0..3 {
+                soa[a][k] = o[a];
+                soa[3 + a][k] = d[a];
+            }
+        }
+        // SAFETY: each load reads a whole `[f32; 8]` row of `soa`; AVX is available
+        // (caller).
+        unsafe {
+            Rays8 {
+                o: [
+                    _mm256_loadu_ps(soa[0].as_ptr()),
+                    _mm256_loadu_ps(soa[1].as_ptr()),
+                    _mm256_loadu_ps(soa[2].as_ptr()),
+                ],
+                d: [
+                    _mm256_loadu_ps(soa[3].as_ptr()),
+                    _mm256_loadu_ps(soa[4].as_ptr()),
+                    _mm256_loadu_ps(soa[5].as_ptr()),
+                ],
+            }
+        }
+    }
+}
+
+/// The primitives of a pack against eight rays: per primitive `j`, `mask[j]` bit `k` when
+/// ray `k` hits it within `(0, tmax[k])` (primitive id `skip` never), with `t[j][k]`,
+/// `b1[j][k]`, `b2[j][k]`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RayHits {
+    pub mask: [u32; 4],
+    pub t: [[f32; 8]; 4],
+    pub b1: [[f32; 8]; 4],
+    pub b2: [[f32; 8]; 4],
+}
+
+// Macros, not closures: a closure is a function of its own, compiled without the AVX2
+// target feature of the function it is written in, and when not inlined its intrinsics
+// became calls (a tenth of a render).
+macro_rules! cross8 {
+    ($a:expr, $b:expr) => {{
+        let (a, b) = ($a, $b);
+        [
+            _mm256_sub_ps(_mm256_mul_ps(a[1], b[2]), _mm256_mul_ps(a[2], b[1])),
+            _mm256_sub_ps(_mm256_mul_ps(a[2], b[0]), _mm256_mul_ps(a[0], b[2])),
+            _mm256_sub_ps(_mm256_mul_ps(a[0], b[1]), _mm256_mul_ps(a[1], b[0])),
+        ]
+    }};
+}
+macro_rules! dot8 {
+    ($a:expr, $b:expr) => {{
+        let (a, b) = ($a, $b);
+        _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(a[0], b[0]), _mm256_mul_ps(a[1], b[1])),
+            _mm256_mul_ps(a[2], b[2]),
+        )
+    }};
+}
+macro_rules! splat3 {
+    ($v:expr, $j:expr) => {
+        [
+            _mm256_set1_ps($v[0][$j]),
+            _mm256_set1_ps($v[1][$j]),
+            _mm256_set1_ps($v[2][$j]),
+        ]
+    };
+}
+
+/// [`leaf4`] turned around: each primitive of `p` against eight rays at once, lanes being
+/// rays. The arithmetic is `leaf4`'s, operation by operation and in the same order (no
+/// FMA), so every ray's `t`, `b1`, `b2` and hit decision are bit for bit those `leaf4`
+/// gives that ray.
+///
+/// # Safety
+/// AVX2 must be available.
+#[inline(always)]
+pub(crate) unsafe fn leaf_rays(p: &Pack, r: &Rays8, tmax: &[f32; 8], skip: u32) -> RayHits {
+    let mut h = RayHits {
+        mask: [0; 4],
+        t: [[0.0; 8]; 4],
+        b1: [[0.0; 8]; 4],
+        b2: [[0.0; 8]; 4],
+    };
+    // SAFETY: AVX is available (caller); the loads read a whole `[f32; 8]` and the stores
+    // write whole `[f32; 8]` rows of `h`.
+    unsafe {
+        let tmax = _mm256_loadu_ps(tmax.as_ptr());
+        let zero = _mm256_setzero_ps();
+        let one = _mm256_set1_ps(1.0);
+        for j in 0..4 {
+            if p.id[j] == skip {
+                continue; // leaf4 drops it after the test: never a hit
+            }
+            let (v0, e1, e2) = (splat3!(p.v0, j), splat3!(p.e1, j), splat3!(p.e2, j));
+            let pv = cross8!(r.d, e2);
+            let det = dot8!(e1, pv);
+            let inv = _mm256_div_ps(one, det);
+            let tv = [
+                _mm256_sub_ps(r.o[0], v0[0]),
+                _mm256_sub_ps(r.o[1], v0[1]),
+                _mm256_sub_ps(r.o[2], v0[2]),
+            ];
+            let b1 = _mm256_mul_ps(dot8!(tv, pv), inv);
+            let q = cross8!(tv, e1);
+            let b2 = _mm256_mul_ps(dot8!(r.d, q), inv);
+            let t = _mm256_mul_ps(dot8!(e2, q), inv);
+            let lim = _mm256_add_ps(b2, _mm256_mul_ps(_mm256_set1_ps(p.tri[j]), b1));
+            let mut ok = _mm256_cmp_ps::<_CMP_NEQ_UQ>(det, zero);
+            ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GE_OQ>(b1, zero));
+            ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LE_OQ>(b1, one));
+            ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GE_OQ>(b2, zero));
+            ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LE_OQ>(lim, one));
+            ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GT_OQ>(t, zero));
+            ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax));
+            h.mask[j] = _mm256_movemask_ps(ok) as u32;
+            _mm256_storeu_ps(h.t[j].as_mut_ptr(), t);
+            _mm256_storeu_ps(h.b1[j].as_mut_ptr(), b1);
+            _mm256_storeu_ps(h.b2[j].as_mut_ptr(), b2);
+        }
+    }
+    h
+}

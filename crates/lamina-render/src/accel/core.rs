@@ -149,6 +149,21 @@ impl Core {
         }
     }
 
+    /// The closest accepted hit of each of `rays` (see
+    /// `lamina_accel::Accel::intersect_many`), no primitive skipped.
+    #[inline(always)]
+    pub fn intersect_many<F: AlphaFilter>(&self, rays: &[Ray], f: &F, out: &mut [Option<Hit>]) {
+        match self {
+            Core::Lamina(a) => a.intersect_many(rays, f, out),
+            #[cfg(feature = "embree")]
+            Core::Embree(e) => {
+                for (ray, out) in rays.iter().zip(out.iter_mut()) {
+                    *out = e.accel.intersect(ray, PrimRef::NONE, f);
+                }
+            }
+        }
+    }
+
     /// Whether any accepted hit lies along `ray` (see `lamina_accel::Accel::occluded`).
     #[inline(always)]
     pub fn occluded<F: AlphaFilter>(&self, ray: &Ray, skip: PrimRef, f: &F) -> bool {

@@ -711,9 +711,40 @@ impl Accel {
         }
     }
 
+    /// [`Accel::intersect`] of each of `rays` into `out` (as long; at most
+    /// [`Accel::MANY`]): the same answers, but a pinhole's camera rays from one pixel are
+    /// tested together (see `lamina_accel::Accel::intersect_many`).
+    ///
+    /// # Panics
+    /// When `out` is not as long as `rays` or they are more than [`Accel::MANY`].
+    pub fn intersect_many(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        assert!(rays.len() == out.len() && rays.len() <= Self::MANY);
+        if self.wrap.is_some() {
+            for (ray, out) in rays.iter().zip(out.iter_mut()) {
+                *out = self.intersect(ray);
+            }
+            return;
+        }
+        let mut hits = [None; Self::MANY];
+        self.core
+            .intersect_many(rays, &self.filter(), &mut hits[..rays.len()]);
+        for (h, out) in hits.iter().zip(out.iter_mut()) {
+            *out = h.map(|h| self.hit(h));
+        }
+    }
+
+    /// Most rays one [`Accel::intersect_many`] takes.
+    pub const MANY: usize = 8;
+
     #[inline]
     fn intersect_once(&self, ray: &Ray, skip: PrimRef) -> Option<Hit> {
         let h = self.core.intersect(ray, skip, &self.filter())?;
+        Some(self.hit(h))
+    }
+
+    /// The renderer's hit from lamina-accel's.
+    #[inline(always)]
+    fn hit(&self, h: lamina_accel::Hit) -> Hit {
         let kind = if h.prim.inst == lamina_accel::SPHERE {
             HitKind::Sphere {
                 light: self.sphere_lights[h.prim.prim as usize],
@@ -724,7 +755,7 @@ impl Accel {
                 bary: h.bary,
             }
         };
-        Some(Hit { t: h.t, kind })
+        Hit { t: h.t, kind }
     }
 
     /// [`Accel::intersect`], counting lamina-accel's traversal steps into `stats` (for

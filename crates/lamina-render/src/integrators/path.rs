@@ -22,7 +22,7 @@
 //!   dropped (the sample ends the path).
 
 use super::SceneContext;
-use crate::accel::{FLAG_EMITTER, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
+use crate::accel::{FLAG_EMITTER, Hit, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
 use crate::lights::power_heuristic;
 use crate::materials::SurfaceBsdf;
 use crate::sampler::PixelSampler;
@@ -40,7 +40,39 @@ pub fn radiance(
     rr_depth: u32,
     rays: &mut u64,
 ) -> Vec3 {
-    trace(ctx, ray, sampler, max_depth, rr_depth, rays, None)
+    trace(
+        ctx,
+        ray,
+        sampler,
+        max_depth,
+        rr_depth,
+        rays,
+        Start::Camera(None),
+    )
+}
+
+/// [`radiance`] for a camera ray whose first intersection `hit` (what
+/// [`crate::accel::Accel::intersect`] returns for it) was found beforehand: the same
+/// value bit for bit, the ray still counted. A renderer that finds the first hits of
+/// several samples one after the other lets the CPU overlap their independent ray walks.
+pub fn radiance_hit(
+    ctx: &SceneContext,
+    ray: Ray,
+    hit: Option<Hit>,
+    sampler: &mut PixelSampler,
+    max_depth: u32,
+    rr_depth: u32,
+    rays: &mut u64,
+) -> Vec3 {
+    trace(
+        ctx,
+        ray,
+        sampler,
+        max_depth,
+        rr_depth,
+        rays,
+        Start::Camera(Some(hit)),
+    )
 }
 
 /// Radiance arriving along `ray` when `ray` was sampled with solid-angle density `pdf` at
@@ -56,7 +88,23 @@ pub fn radiance_sampled(
     rr_depth: u32,
     rays: &mut u64,
 ) -> Vec3 {
-    trace(ctx, ray, sampler, max_depth, rr_depth, rays, Some(pdf))
+    trace(
+        ctx,
+        ray,
+        sampler,
+        max_depth,
+        rr_depth,
+        rays,
+        Start::Sampled(pdf),
+    )
+}
+
+/// How a path's first ray came to be.
+enum Start {
+    /// A camera ray, with its first hit if already found.
+    Camera(Option<Option<Hit>>),
+    /// Sampled with this solid-angle density at a point whose lights are sampled too.
+    Sampled(f32),
 }
 
 fn trace(
@@ -66,18 +114,24 @@ fn trace(
     max_depth: u32,
     rr_depth: u32,
     rays: &mut u64,
-    first_pdf: Option<f32>,
+    start: Start,
 ) -> Vec3 {
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
-    let mut prev_pdf = first_pdf.unwrap_or(0.0);
-    let mut camera_ray = first_pdf.is_none();
+    let (mut prev_pdf, mut camera_ray, mut first_hit) = match start {
+        Start::Camera(hit) => (0.0, true, hit),
+        Start::Sampled(pdf) => (pdf, false, None),
+    };
     let mut skip = PrimRef::NONE;
     let mut bounces = 0u32;
     let lights = &ctx.lights.lights;
     loop {
         *rays += 1;
-        let Some(hit) = ctx.accel.intersect_skip(&ray, skip) else {
+        let hit = match first_hit.take() {
+            Some(hit) => hit,
+            None => ctx.accel.intersect_skip(&ray, skip),
+        };
+        let Some(hit) = hit else {
             for (i, light) in lights.iter().enumerate().filter(|(_, l)| l.is_infinite()) {
                 let (le, pdf) = light.escaped(ray.dir);
                 if le != Vec3::ZERO {

@@ -500,3 +500,44 @@ fn camera_rays_take_the_grid_with_the_same_hits() {
     }
     assert!(hits > 400, "{hits} of 4000 camera rays hit");
 }
+
+/// A pixel's camera rays found together ([`Accel::intersect_many`], lamina-accel's packets
+/// over the eye's grid) hit what each finds alone, on a scene of world cards with quad
+/// and sphere lights, for groups of 1 to 8 rays per pixel across the film and past its
+/// edges.
+#[test]
+fn camera_rays_found_together_hit_as_alone() {
+    let scene = crate::tests::scenes::small_canopy_scene();
+    assert_eq!(scene.camera.aperture_radius, 0.0);
+    let accel = Accel::build(&scene).unwrap();
+    assert!(accel.memory().grids > 0, "a grid for the pinhole");
+    let cam = crate::camera::CameraModel::new(&scene.camera, &scene.film).unwrap();
+    let (w, h) = (scene.film.width, scene.film.height);
+    let (mut hits, mut total) = (0, 0);
+    for y in 0..h + 2 {
+        for x in 0..w + 2 {
+            let n = 1 + ((x + y) as usize % Accel::MANY);
+            let rays: Vec<Ray> = (0..n as u32)
+                .map(|i| {
+                    let s = crate::sampler::sobol_2d(i, x * 977 + y);
+                    let pos = glam::Vec2::new(x as f32 - 1.0, y as f32 - 1.0) + s;
+                    let (origin, dir) = cam.generate_ray(pos, glam::Vec2::ZERO);
+                    Ray {
+                        origin,
+                        dir,
+                        tmax: f32::INFINITY,
+                    }
+                })
+                .collect();
+            let mut got = vec![None; n];
+            accel.intersect_many(&rays, &mut got);
+            for (ray, got) in rays.iter().zip(&got) {
+                let want = accel.intersect(ray);
+                assert_eq!(*got, want, "pixel ({x}, {y}): {ray:?}");
+                hits += want.is_some() as u32;
+                total += 1;
+            }
+        }
+    }
+    assert!(hits * 10 > total, "{hits} of {total} camera rays hit");
+}

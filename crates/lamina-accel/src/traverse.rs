@@ -290,15 +290,7 @@ pub(crate) unsafe fn pack_closest<K: Lanes<W>, const W: usize, F: AlphaFilter, C
     let mut m = h.mask;
     while m != 0 {
         // Nearest remaining lane first: the first one accepted is the pack's closest.
-        let mut i = m.trailing_zeros() as usize;
-        let mut rest = m & (m - 1);
-        while rest != 0 {
-            let j = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            if h.t[j] < h.t[i] {
-                i = j;
-            }
-        }
+        let i = nearest_lane(m, |j| h.t[j]);
         m &= !(1 << i);
         let fl = p.flags[i];
         if fl & ALPHA != 0 && !alpha_opaque(blas, masks, fl, h.b1[i], h.b2[i], f, c) {
@@ -307,6 +299,22 @@ pub(crate) unsafe fn pack_closest<K: Lanes<W>, const W: usize, F: AlphaFilter, C
         return Some((h.t[i], i, h.b1[i], h.b2[i]));
     }
     None
+}
+
+/// The lane of the non-empty lane set `m` (bit `i`: lane `i`) with the smallest `t(i)`,
+/// ties to the lower lane: the order in which [`pack_closest`] tries its lanes.
+#[inline(always)]
+pub(crate) fn nearest_lane(m: u32, t: impl Fn(usize) -> f32) -> usize {
+    let mut i = m.trailing_zeros() as usize;
+    let mut rest = m & (m - 1);
+    while rest != 0 {
+        let j = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        if t(j) < t(i) {
+            i = j;
+        }
+    }
+    i
 }
 
 /// Whether pack `p` has an accepted lane with `t < tmax`.

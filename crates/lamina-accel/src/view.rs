@@ -28,7 +28,7 @@ use crate::{AlphaFilter, Counter, Ray};
 use crate::{
     kernel::avx2::{Rays8, leaf_rays},
     layout::{ALPHA, Pack},
-    traverse::alpha_opaque,
+    traverse::{alpha_opaque, nearest_lane},
 };
 use glam::{Vec2, Vec3, Vec3A};
 use rayon::prelude::*;
@@ -529,15 +529,7 @@ impl Bests {
                     m |= ((mask >> k) & 1) << j;
                 }
                 while m != 0 {
-                    let mut i = m.trailing_zeros() as usize;
-                    let mut rest = m & (m - 1);
-                    while rest != 0 {
-                        let j = rest.trailing_zeros() as usize;
-                        rest &= rest - 1;
-                        if h.t[j][k] < h.t[i][k] {
-                            i = j;
-                        }
-                    }
+                    let i = nearest_lane(m, |j| h.t[j][k]);
                     m &= !(1 << i);
                     let fl = p.flags[i];
                     let (b1, b2) = (h.b1[i][k], h.b2[i][k]);

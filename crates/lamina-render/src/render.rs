@@ -276,33 +276,21 @@ pub(crate) trait Estimator: Sync {
     fn channels(&self) -> usize;
     /// The sample's values along the camera ray `ray` into `out` (`channels()` long,
     /// zeroed), drawing its random numbers from `sampler` and counting its rays in `rays`.
+    /// `first` is the ray's first hit (what [`crate::accel::Accel::intersect`] returns
+    /// for it) where the renderer found it beforehand, which it does only for an
+    /// estimator that [`Estimator::takes_first_hit`]; the values are the same either way.
     fn estimate(
         &self,
         ctx: &SceneContext,
         ray: Ray,
+        first: Option<Option<Hit>>,
         sampler: &mut PixelSampler,
         rays: &mut u64,
         out: &mut [f32],
     );
-    /// Whether [`Estimator::estimate_hit`] takes the camera ray's first hit found
-    /// beforehand (else the renderer calls [`Estimator::estimate`]).
+    /// Whether [`Estimator::estimate`] takes the camera ray's first hit found beforehand.
     fn takes_first_hit(&self) -> bool {
         false
-    }
-    /// [`Estimator::estimate`] given the camera ray's first hit `hit` (what
-    /// [`crate::accel::Accel::intersect`] returns for `ray`): the same values. Called only
-    /// where [`Estimator::takes_first_hit`]; by default `hit` is found again.
-    fn estimate_hit(
-        &self,
-        ctx: &SceneContext,
-        ray: Ray,
-        hit: Option<Hit>,
-        sampler: &mut PixelSampler,
-        rays: &mut u64,
-        out: &mut [f32],
-    ) {
-        let _ = hit;
-        self.estimate(ctx, ray, sampler, rays, out);
     }
 }
 
@@ -336,6 +324,7 @@ impl Estimator for RgbEstimator {
         &self,
         ctx: &SceneContext,
         ray: Ray,
+        first: Option<Option<Hit>>,
         sampler: &mut PixelSampler,
         rays: &mut u64,
         out: &mut [f32],
@@ -345,7 +334,10 @@ impl Estimator for RgbEstimator {
                 max_depth,
                 rr_depth,
                 ..
-            } => path::radiance(ctx, ray, sampler, max_depth, rr_depth, rays),
+            } => match first {
+                Some(hit) => path::radiance_hit(ctx, ray, hit, sampler, max_depth, rr_depth, rays),
+                None => path::radiance(ctx, ray, sampler, max_depth, rr_depth, rays),
+            },
             Integrator::Paper { .. } => paper::radiance(ctx, ray, sampler, self.ambient, rays),
         };
         out.copy_from_slice(&l.to_array());
@@ -353,27 +345,6 @@ impl Estimator for RgbEstimator {
 
     fn takes_first_hit(&self) -> bool {
         matches!(self.integrator, Integrator::Path { .. })
-    }
-
-    #[inline]
-    fn estimate_hit(
-        &self,
-        ctx: &SceneContext,
-        ray: Ray,
-        hit: Option<Hit>,
-        sampler: &mut PixelSampler,
-        rays: &mut u64,
-        out: &mut [f32],
-    ) {
-        let l = match self.integrator {
-            Integrator::Path {
-                max_depth,
-                rr_depth,
-                ..
-            } => path::radiance_hit(ctx, ray, hit, sampler, max_depth, rr_depth, rays),
-            Integrator::Paper { .. } => paper::radiance(ctx, ray, sampler, self.ambient, rays),
-        };
-        out.copy_from_slice(&l.to_array());
     }
 }
 
@@ -598,10 +569,7 @@ fn render_tile<E: Estimator>(
     let mut run = |(at, (mut sampler, ray)): (usize, (PixelSampler, Ray)),
                    hit: Option<Option<Hit>>| {
         vals.fill(0.0);
-        match hit {
-            Some(hit) => est.estimate_hit(ctx, ray, hit, &mut sampler, &mut rays, &mut vals),
-            None => est.estimate(ctx, ray, &mut sampler, &mut rays, &mut vals),
-        }
+        est.estimate(ctx, ray, hit, &mut sampler, &mut rays, &mut vals);
         // A NaN or infinite sample (a numerical accident) counts as black.
         if vals.iter().all(|v| v.is_finite()) {
             for (s, v) in sums[at..at + c].iter_mut().zip(&vals) {

@@ -147,6 +147,7 @@ impl Estimator for VisibleEstimator {
         &self,
         ctx: &SceneContext,
         ray: Ray,
+        _first: Option<Option<crate::accel::Hit>>, // never given: takes_first_hit is false
         sampler: &mut PixelSampler,
         rays: &mut u64,
         out: &mut [f32],
@@ -253,6 +254,7 @@ impl Estimator for BandEstimator {
         &self,
         ctx: &SceneContext,
         ray: Ray,
+        _first: Option<Option<crate::accel::Hit>>, // never given: takes_first_hit is false
         sampler: &mut PixelSampler,
         rays: &mut u64,
         out: &mut [f32],

@@ -40,15 +40,8 @@ pub fn radiance(
     rr_depth: u32,
     rays: &mut u64,
 ) -> Vec3 {
-    trace(
-        ctx,
-        ray,
-        sampler,
-        max_depth,
-        rr_depth,
-        rays,
-        Start::Camera(None),
-    )
+    let start = Start::Camera(None);
+    trace(ctx, ray, sampler, max_depth, rr_depth, rays, start)
 }
 
 /// [`radiance`] for a camera ray whose first intersection `hit` (what
@@ -64,15 +57,8 @@ pub fn radiance_hit(
     rr_depth: u32,
     rays: &mut u64,
 ) -> Vec3 {
-    trace(
-        ctx,
-        ray,
-        sampler,
-        max_depth,
-        rr_depth,
-        rays,
-        Start::Camera(Some(hit)),
-    )
+    let start = Start::Camera(Some(hit));
+    trace(ctx, ray, sampler, max_depth, rr_depth, rays, start)
 }
 
 /// Radiance arriving along `ray` when `ray` was sampled with solid-angle density `pdf` at
@@ -88,15 +74,8 @@ pub fn radiance_sampled(
     rr_depth: u32,
     rays: &mut u64,
 ) -> Vec3 {
-    trace(
-        ctx,
-        ray,
-        sampler,
-        max_depth,
-        rr_depth,
-        rays,
-        Start::Sampled(pdf),
-    )
+    let start = Start::Sampled(pdf);
+    trace(ctx, ray, sampler, max_depth, rr_depth, rays, start)
 }
 
 /// How a path's first ray came to be.

@@ -358,6 +358,42 @@ pub fn camera_rays(view: &View, w: u32, h: u32) -> Vec<Ray> {
         .collect()
 }
 
+/// `spp` camera rays per pixel of a `w x h` picture of `view` (pixel after pixel, each
+/// pixel's samples together, jittered within it as a renderer's are), and the window
+/// `[x0, x1, y0, y1]` they fill (tangents right and up of the view direction) for
+/// `Accel::index_view`, with the eye, view direction and up.
+#[allow(clippy::type_complexity)]
+pub fn pixel_rays(
+    view: &View,
+    w: u32,
+    h: u32,
+    spp: u32,
+    seed: u64,
+) -> (Vec<Ray>, (Vec3, Vec3, Vec3, [f32; 4])) {
+    let forward = (view.look_at - view.position).normalize();
+    let right = forward.cross(Vec3::Y).normalize();
+    let up = right.cross(forward);
+    let tan_x = (view.fov_deg.to_radians() * 0.5).tan();
+    let tan_y = tan_x * h as f32 / w as f32;
+    let mut r = Rng(seed);
+    let mut rays = Vec::with_capacity((w * h * spp) as usize);
+    for i in 0..w * h {
+        for _ in 0..spp {
+            let (px, py) = ((i % w) as f32 + r.f32(), (i / w) as f32 + r.f32());
+            let sx = (2.0 * px / w as f32 - 1.0) * tan_x;
+            let sy = (1.0 - 2.0 * py / h as f32) * tan_y;
+            rays.push(Ray {
+                origin: view.position,
+                dir: (forward + right * sx + up * sy).normalize(),
+                tmax: f32::INFINITY,
+            });
+        }
+    }
+    let pad = 4.0 / w as f32;
+    let window = [-tan_x - pad, tan_x + pad, -tan_y - pad, tan_y + pad];
+    (rays, (view.position, forward, Vec3::Y, window))
+}
+
 /// `n` rays with origins uniform in the box `(lo, hi)` and uniform unit directions.
 pub fn random_rays(bx: (Vec3, Vec3), n: usize, seed: u64) -> Vec<Ray> {
     let mut r = Rng(seed);

@@ -16,6 +16,8 @@
 //! | `random_closest_alpha` | cards | the same random rays | closest hit, matte |
 //! | `shadow_any_alpha` | cards | 2²⁰ between two random points of the box | any hit, matte |
 //! | `sun_any_alpha` | cards | 2²⁰ from random points of the box toward the sun ([`SUN`]); lamina with its grid along the sun (`Accel::index_direction`), as the renderer builds for a `sun` | any hit, matte |
+//! | `pixels_closest_alpha` | cards | 8 jittered camera rays per pixel of a 362² picture (2²⁰ in all), pixel after pixel; lamina with its grid from the eye (`Accel::index_view`), as the renderer builds for a pinhole, one ray at a time | closest hit, matte |
+//! | `pixels_many_alpha` | cards | the same rays; lamina eight at a time (`Accel::intersect_many`, as the renderer finds a pixel's camera hits), Embree one at a time | closest hit, matte |
 //! | `tree_camera_closest` | tree | 1024² camera rays | closest hit |
 //! | `tree_random_closest` | tree | 2²⁰ random rays in the tree's box | closest hit |
 //! | `tree_shadow_any` | tree | 2²⁰ shadow rays in the tree's box | any hit |
@@ -35,7 +37,7 @@ use glam::Vec2;
 use lamina_accel::{Accel, Kernel, PrimRef, Ray, SceneDesc, TraversalStats};
 use lamina_bench::rays::{
     CARDS_BOX, CARDS_VIEW, LeafMatte, MATTE_SIZE, SUN, Scale, TREE_BOX, TREE_VIEW, View,
-    camera_rays, cards_scene, random_rays, shadow_rays, sun_rays, tree_scene,
+    camera_rays, cards_scene, pixel_rays, random_rays, shadow_rays, sun_rays, tree_scene,
 };
 use rayon::prelude::*;
 use serde::Serialize;
@@ -116,6 +118,8 @@ struct BuildRow {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Query {
     Closest,
+    /// Closest hits eight rays at a time (`Accel::intersect_many`; Embree one by one).
+    ClosestMany,
     Occluded,
 }
 
@@ -312,6 +316,36 @@ fn throughput(
     (rays.len() as f64 / 1e6 / best.max(1e-9), hits)
 }
 
+/// [`throughput`] of `lamina.intersect_many` over the rays eight at a time.
+fn throughput_many(
+    pool: &rayon::ThreadPool,
+    rays: &[Ray],
+    repeat: usize,
+    lamina: &Accel,
+    f: &(impl lamina_accel::AlphaFilter + Sync),
+) -> (f64, usize) {
+    let (mut best, mut hits) = (f64::INFINITY, 0);
+    for _ in 0..repeat.max(1) {
+        let t = Instant::now();
+        hits = pool.install(|| {
+            rays.par_chunks(1024)
+                .map(|c| {
+                    let mut out = [None; 8];
+                    c.chunks(8)
+                        .map(|rays| {
+                            let out = &mut out[..rays.len()];
+                            lamina.intersect_many(rays, f, out);
+                            out.iter().filter(|h| h.is_some()).count()
+                        })
+                        .sum::<usize>()
+                })
+                .sum::<usize>()
+        });
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    (rays.len() as f64 / 1e6 / best.max(1e-9), hits)
+}
+
 fn build(
     name: &'static str,
     desc: SceneDesc,
@@ -376,9 +410,17 @@ fn counters(case: &Case, matte: &LeafMatte) -> Counters {
             Query::Closest => {
                 case.lamina.intersect_counted(r, PrimRef::NONE, &f, &stats);
             }
+            Query::ClosestMany => {} // below, eight at a time
             Query::Occluded => {
                 case.lamina.occluded_counted(r, PrimRef::NONE, &f, &stats);
             }
+        }
+    }
+    if case.query == Query::ClosestMany {
+        let mut out = [None; 8];
+        for chunk in rays.chunks(8) {
+            let out = &mut out[..chunk.len()];
+            case.lamina.intersect_many_counted(chunk, &f, &stats, out);
         }
     }
     let n = rays.len().max(1) as f64;
@@ -427,7 +469,7 @@ fn cross_check(case: &Case, e: &EmbreeAccel, matte: &LeafMatte) -> Mismatches {
     };
     for r in rays {
         match case.query {
-            Query::Closest => {
+            Query::Closest | Query::ClosestMany => {
                 let a = case
                     .scene
                     .lamina
@@ -502,6 +544,7 @@ fn run_cases(
                 Query::Closest => throughput(pool, case.rays, args.repeat, |r| {
                     lamina.intersect(r, PrimRef::NONE, &f).is_some()
                 }),
+                Query::ClosestMany => throughput_many(pool, case.rays, args.repeat, lamina, &f),
                 Query::Occluded => throughput(pool, case.rays, args.repeat, |r| {
                     lamina.occluded(r, PrimRef::NONE, &f)
                 }),
@@ -509,9 +552,11 @@ fn run_cases(
             #[cfg(feature = "embree")]
             let embree_mrays = case.scene.embree.as_ref().map(|e| {
                 match case.query {
-                    Query::Closest => throughput(pool, case.rays, args.repeat, |r| {
-                        e.intersect(r, PrimRef::NONE, &f).is_some()
-                    }),
+                    Query::Closest | Query::ClosestMany => {
+                        throughput(pool, case.rays, args.repeat, |r| {
+                            e.intersect(r, PrimRef::NONE, &f).is_some()
+                        })
+                    }
                     Query::Occluded => throughput(pool, case.rays, args.repeat, |r| {
                         e.occluded(r, PrimRef::NONE, &f)
                     }),
@@ -571,12 +616,14 @@ fn print_builds(builds: &[BuildRow]) {
 }
 
 /// Every case's name, for `--cases`.
-const CASES: [&str; 8] = [
+const CASES: [&str; 10] = [
     "camera_closest",
     "random_closest",
     "random_closest_alpha",
     "shadow_any_alpha",
     "sun_any_alpha",
+    "pixels_closest_alpha",
+    "pixels_many_alpha",
     "tree_camera_closest",
     "tree_random_closest",
     "tree_shadow_any",
@@ -702,6 +749,23 @@ fn main() -> Result<()> {
             grid.entries,
             grid.bytes as f64 / 1e6
         );
+        // A pixel's camera rays together, lamina with its grid from the eye, as the
+        // renderer builds for a pinhole.
+        let side = ((scale.rays / 8) as f64).sqrt() as u32;
+        let (pixels, (eye, fwd, up, window)) = pixel_rays(&CARDS_VIEW, side, side, 8, 14);
+        let mut with_eye = cards.lamina.clone();
+        let t = Instant::now();
+        let grid = with_eye
+            .index_view(eye, fwd, up, window)
+            .context("a grid from the eye over the cards scene")?;
+        println!(
+            "cards          lamina eye grid: {:.3} s, {}x{} cells, {} entries, {:.1} MB",
+            t.elapsed().as_secs_f64(),
+            grid.cells.0,
+            grid.cells.1,
+            grid.entries,
+            grid.bytes as f64 / 1e6
+        );
         let cases = [
             Case {
                 name: "camera_closest",
@@ -741,6 +805,22 @@ fn main() -> Result<()> {
                 lamina: &with_sun,
                 rays: &sun,
                 query: Query::Occluded,
+                alpha: true,
+            },
+            Case {
+                name: "pixels_closest_alpha",
+                scene: &cards,
+                lamina: &with_eye,
+                rays: &pixels,
+                query: Query::Closest,
+                alpha: true,
+            },
+            Case {
+                name: "pixels_many_alpha",
+                scene: &cards,
+                lamina: &with_eye,
+                rays: &pixels,
+                query: Query::ClosestMany,
                 alpha: true,
             },
         ];

@@ -14,6 +14,7 @@ Mitsuba differs no more than Mitsuba vs Mitsuba (or lamina vs lamina).
     python3 bench/mitsuba_compare.py                   # builds lamina, 512x512, 64 spp, 2 threads
     python3 bench/mitsuba_compare.py --spp 256 --lamina target/release/lamina
     python3 bench/mitsuba_compare.py --depth-check     # max_depth convention (one bounce)
+    python3 bench/mitsuba_compare.py --stages          # where the time goes, depth by depth
 
 Outputs go to out/mitsuba_compare/ (git-ignored); the side-by-side PNG is
 out/mitsuba_compare/side_by_side.png (lamina | Mitsuba | |difference| x 10).
@@ -156,6 +157,41 @@ def mitsuba_scene(width, height, spp, lamina_max_depth, cards_obj, ground_obj, m
     })
 
 
+def stages(args, lamina, out, mode):
+    """Render times by path depth, so that a gap to Mitsuba can be placed: camera rays only
+    (Mitsuba max_depth 1; lamina has no such depth), the first vertex with its light and
+    BSDF samples (lamina max_depth 1 = Mitsuba 2) and the full paths. lamina's best of two
+    seeds, Mitsuba's best warm time of two (after one run that compiles)."""
+    rows, lam_t, mit_t = [], {}, {}
+    for what, lam_depth, mit_depth in (("camera rays only", None, 1),
+                                       ("+ the first vertex (direct light)", 1, 2),
+                                       (f"full paths (lamina max_depth {args.max_depth})",
+                                        args.max_depth, args.max_depth + 1)):
+        if lam_depth is not None:
+            toml = out / f"scene_depth{lam_depth}.toml"
+            toml.write_text(lamina_toml(args.size, args.size, args.spp, lam_depth, "cards.csv"))
+            runs = [common.run_lamina_mode(lamina, toml, out, mode, seed, args.spp, args.threads)
+                    for seed in (0, 1)]
+            lam_t[what] = min(r[2]["secs"] if r[2] else r[1] for r in runs)
+        scene = mitsuba_scene(args.size, args.size, args.spp, args.max_depth, out / "cards.obj",
+                              out / "ground.obj", mitsuba_depth=mit_depth,
+                              sampler=args.mitsuba_sampler)
+        secs = [common.render_mitsuba(scene, args.spp, seed, out / f"mitsuba_depth{mit_depth}.exr")[1]
+                for seed in (0, 1, 2)]
+        mit_t[what] = min(secs[1:])
+        lt = lam_t.get(what)
+        rows.append([what, "-" if lam_depth is None else str(lam_depth), "-" if lt is None else "%.2f" % lt,
+                     str(mit_depth), "%.2f" % mit_t[what],
+                     "-" if lt is None else "%.2fx" % (lt / mit_t[what])])
+    keys = list(mit_t)
+    dl, dm = lam_t[keys[2]] - lam_t[keys[1]], mit_t[keys[2]] - mit_t[keys[1]]
+    rows.append(["deeper bounces (full - first vertex)", "", "%.2f" % dl, "", "%.2f" % dm, "%.2fx" % (dl / dm)])
+    print(f"\nTimes by depth ({args.size}x{args.size}, {args.spp} spp, {args.threads} threads, "
+          f"lamina light_sampling={mode}; render s):")
+    print(fmt_table(rows, ["stage", "lamina max_depth", "lamina s", "Mitsuba max_depth", "Mitsuba warm s",
+                           "lamina / Mitsuba"]))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--lamina", help="lamina binary (default: cargo build --release -p lamina-cli)")
@@ -173,6 +209,9 @@ def main():
                     help="Mitsuba sampler (independent, stratified, multijitter, orthogonal, ldsampler)")
     ap.add_argument("--depth-check", action="store_true",
                     help="instead: lamina max_depth 1 against Mitsuba max_depth 1, 2, 3")
+    ap.add_argument("--stages", action="store_true",
+                    help="instead: times by depth, lamina at max_depth 1 and --max-depth against "
+                         "Mitsuba at max_depth 1 (camera rays only), 2 and --max-depth + 1")
     ap.add_argument("--light-sampling", default=common.LIGHT_SAMPLING_DEFAULT,
                     help=common.LIGHT_SAMPLING_HELP)
     ap.add_argument("--exposure", type=float, default=None,
@@ -200,6 +239,10 @@ def main():
 
     def lamina_run(seed, mode="all"):
         return common.run_lamina_mode(lamina, scene_toml, out, mode, seed, args.spp, args.threads)
+
+    if args.stages:
+        stages(args, lamina, out, modes[0])
+        return
 
     if args.depth_check:
         lam = [lamina_run(0, modes[0]), lamina_run(1, modes[0])]

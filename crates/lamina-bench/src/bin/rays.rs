@@ -303,17 +303,7 @@ fn throughput(
     repeat: usize,
     f: impl Fn(&Ray) -> bool + Sync,
 ) -> (f64, usize) {
-    let (mut best, mut hits) = (f64::INFINITY, 0);
-    for _ in 0..repeat.max(1) {
-        let t = Instant::now();
-        hits = pool.install(|| {
-            rays.par_chunks(1024)
-                .map(|c| c.iter().filter(|r| f(r)).count())
-                .sum::<usize>()
-        });
-        best = best.min(t.elapsed().as_secs_f64());
-    }
-    (rays.len() as f64 / 1e6 / best.max(1e-9), hits)
+    throughput_chunks(pool, rays, repeat, |c| c.iter().filter(|r| f(r)).count())
 }
 
 /// [`throughput`] of `lamina.intersect_many` over the rays eight at a time.
@@ -324,26 +314,33 @@ fn throughput_many(
     lamina: &Accel,
     f: &(impl lamina_accel::AlphaFilter + Sync),
 ) -> (f64, usize) {
-    let (mut best, mut hits) = (f64::INFINITY, 0);
+    throughput_chunks(pool, rays, repeat, |c| {
+        let mut out = [None; 8];
+        c.chunks(8)
+            .map(|rays| {
+                let out = &mut out[..rays.len()];
+                lamina.intersect_many(rays, f, out);
+                out.iter().filter(|h| h.is_some()).count()
+            })
+            .sum::<usize>()
+    })
+}
+
+/// Best of `repeat` runs of `hits` over `rays` in chunks of 1024 on `pool`: (Mrays/s wall
+/// clock, hits).
+fn throughput_chunks(
+    pool: &rayon::ThreadPool,
+    rays: &[Ray],
+    repeat: usize,
+    hits: impl Fn(&[Ray]) -> usize + Sync,
+) -> (f64, usize) {
+    let (mut best, mut found) = (f64::INFINITY, 0);
     for _ in 0..repeat.max(1) {
         let t = Instant::now();
-        hits = pool.install(|| {
-            rays.par_chunks(1024)
-                .map(|c| {
-                    let mut out = [None; 8];
-                    c.chunks(8)
-                        .map(|rays| {
-                            let out = &mut out[..rays.len()];
-                            lamina.intersect_many(rays, f, out);
-                            out.iter().filter(|h| h.is_some()).count()
-                        })
-                        .sum::<usize>()
-                })
-                .sum::<usize>()
-        });
+        found = pool.install(|| rays.par_chunks(1024).map(&hits).sum::<usize>());
         best = best.min(t.elapsed().as_secs_f64());
     }
-    (rays.len() as f64 / 1e6 / best.max(1e-9), hits)
+    (rays.len() as f64 / 1e6 / best.max(1e-9), found)
 }
 
 fn build(

@@ -159,11 +159,11 @@ def mitsuba_scene(width, height, spp, lamina_max_depth, cards_obj, ground_obj, m
 
 def stages(args, lamina, out, mode):
     """Render times by path depth, so that a gap to Mitsuba can be placed: camera rays only
-    (Mitsuba max_depth 1; lamina has no such depth), the first vertex with its light and
+    (lamina max_depth 0 = Mitsuba 1), the first vertex with its light and
     BSDF samples (lamina max_depth 1 = Mitsuba 2) and the full paths. lamina's best of two
     seeds, Mitsuba's best warm time of two (after one run that compiles)."""
     rows, lam_t, mit_t = [], {}, {}
-    for what, lam_depth, mit_depth in (("camera rays only", None, 1),
+    for what, lam_depth, mit_depth in (("camera rays only", 0, 1),
                                        ("+ the first vertex (direct light)", 1, 2),
                                        (f"full paths (lamina max_depth {args.max_depth})",
                                         args.max_depth, args.max_depth + 1)):
@@ -184,8 +184,10 @@ def stages(args, lamina, out, mode):
                      str(mit_depth), "%.2f" % mit_t[what],
                      "-" if lt is None else "%.2fx" % (lt / mit_t[what])])
     keys = list(mit_t)
-    dl, dm = lam_t[keys[2]] - lam_t[keys[1]], mit_t[keys[2]] - mit_t[keys[1]]
-    rows.append(["deeper bounces (full - first vertex)", "", "%.2f" % dl, "", "%.2f" % dm, "%.2fx" % (dl / dm)])
+    for what, a, b in (("the first vertex alone (first vertex - camera)", 0, 1),
+                       ("deeper bounces (full - first vertex)", 1, 2)):
+        dl, dm = lam_t[keys[b]] - lam_t[keys[a]], mit_t[keys[b]] - mit_t[keys[a]]
+        rows.append([what, "", "%.2f" % dl, "", "%.2f" % dm, "%.2fx" % (dl / dm)])
     print(f"\nTimes by depth ({args.size}x{args.size}, {args.spp} spp, {args.threads} threads, "
           f"lamina light_sampling={mode}; render s):")
     print(fmt_table(rows, ["stage", "lamina max_depth", "lamina s", "Mitsuba max_depth", "Mitsuba warm s",

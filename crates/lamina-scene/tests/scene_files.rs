@@ -125,6 +125,17 @@ cards = [{{ center = [0, 0, 0], normal = [0, 0, 1], up = [0, 1, 0], width = 0.1,
     assert!((n - glam::Vec3::new(-1.0, 0.0, 0.0)).length() < 1e-5, "{n}");
 }
 
+/// `max_depth = 0` is a valid depth: only what camera rays see directly.
+#[test]
+fn max_depth_zero_loads() {
+    let s = parse(&format!("{MINIMAL}\n[integrator]\nmax_depth = 0\n")).unwrap();
+    assert!(
+        matches!(s.integrator, Integrator::Path { max_depth: 0, .. }),
+        "{:?}",
+        s.integrator
+    );
+}
+
 #[test]
 fn light_sampling_reads_all_and_one() {
     for (value, want) in [("all", LightSampling::All), ("one", LightSampling::One)] {
@@ -227,7 +238,12 @@ fn bad_values_name_key_and_range() {
     for (snippet, key, line) in [
         ("[film]\nspp = 0\n", "film.spp", 7),
         ("[film]\nwidth = -5\n", "film.width", 7),
-        ("[integrator]\nmax_depth = 0\n", "integrator.max_depth", 7),
+        ("[integrator]\nmax_depth = -1\n", "integrator.max_depth", 7),
+        (
+            "[integrator]\nmax_depth = 1025\n",
+            "integrator.max_depth",
+            7,
+        ),
         (
             "[integrator]\nlight_sampling = \"some\"\n",
             "integrator.light_sampling",

@@ -130,6 +130,40 @@ fn furnace_is_energy_conserving() {
     }
 }
 
+/// `max_depth = 0`: camera rays see the sky and nothing else lit (surfaces that emit
+/// nothing stay black), so the furnace's pixels are the share of their samples that
+/// escape: exactly 1 on open sky, exactly 0 where a card covers the whole pixel, between
+/// at edges; with depth 1 the same cards are lit.
+#[test]
+fn depth_zero_sees_only_the_sky() {
+    let mut scene = furnace_scene();
+    let Integrator::Path { max_depth, .. } = &mut scene.integrator else {
+        unreachable!()
+    };
+    *max_depth = 0;
+    let out = render(&scene, &opts(16, 2)).unwrap();
+    let px = &out.image.pixels;
+    assert!(
+        px.iter()
+            .all(|p| p.x == p.y && p.y == p.z && (0.0..=1.0).contains(&p.x))
+    );
+    let (sky, covered) = (
+        px.iter().filter(|p| p.x == 1.0).count(),
+        px.iter().filter(|p| p.x == 0.0).count(),
+    );
+    assert!(
+        sky > px.len() / 10 && covered > px.len() / 10,
+        "{sky} sky, {covered} black of {}",
+        px.len()
+    );
+    let Integrator::Path { max_depth, .. } = &mut scene.integrator else {
+        unreachable!()
+    };
+    *max_depth = 1;
+    let lit = render(&scene, &opts(16, 2)).unwrap();
+    assert!(lit.image.mean().x > out.image.mean().x + 0.1);
+}
+
 /// The furnace in spectral bands: white stays white in every band (R = 1, R + T = 1 go
 /// through the linear basis unchanged), so every pixel converges to the sky's band value;
 /// also for a band weighted by a response curve.

@@ -3,7 +3,7 @@
 //! | key | unit | default | meaning |
 //! |---|---|---|---|
 //! | `type` | `path`, `paper` | `path` | `path`: unidirectional path tracer with next-event estimation, MIS and Russian roulette; light passes leaf to leaf. `paper`: the paper's renderer: direct light only, per-light front/back/through-light shading, multiple scattering as an ambient term |
-//! | `max_depth` | scattering events, >= 1 | `8` | `path` only |
+//! | `max_depth` | scattering events, >= 0 | `8` | `path` only: 1 is direct light (with the emission its BSDF sample finds), 0 only what camera rays see directly (emitters and the sky; surfaces black) |
 //! | `rr_depth` | >= 1 | `3` | `path` only: depth from which Russian roulette may end a path |
 //! | `light_sampling` | `all`, `one` | `all` | `path` only: which lights next-event estimation samples at each scattering vertex. `all`: every light, one shadow ray each (the least noise per sample). `one`: one light, drawn in proportion to its estimated power (distant lights and skies as seen by the scene's bounding sphere) and weighted by that probability: one shadow ray per vertex whatever the number of lights, as Mitsuba 3's `path` traces; more noise per sample, less time per sample |
 //! | `sky_sampling` | `auto`, `light`, `bsdf` | `auto` | `path` only: how paths reach the sky. `light`: next-event estimation samples it (a shadow ray toward a direction drawn from the sky, combined with BSDF samples by MIS). `bsdf`: only the BSDF samples that continue paths reach it, counted in full when they escape: no shadow rays toward the sky. `auto`: `bsdf` for a `constant` sky (its own sampling is uniform over the sphere, never better than a diffuse BSDF's: about a quarter less time per sample for the same or less noise per unit time, see bench/README.md), `light` for an `image` or `sunsky` sky (bright regions only their own sampling finds) |
@@ -69,7 +69,7 @@ pub(crate) fn read(ld: &Loader, t: Option<&S<Table>>) -> Result<Integrator, Scen
     let integrator = match kind {
         "path" => {
             let d = open(PATH)?;
-            let max_depth = d.count("max_depth", 1, 1024, 8)?;
+            let max_depth = d.count("max_depth", 0, 1024, 8)?;
             let rr_depth = d.count("rr_depth", 1, 1024, 3)?;
             let light_sampling = d.choice(
                 "light_sampling",

@@ -566,10 +566,9 @@ fn render_tile<E: Estimator>(
     };
     // Follows a sample's path (from its first hit, if found) and adds it to its pixel's
     // sums (starting at `at`).
-    let mut run = |(at, (mut sampler, ray)): (usize, (PixelSampler, Ray)),
-                   hit: Option<Option<Hit>>| {
+    let mut run = |at: usize, sampler: &mut PixelSampler, ray: Ray, hit: Option<Option<Hit>>| {
         vals.fill(0.0);
-        est.estimate(ctx, ray, hit, &mut sampler, &mut rays, &mut vals);
+        est.estimate(ctx, ray, hit, sampler, &mut rays, &mut vals);
         // A NaN or infinite sample (a numerical accident) counts as black.
         if vals.iter().all(|v| v.is_finite()) {
             for (s, v) in sums[at..at + c].iter_mut().zip(&vals) {
@@ -590,7 +589,10 @@ fn render_tile<E: Estimator>(
             dir: Vec3::Z,
             tmax: 0.0,
         };
-        let mut cams = [(PixelSampler::new(0, 0, 0, 0), none); FIRST_HITS];
+        // Samplers, rays and hits in arrays of their own, written in place: no tuple
+        // copied between them (a copy that reads back a value just stored in narrower
+        // pieces waits on the store).
+        let mut samplers = [PixelSampler::new(0, 0, 0, 0); FIRST_HITS];
         let mut hits = [None; FIRST_HITS];
         let mut batch = [none; FIRST_HITS];
         for y in tile.y0..tile.y0 + tile.h {
@@ -598,15 +600,13 @@ fn render_tile<E: Estimator>(
                 let mut i = s0;
                 while i < s1 {
                     let n = (s1 - i).min(FIRST_HITS as u32) as usize;
-                    for (k, cam) in cams[..n].iter_mut().enumerate() {
-                        *cam = camera(x, y, i + k as u32);
-                    }
-                    for (ray, cam) in batch[..n].iter_mut().zip(&cams[..n]) {
-                        *ray = cam.1;
+                    for (k, (sampler, ray)) in samplers[..n].iter_mut().zip(&mut batch).enumerate()
+                    {
+                        (*sampler, *ray) = camera(x, y, i + k as u32);
                     }
                     ctx.accel.intersect_many(&batch[..n], &mut hits[..n]);
-                    for (cam, hit) in cams[..n].iter().zip(&hits[..n]) {
-                        run((at, *cam), Some(*hit));
+                    for ((sampler, ray), hit) in samplers[..n].iter_mut().zip(&batch).zip(&hits) {
+                        run(at, sampler, *ray, Some(*hit));
                     }
                     i += n as u32;
                 }
@@ -619,15 +619,15 @@ fn render_tile<E: Estimator>(
     for y in tile.y0..tile.y0 + tile.h {
         for x in tile.x0..tile.x0 + tile.w {
             for i in s0..s1 {
-                if let Some(p) = pending.replace((at, camera(x, y, i))) {
-                    run(p, None);
+                if let Some((at, (mut sampler, ray))) = pending.replace((at, camera(x, y, i))) {
+                    run(at, &mut sampler, ray, None);
                 }
             }
             at += c;
         }
     }
-    if let Some(p) = pending {
-        run(p, None);
+    if let Some((at, (mut sampler, ray))) = pending {
+        run(at, &mut sampler, ray, None);
     }
     (sums, rays)
 }

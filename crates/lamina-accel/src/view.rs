@@ -478,11 +478,9 @@ impl Bests {
         }
         // SAFETY: AVX2 is available (caller); stores write whole `[f32; 8]` arrays.
         unsafe {
-            let mut tmax = [0.0f32; 8];
-            _mm256_storeu_ps(tmax.as_mut_ptr(), self.t);
             // The world level skips nothing here (the rays leave no primitive):
             // `u32::MAX`, as `closest` passes for `PrimRef::NONE`.
-            let h = leaf_rays(p, &self.r, &tmax, u32::MAX);
+            let h = leaf_rays(p, &self.r, self.t, u32::MAX);
             let alpha = (0..4).any(|j| p.id[j] != u32::MAX && p.flags[j] & ALPHA != 0);
             if !alpha {
                 let act = lane_mask(active);
@@ -493,7 +491,7 @@ impl Bests {
                     if h.mask[j] & active == 0 {
                         continue;
                     }
-                    let tj = _mm256_loadu_ps(h.t[j].as_ptr());
+                    let tj = h.t[j];
                     let take = _mm256_and_ps(
                         _mm256_and_ps(lane_mask(h.mask[j]), act),
                         _mm256_cmp_ps::<_CMP_LT_OQ>(tj, t),
@@ -505,8 +503,8 @@ impl Bests {
                         _mm256_castsi256_ps(id),
                         take,
                     ));
-                    b1 = _mm256_blendv_ps(b1, _mm256_loadu_ps(h.b1[j].as_ptr()), take);
-                    b2 = _mm256_blendv_ps(b2, _mm256_loadu_ps(h.b2[j].as_ptr()), take);
+                    b1 = _mm256_blendv_ps(b1, h.b1[j], take);
+                    b2 = _mm256_blendv_ps(b2, h.b2[j], take);
                     take_any = _mm256_or_ps(take_any, take);
                 }
                 self.t = _mm256_blendv_ps(self.t, t, take_any);
@@ -514,6 +512,7 @@ impl Bests {
                 self.found |= _mm256_movemask_ps(take_any) as u32;
                 return;
             }
+            let l = h.lanes();
             let (mut bt, mut bp, mut bb1, mut bb2) = ([0.0f32; 8], [0u32; 8], [0.0; 8], [0.0; 8]);
             _mm256_storeu_ps(bt.as_mut_ptr(), self.t);
             _mm256_storeu_si256(bp.as_mut_ptr() as *mut __m256i, self.prim);
@@ -529,14 +528,14 @@ impl Bests {
                     m |= ((mask >> k) & 1) << j;
                 }
                 while m != 0 {
-                    let i = nearest_lane(m, |j| h.t[j][k]);
+                    let i = nearest_lane(m, |j| l.t[j][k]);
                     m &= !(1 << i);
                     let fl = p.flags[i];
-                    let (b1, b2) = (h.b1[i][k], h.b2[i][k]);
+                    let (b1, b2) = (l.b1[i][k], l.b2[i][k]);
                     if fl & ALPHA != 0 && !alpha_opaque(&lv.world, &lv.masks, fl, b1, b2, f, c) {
                         continue;
                     }
-                    (bt[k], bp[k], bb1[k], bb2[k]) = (h.t[i][k], p.id[i], b1, b2);
+                    (bt[k], bp[k], bb1[k], bb2[k]) = (l.t[i][k], p.id[i], b1, b2);
                     self.found |= 1 << k;
                     break;
                 }

@@ -166,14 +166,46 @@ impl Rays8 {
 }
 
 /// The primitives of a pack against eight rays: per primitive `j`, `mask[j]` bit `k` when
-/// ray `k` hits it within `(0, tmax[k])` (primitive id `skip` never), with `t[j][k]`,
-/// `b1[j][k]`, `b2[j][k]`.
+/// ray `k` hits it within `(0, tmax[k])` (primitive id `skip` never), with lane `k` of
+/// `t[j]`, `b1[j]`, `b2[j]` (vectors, so that they stay in registers rather than go
+/// through memory; [`RayHits::lanes`] spells them out where single lanes are read).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RayHits {
     pub mask: [u32; 4],
+    pub t: [__m256; 4],
+    pub b1: [__m256; 4],
+    pub b2: [__m256; 4],
+}
+
+/// [`RayHits`] with its vectors stored as arrays: `t[j][k]`, `b1[j][k]`, `b2[j][k]`.
+pub(crate) struct RayHitLanes {
     pub t: [[f32; 8]; 4],
     pub b1: [[f32; 8]; 4],
     pub b2: [[f32; 8]; 4],
+}
+
+impl RayHits {
+    /// The vectors as arrays, for reading ray by ray.
+    ///
+    /// # Safety
+    /// AVX must be available.
+    #[inline(always)]
+    pub(crate) unsafe fn lanes(&self) -> RayHitLanes {
+        let mut l = RayHitLanes {
+            t: [[0.0; 8]; 4],
+            b1: [[0.0; 8]; 4],
+            b2: [[0.0; 8]; 4],
+        };
+        // SAFETY: AVX is available (caller); each store writes a whole `[f32; 8]` row.
+        unsafe {
+            for j in 0..4 {
+                _mm256_storeu_ps(l.t[j].as_mut_ptr(), self.t[j]);
+                _mm256_storeu_ps(l.b1[j].as_mut_ptr(), self.b1[j]);
+                _mm256_storeu_ps(l.b2[j].as_mut_ptr(), self.b2[j]);
+            }
+        }
+        l
+    }
 }
 
 // Macros, not closures: a closure is a function of its own, compiled without the AVX2
@@ -216,18 +248,16 @@ macro_rules! splat3 {
 /// # Safety
 /// AVX2 must be available.
 #[inline(always)]
-pub(crate) unsafe fn leaf_rays(p: &Pack, r: &Rays8, tmax: &[f32; 8], skip: u32) -> RayHits {
-    let mut h = RayHits {
-        mask: [0; 4],
-        t: [[0.0; 8]; 4],
-        b1: [[0.0; 8]; 4],
-        b2: [[0.0; 8]; 4],
-    };
-    // SAFETY: AVX is available (caller); the loads read a whole `[f32; 8]` and the stores
-    // write whole `[f32; 8]` rows of `h`.
+pub(crate) unsafe fn leaf_rays(p: &Pack, r: &Rays8, tmax: __m256, skip: u32) -> RayHits {
+    // SAFETY: AVX is available (caller).
     unsafe {
-        let tmax = _mm256_loadu_ps(tmax.as_ptr());
         let zero = _mm256_setzero_ps();
+        let mut h = RayHits {
+            mask: [0; 4],
+            t: [zero; 4],
+            b1: [zero; 4],
+            b2: [zero; 4],
+        };
         let one = _mm256_set1_ps(1.0);
         for j in 0..4 {
             if p.id[j] == skip {
@@ -255,10 +285,8 @@ pub(crate) unsafe fn leaf_rays(p: &Pack, r: &Rays8, tmax: &[f32; 8], skip: u32) 
             ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GT_OQ>(t, zero));
             ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax));
             h.mask[j] = _mm256_movemask_ps(ok) as u32;
-            _mm256_storeu_ps(h.t[j].as_mut_ptr(), t);
-            _mm256_storeu_ps(h.b1[j].as_mut_ptr(), b1);
-            _mm256_storeu_ps(h.b2[j].as_mut_ptr(), b2);
+            (h.t[j], h.b1[j], h.b2[j]) = (t, b1, b2);
         }
+        h
     }
-    h
 }

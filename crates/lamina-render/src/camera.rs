@@ -96,6 +96,16 @@ impl CameraModel {
     /// `lens ∈ [0, 1)²` to pick a point on the lens.
     #[inline]
     pub fn generate_ray(&self, film: Vec2, lens: Vec2) -> (Vec3, Vec3) {
+        let (o, d) = self.generate_ray_unnormalized(film, lens);
+        (o, d.normalize())
+    }
+
+    /// [`CameraModel::generate_ray`] with the direction not yet normalized (any positive
+    /// length): for a caller that normalizes several rays' directions together. Normalized
+    /// as `glam::Vec3::normalize` does (`d · (1 / √(d·d))`), it is `generate_ray`'s, bit
+    /// for bit.
+    #[inline]
+    pub fn generate_ray_unnormalized(&self, film: Vec2, lens: Vec2) -> (Vec3, Vec3) {
         let nx = 2.0 * film.x * self.inv_width - 1.0;
         let ny = self.aspect - 2.0 * film.y * self.inv_width;
         let d = self.forward + self.right * (nx * self.tan_half) + self.up * (ny * self.tan_half);
@@ -103,9 +113,9 @@ impl CameraModel {
             let focus_point = self.origin + d * self.focus;
             let l = square_to_disk(lens) * self.aperture;
             let o = self.origin + self.right * l.x + self.up * l.y;
-            (o, (focus_point - o).normalize())
+            (o, focus_point - o)
         } else {
-            (self.origin, d.normalize())
+            (self.origin, d)
         }
     }
 }

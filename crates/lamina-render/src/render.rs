@@ -550,13 +550,18 @@ fn render_tile<E: Estimator>(
     let mut rays = 0u64;
     // Sample `i` of pixel `(x, y)`: its sampler (past the film and lens draws) and camera
     // ray.
-    let camera = |x: u32, y: u32, i: u32| {
+    // With `unit` false the direction is left unnormalized ([`normalize_dirs`] then).
+    let camera = |x: u32, y: u32, i: u32, unit: bool| {
         let mut sampler = PixelSampler::new(seed, x, y, i);
         let film_u = sampler.next_2d();
         // A pinhole reads no lens sample: its draw is skipped, not made (the same stream).
         let lens_u = sampler.next_2d_if(ctx.camera.uses_lens());
         let pos = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + ctx.filter.sample(film_u);
-        let (origin, dir) = ctx.camera.generate_ray(pos, lens_u);
+        let (origin, dir) = if unit {
+            ctx.camera.generate_ray(pos, lens_u)
+        } else {
+            ctx.camera.generate_ray_unnormalized(pos, lens_u)
+        };
         let ray = Ray {
             origin,
             dir,
@@ -602,8 +607,9 @@ fn render_tile<E: Estimator>(
                     let n = (s1 - i).min(FIRST_HITS as u32) as usize;
                     for (k, (sampler, ray)) in samplers[..n].iter_mut().zip(&mut batch).enumerate()
                     {
-                        (*sampler, *ray) = camera(x, y, i + k as u32);
+                        (*sampler, *ray) = camera(x, y, i + k as u32, false);
                     }
+                    normalize_dirs(&mut batch);
                     ctx.accel.intersect_many(&batch[..n], &mut hits[..n]);
                     for ((sampler, ray), hit) in samplers[..n].iter_mut().zip(&batch).zip(&hits) {
                         run(at, sampler, *ray, Some(*hit));
@@ -619,7 +625,8 @@ fn render_tile<E: Estimator>(
     for y in tile.y0..tile.y0 + tile.h {
         for x in tile.x0..tile.x0 + tile.w {
             for i in s0..s1 {
-                if let Some((at, (mut sampler, ray))) = pending.replace((at, camera(x, y, i))) {
+                if let Some((at, (mut sampler, ray))) = pending.replace((at, camera(x, y, i, true)))
+                {
                     run(at, &mut sampler, ray, None);
                 }
             }
@@ -632,9 +639,55 @@ fn render_tile<E: Estimator>(
     (sums, rays)
 }
 
+/// The rays' directions normalized as `glam::Vec3::normalize` does (`d · (1 / √(d·d))`,
+/// the dot product as `((x·x) + (y·y)) + (z·z)`), so bit for bit the same, but all of them
+/// together: the square roots and divisions of the rays in SIMD lanes rather than one
+/// after the other, each waiting on the last.
+fn normalize_dirs(rays: &mut [Ray; FIRST_HITS]) {
+    let (mut x, mut y, mut z) = ([0.0f32; FIRST_HITS], [0.0; FIRST_HITS], [0.0; FIRST_HITS]);
+    for (k, r) in rays.iter().enumerate() {
+        (x[k], y[k], z[k]) = (r.dir.x, r.dir.y, r.dir.z);
+    }
+    let mut inv = [0.0f32; FIRST_HITS];
+    for k in 0..FIRST_HITS {
+        inv[k] = 1.0 / ((x[k] * x[k] + y[k] * y[k]) + z[k] * z[k]).sqrt();
+    }
+    for (k, r) in rays.iter_mut().enumerate() {
+        r.dir = Vec3::new(x[k] * inv[k], y[k] * inv[k], z[k] * inv[k]);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn normalize_dirs_is_glam_normalize() {
+        let mut rng = 0x1234_5678u32;
+        let mut next = || {
+            rng = crate::sampler::hash_u32(rng);
+            (rng >> 8) as f32 / (1 << 23) as f32 * 2.0 - 1.0
+        };
+        for _ in 0..1000 {
+            let mut rays = [Ray {
+                origin: Vec3::ZERO,
+                dir: Vec3::Z,
+                tmax: 1.0,
+            }; FIRST_HITS];
+            for r in &mut rays {
+                let s = 10f32.powf(next() * 6.0);
+                r.dir = Vec3::new(next(), next(), next() + 1.5) * s;
+            }
+            let want = rays.map(|r| r.dir.normalize());
+            normalize_dirs(&mut rays);
+            for (r, w) in rays.iter().zip(want) {
+                assert_eq!(
+                    r.dir.to_array().map(f32::to_bits),
+                    w.to_array().map(f32::to_bits)
+                );
+            }
+        }
+    }
 
     #[test]
     fn passes_cover_all_samples() {

@@ -837,6 +837,7 @@ fn intersect_many_answers_as_intersect() {
             let right = f3.cross(Vec3::Y).normalize();
             let up = right.cross(f3);
             let (mut hits, mut rays_total) = (0, 0);
+            let stats = TraversalStats::default();
             for bundle in 0..400 {
                 // Mostly over the scene, some past the window's edge.
                 let (cx, cy) = if bundle % 10 == 9 {
@@ -867,6 +868,9 @@ fn intersect_many_answers_as_intersect() {
                     .collect();
                 let mut got = vec![None; n];
                 grid.intersect_many(&rays, &f, &mut got);
+                let mut counted = vec![None; n];
+                grid.intersect_many_counted(&rays, &f, &stats, &mut counted);
+                assert_eq!(counted, got);
                 for (i, (ray, got)) in rays.iter().zip(&got).enumerate() {
                     let want = walk.intersect(ray, PrimRef::NONE, &f);
                     assert_eq!(*got, want, "{kernel:?} bundle {bundle} ray {i}: {ray:?}");
@@ -878,6 +882,17 @@ fn intersect_many_answers_as_intersect() {
             assert!(
                 hits * 5 > rays_total,
                 "{kernel:?}: {hits} hits of {rays_total}"
+            );
+            // The masks decided hits both ways and left some to the exact matte (the rays
+            // that one answers ray by ray).
+            let (o, t, a) = (
+                stats.mask_opaque.get(),
+                stats.mask_transparent.get(),
+                stats.alpha_lookups.get(),
+            );
+            assert!(
+                o > 0 && t > 0 && a > 0,
+                "{kernel:?}: {o} opaque, {t} transparent, {a} exact"
             );
         }
     }

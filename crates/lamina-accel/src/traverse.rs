@@ -8,7 +8,7 @@ use crate::kernel::{LRay, Lanes};
 use crate::layout::{
     ALPHA, ALPHA_IDENTITY_UV, Blas, EMPTY, FLAG_INDEX, InstRec, LEAF, Node, Pack, STACK, Tlas,
 };
-use crate::mask::{OPAQUE, OpacityMask, TRANSPARENT};
+use crate::mask::{OPAQUE, OpacityMask, TRANSPARENT, UNKNOWN};
 use crate::top::QNode;
 use crate::{AlphaFilter, Counter, Event, Hit, NO_INSTANCE, PrimRef, Ray, SPHERE};
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
@@ -239,6 +239,34 @@ pub(crate) fn alpha_opaque<const W: usize, F: AlphaFilter, C: Counter>(
     f: &F,
     c: &C,
 ) -> bool {
+    let (id, uv, state) = mask_state(blas, masks, flags, b1, b2);
+    match state {
+        OPAQUE => {
+            c.count(Event::MaskOpaque);
+            true
+        }
+        TRANSPARENT => {
+            c.count(Event::MaskTransparent);
+            false
+        }
+        _ => {
+            c.count(Event::AlphaLookup);
+            f.opaque(id, uv)
+        }
+    }
+}
+
+/// What the opacity mask of the alpha-tested lane `flags` of a pack in `blas` says at
+/// `(b1, b2)`, with no exact lookup: the matte's id, the uv there, and `OPAQUE`,
+/// `TRANSPARENT` or `UNKNOWN` (no mask, or a cell the exact matte must decide).
+#[inline(always)]
+pub(crate) fn mask_state<const W: usize>(
+    blas: &Blas<W>,
+    masks: &[Option<OpacityMask>],
+    flags: u32,
+    b1: f32,
+    b2: f32,
+) -> (u32, Vec2, u8) {
     let (id, uv) = if flags & ALPHA_IDENTITY_UV != 0 {
         (flags & FLAG_INDEX, Vec2::new(b1, b2))
     } else {
@@ -252,21 +280,11 @@ pub(crate) fn alpha_opaque<const W: usize, F: AlphaFilter, C: Counter>(
             ),
         )
     };
-    if let Some(Some(m)) = masks.get(id as usize) {
-        match m.classify(uv) {
-            OPAQUE => {
-                c.count(Event::MaskOpaque);
-                return true;
-            }
-            TRANSPARENT => {
-                c.count(Event::MaskTransparent);
-                return false;
-            }
-            _ => {}
-        }
-    }
-    c.count(Event::AlphaLookup);
-    f.opaque(id, uv)
+    let state = match masks.get(id as usize) {
+        Some(Some(m)) => m.classify(uv),
+        _ => UNKNOWN,
+    };
+    (id, uv, state)
 }
 
 /// The closest accepted lane of pack `p` with `t < tmax`: `(t, lane, b1, b2)`.

@@ -28,7 +28,8 @@ use crate::{AlphaFilter, Counter, Ray};
 use crate::{
     kernel::avx2::{Rays8, leaf_rays},
     layout::{ALPHA, Pack},
-    traverse::{alpha_opaque, nearest_lane},
+    mask::{OPAQUE, TRANSPARENT},
+    traverse::{alpha_opaque, mask_state, nearest_lane},
 };
 use glam::{Vec2, Vec3, Vec3A};
 use rayon::prelude::*;
@@ -459,8 +460,12 @@ impl Bests {
 
     /// World pack `p` against the rays of `active` (bit `k`: ray `k`), each within its
     /// best `t`: for each, what [`crate::traverse::pack_closest`] gives it, taken as its
-    /// best. Without alpha-tested primitives all in lanes: per ray the nearest primitive
-    /// that hits, ties to the lower one (`pack_closest`'s order). With them, ray by ray.
+    /// best. In lanes: per ray the nearest primitive that hits and counts, ties to the
+    /// lower one (`pack_closest`'s order), where an alpha-tested hit counts when its opacity
+    /// mask cell is opaque and not when transparent. A ray with a hit the mask leaves
+    /// undecided, no farther than that, is answered ray by ray as `pack_closest` does
+    /// (the exact matte asked); the others never ask it. (Counted: every hit the masks
+    /// decide, where `pack_closest` counts those it reaches in order.)
     ///
     /// # Safety
     /// AVX2 must be available.
@@ -482,43 +487,88 @@ impl Bests {
             // `u32::MAX`, as `closest` passes for `PrimRef::NONE`.
             let h = leaf_rays(p, &self.r, self.t, u32::MAX);
             let alpha = (0..4).any(|j| p.id[j] != u32::MAX && p.flags[j] & ALPHA != 0);
-            if !alpha {
-                let act = lane_mask(active);
-                let mut t = _mm256_set1_ps(f32::INFINITY);
-                let mut take_any = _mm256_setzero_ps();
-                let (mut prim, mut b1, mut b2) = (self.prim, self.b1, self.b2);
-                for j in 0..4 {
-                    if h.mask[j] & active == 0 {
-                        continue;
-                    }
-                    let tj = h.t[j];
-                    let take = _mm256_and_ps(
-                        _mm256_and_ps(lane_mask(h.mask[j]), act),
-                        _mm256_cmp_ps::<_CMP_LT_OQ>(tj, t),
-                    );
-                    t = _mm256_blendv_ps(t, tj, take);
-                    let id = _mm256_castps_si256(_mm256_set1_ps(f32::from_bits(p.id[j])));
-                    prim = _mm256_castps_si256(_mm256_blendv_ps(
-                        _mm256_castsi256_ps(prim),
-                        _mm256_castsi256_ps(id),
-                        take,
-                    ));
-                    b1 = _mm256_blendv_ps(b1, h.b1[j], take);
-                    b2 = _mm256_blendv_ps(b2, h.b2[j], take);
-                    take_any = _mm256_or_ps(take_any, take);
+            // Per primitive, the rays whose hit counts: all of them without alpha; with it,
+            // those the opacity mask calls opaque (no exact lookup). `unknown`: hits only
+            // the exact matte can decide.
+            let mut accept = [0u32; 4];
+            let mut unknown = [0u32; 4];
+            let mut l = None;
+            for j in 0..4 {
+                let hits = h.mask[j] & active;
+                if hits == 0 || !alpha || p.flags[j] & ALPHA == 0 {
+                    accept[j] = hits;
+                    continue;
                 }
-                self.t = _mm256_blendv_ps(self.t, t, take_any);
-                (self.prim, self.b1, self.b2) = (prim, b1, b2);
-                self.found |= _mm256_movemask_ps(take_any) as u32;
+                let l = l.get_or_insert_with(|| h.lanes());
+                let mut m = hits;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let (b1, b2) = (l.b1[j][k], l.b2[j][k]);
+                    match mask_state(&lv.world, &lv.masks, p.flags[j], b1, b2).2 {
+                        OPAQUE => {
+                            c.count(crate::Event::MaskOpaque);
+                            accept[j] |= 1 << k;
+                        }
+                        TRANSPARENT => c.count(crate::Event::MaskTransparent),
+                        _ => unknown[j] |= 1 << k,
+                    }
+                }
+            }
+            // Per ray the nearest accepted primitive, ties to the lower one
+            // (`pack_closest`'s order).
+            let act = lane_mask(active);
+            let mut t = _mm256_set1_ps(f32::INFINITY);
+            let mut take_any = _mm256_setzero_ps();
+            let (mut prim, mut b1, mut b2) = (self.prim, self.b1, self.b2);
+            for j in 0..4 {
+                if accept[j] == 0 {
+                    continue;
+                }
+                let take = _mm256_and_ps(
+                    _mm256_and_ps(lane_mask(accept[j]), act),
+                    _mm256_cmp_ps::<_CMP_LT_OQ>(h.t[j], t),
+                );
+                t = _mm256_blendv_ps(t, h.t[j], take);
+                let id = _mm256_castps_si256(_mm256_set1_ps(f32::from_bits(p.id[j])));
+                prim = _mm256_castps_si256(_mm256_blendv_ps(
+                    _mm256_castsi256_ps(prim),
+                    _mm256_castsi256_ps(id),
+                    take,
+                ));
+                b1 = _mm256_blendv_ps(b1, h.b1[j], take);
+                b2 = _mm256_blendv_ps(b2, h.b2[j], take);
+                take_any = _mm256_or_ps(take_any, take);
+            }
+            // A ray with an undecided hit no farther than that (at a tie it may come first
+            // in `pack_closest`'s order) is answered ray by ray below, as `pack_closest`.
+            let mut undecided = 0u32;
+            for j in 0..4 {
+                if unknown[j] != 0 {
+                    let near = _mm256_cmp_ps::<_CMP_LE_OQ>(h.t[j], t);
+                    undecided |= unknown[j] & _mm256_movemask_ps(near) as u32;
+                }
+            }
+            let take_any = _mm256_andnot_ps(lane_mask(undecided), take_any);
+            self.t = _mm256_blendv_ps(self.t, t, take_any);
+            self.prim = _mm256_castps_si256(_mm256_blendv_ps(
+                _mm256_castsi256_ps(self.prim),
+                _mm256_castsi256_ps(prim),
+                take_any,
+            ));
+            self.b1 = _mm256_blendv_ps(self.b1, b1, take_any);
+            self.b2 = _mm256_blendv_ps(self.b2, b2, take_any);
+            self.found |= _mm256_movemask_ps(take_any) as u32;
+            if undecided == 0 {
                 return;
             }
-            let l = h.lanes();
+            let l = l.unwrap_or_else(|| h.lanes());
             let (mut bt, mut bp, mut bb1, mut bb2) = ([0.0f32; 8], [0u32; 8], [0.0; 8], [0.0; 8]);
             _mm256_storeu_ps(bt.as_mut_ptr(), self.t);
             _mm256_storeu_si256(bp.as_mut_ptr() as *mut __m256i, self.prim);
             _mm256_storeu_ps(bb1.as_mut_ptr(), self.b1);
             _mm256_storeu_ps(bb2.as_mut_ptr(), self.b2);
-            let mut act = active;
+            let mut act = undecided;
             while act != 0 {
                 let k = act.trailing_zeros() as usize;
                 act &= act - 1;

@@ -486,7 +486,6 @@ impl Bests {
             // The world level skips nothing here (the rays leave no primitive):
             // `u32::MAX`, as `closest` passes for `PrimRef::NONE`.
             let h = leaf_rays(p, &self.r, self.t, u32::MAX);
-            let alpha = (0..4).any(|j| p.id[j] != u32::MAX && p.flags[j] & ALPHA != 0);
             // Per primitive, the rays whose hit counts: all of them without alpha; with it,
             // those the opacity mask calls opaque (no exact lookup). `unknown`: hits only
             // the exact matte can decide.
@@ -495,7 +494,7 @@ impl Bests {
             let mut l = None;
             for j in 0..4 {
                 let hits = h.mask[j] & active;
-                if hits == 0 || !alpha || p.flags[j] & ALPHA == 0 {
+                if hits == 0 || p.flags[j] & ALPHA == 0 {
                     accept[j] = hits;
                     continue;
                 }

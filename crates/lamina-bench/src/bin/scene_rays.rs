@@ -1,0 +1,409 @@
+//! A scene's own rays through the ray-casting engine alone: where a render's traversal
+//! time goes, and how it compares with another engine's on the same kinds of rays.
+//!
+//! `cargo run --release -p lamina-bench --bin scene_rays -- SCENE.toml [--spp N]
+//! [--threads 2] [--repeat 3] [--embree] [--json FILE]` (`--embree` needs
+//! `--features embree` and libembree-dev).
+//!
+//! The ray sets, made once (fixed seeds) and traced by each engine, each the best wall
+//! clock of `--repeat` runs on a `--threads` pool:
+//!
+//! | set | rays | query |
+//! |---|---|---|
+//! | `camera` | the scene's camera, `--spp` rays per pixel (uniformly jittered in the pixel, the lens at its centre), pixel after pixel | closest hit, eight at a time (`Accel::intersect_many`, as the renderer) |
+//! | `camera_one` | the same | closest hit, one at a time |
+//! | `bounce` | from each camera ray's hit on a surface: a cosine-weighted direction about the geometric normal, on either side by a coin toss (what a diffuse leaf's BSDF samples), leaving that primitive; pixel after pixel | closest hit |
+//! | `bounce_shuffled` | the same rays in a random order (no two neighbours from one pixel) | closest hit |
+//! | `sun` | from each such hit toward the first `sun` light (its centre), leaving that primitive | any hit |
+//!
+//! Printed per set: rays, hits (or blocked), seconds and M rays/s; with `--embree` the
+//! same on Embree 3 (lamina-render's Embree backend, one ray at a time) and the ratio
+//! (Embree's time / lamina's: above 1 when lamina is faster). `--json` writes the rows.
+//! `bench/mitsuba_rays.py` runs this on the Mitsuba comparison's scene and times Mitsuba
+//! 3 (Embree packets inside) on rays made the same way.
+
+use anyhow::{Result, bail};
+use clap::Parser;
+use glam::{Vec2, Vec3};
+use lamina_core::{Light, Scene};
+use lamina_render::accel::{Accel, Backend, HitKind, PrimRef, Ray, spawn_origin};
+use lamina_render::camera::CameraModel;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// The `"generator"` of this benchmark's JSON reports.
+const GENERATOR: &str = "lamina-bench scene_rays";
+
+#[derive(Parser, Debug)]
+#[command(about = "A scene's camera, bounce and sun rays through the ray-casting engine alone")]
+struct Args {
+    /// The lamina scene (TOML).
+    scene: PathBuf,
+    /// Camera rays per pixel (default: the scene's film spp).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Threads of the pool the rays are traced on.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+    /// Runs per set (the best one counts).
+    #[arg(long, default_value_t = 3)]
+    repeat: usize,
+    /// Also trace the sets on Embree 3 (needs the `embree` cargo feature).
+    #[arg(long)]
+    embree: bool,
+    /// Write the rows as JSON to FILE (atomically). An existing FILE is replaced only
+    /// when it is an earlier report of this benchmark.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Replace the `--json` file even when it is not an earlier report of this benchmark.
+    #[arg(long)]
+    force: bool,
+}
+
+/// One set on one engine.
+#[derive(Serialize, Debug)]
+struct Row {
+    set: &'static str,
+    engine: &'static str,
+    rays: usize,
+    /// Rays that hit (closest-hit sets) or are blocked (`sun`).
+    hits: usize,
+    seconds: f64,
+    mrays_per_s: f64,
+}
+
+#[derive(Serialize)]
+struct Report<'a> {
+    generator: &'static str,
+    scene: String,
+    width: u32,
+    height: u32,
+    spp: u32,
+    threads: usize,
+    rows: &'a [Row],
+}
+
+/// A hash to `[0, 1)` of a ray index and a dimension (the sets' only randomness).
+fn unit(i: u64, dim: u32) -> f32 {
+    let mut x =
+        (i as u32) ^ ((i >> 32) as u32).wrapping_mul(0x85eb_ca6b) ^ dim.wrapping_mul(0x9e37_79b9);
+    for _ in 0..2 {
+        x ^= x >> 16;
+        x = x.wrapping_mul(0x7feb_352d);
+        x ^= x >> 15;
+        x = x.wrapping_mul(0x846c_a68b);
+        x ^= x >> 16;
+    }
+    (x >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// A set's tracing: the hits (or blocked rays) it counts.
+type Tracer<'a> = Box<dyn Fn() -> usize + Sync + 'a>;
+
+/// Rays made at one camera ray's hit: the bounce ray and, with a sun, the shadow ray,
+/// each leaving the primitive hit.
+struct Secondary {
+    bounce: Ray,
+    sun: Option<Ray>,
+    skip: PrimRef,
+}
+
+fn main() -> Result<()> {
+    let args = Args::parse();
+    if args.threads == 0 || args.repeat == 0 {
+        bail!("--threads and --repeat must be at least 1");
+    }
+    if args.embree && !Backend::Embree.available() {
+        bail!("--embree: this build has no Embree (build with --features embree)");
+    }
+    if let Some(json) = &args.json {
+        lamina_bench::report::check_json_target(json, GENERATOR, args.force, "--json")?;
+    }
+    let scene = lamina_scene::load_scene(&args.scene)?;
+    let spp = args.spp.unwrap_or(scene.film.spp);
+    if spp == 0 {
+        bail!("--spp must be at least 1");
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()?;
+    let lamina = Accel::build_on(&scene, Backend::Lamina)?;
+    let (camera, secondary) = pool.install(|| make_sets(&scene, &lamina, spp))?;
+    // The bounce rays in a random order, moved (not indexed: reading them at random would
+    // time the memory, not the engine).
+    let mut shuffled: Vec<(Ray, PrimRef)> = secondary.iter().map(|s| (s.bounce, s.skip)).collect();
+    for i in (1..shuffled.len()).rev() {
+        let j = (unit(i as u64, 99) * (i + 1) as f32) as usize;
+        shuffled.swap(i, j.min(i));
+    }
+    let (w, h) = (scene.film.width, scene.film.height);
+    println!(
+        "{}: {w}x{h}, {spp} camera rays per pixel: {} camera rays, {} hit a surface \
+         ({} threads, best of {})",
+        args.scene.display(),
+        camera.len(),
+        secondary.len(),
+        args.threads,
+        args.repeat
+    );
+    let mut engines = vec![("lamina", lamina)];
+    if args.embree {
+        engines.push(("embree", Accel::build_on(&scene, Backend::Embree)?));
+    }
+    let mut rows = Vec::new();
+    for (engine, accel) in &engines {
+        let time = |f: &(dyn Fn() -> usize + Sync)| -> (f64, usize) {
+            let mut best = f64::INFINITY;
+            let mut n = 0;
+            for _ in 0..args.repeat {
+                let t = Instant::now();
+                n = pool.install(f);
+                best = best.min(t.elapsed().as_secs_f64());
+            }
+            (best, n)
+        };
+        let sets: [(&'static str, usize, Tracer); 5] = [
+            (
+                "camera",
+                camera.len(),
+                Box::new(|| {
+                    let count = |ch: &[Ray]| {
+                        let mut out = [None; Accel::MANY];
+                        let mut n = 0;
+                        for g in ch.chunks(Accel::MANY) {
+                            accel.intersect_many(g, &mut out[..g.len()]);
+                            n += out[..g.len()].iter().filter(|h| h.is_some()).count();
+                        }
+                        n
+                    };
+                    camera.par_chunks(spp as usize * 16).map(count).sum()
+                }),
+            ),
+            (
+                "camera_one",
+                camera.len(),
+                Box::new(|| {
+                    let count =
+                        |ch: &[Ray]| ch.iter().filter(|r| accel.intersect(r).is_some()).count();
+                    camera.par_chunks(spp as usize * 16).map(count).sum()
+                }),
+            ),
+            (
+                "bounce",
+                secondary.len(),
+                Box::new(|| {
+                    let hit = |s: &Secondary| accel.intersect_skip(&s.bounce, s.skip).is_some();
+                    secondary
+                        .par_chunks(1024)
+                        .map(|ch| ch.iter().filter(|s| hit(s)).count())
+                        .sum()
+                }),
+            ),
+            (
+                "bounce_shuffled",
+                secondary.len(),
+                Box::new(|| {
+                    let hit =
+                        |(r, skip): &&(Ray, PrimRef)| accel.intersect_skip(r, *skip).is_some();
+                    shuffled
+                        .par_chunks(1024)
+                        .map(|ch| ch.iter().filter(|i| hit(i)).count())
+                        .sum()
+                }),
+            ),
+            (
+                "sun",
+                secondary.iter().filter(|s| s.sun.is_some()).count(),
+                Box::new(|| {
+                    let blocked =
+                        |s: &Secondary| s.sun.is_some_and(|r| accel.occluded_skip(&r, s.skip));
+                    secondary
+                        .par_chunks(1024)
+                        .map(|ch| ch.iter().filter(|s| blocked(s)).count())
+                        .sum()
+                }),
+            ),
+        ];
+        for (set, rays, f) in &sets {
+            if *rays == 0 {
+                continue;
+            }
+            let (seconds, hits) = time(f.as_ref());
+            rows.push(Row {
+                set,
+                engine,
+                rays: *rays,
+                hits,
+                seconds,
+                mrays_per_s: *rays as f64 / seconds * 1e-6,
+            });
+        }
+    }
+    println!(
+        "{:<16} {:>10} {:>10} {:>10} {:>9} {:>10} {:>9} {:>8}",
+        "set", "rays", "hits", "lamina s", "Mrays/s", "embree s", "Mrays/s", "ratio"
+    );
+    for r in rows.iter().filter(|r| r.engine == "lamina") {
+        let e = rows.iter().find(|e| e.engine == "embree" && e.set == r.set);
+        let (es, em, ratio) = match e {
+            Some(e) => (
+                format!("{:.3}", e.seconds),
+                format!("{:.2}", e.mrays_per_s),
+                format!("{:.2}x", e.seconds / r.seconds),
+            ),
+            None => ("-".into(), "-".into(), "-".into()),
+        };
+        println!(
+            "{:<16} {:>10} {:>10} {:>10.3} {:>9.2} {:>10} {:>9} {:>8}",
+            r.set, r.rays, r.hits, r.seconds, r.mrays_per_s, es, em, ratio
+        );
+    }
+    if let Some(json) = &args.json {
+        let report = Report {
+            generator: GENERATOR,
+            scene: args.scene.display().to_string(),
+            width: w,
+            height: h,
+            spp,
+            threads: args.threads,
+            rows: &rows,
+        };
+        let bytes = serde_json::to_vec_pretty(&report)?;
+        lamina_io::write_bytes(json, &bytes)?;
+        println!("wrote {}", json.display());
+    }
+    Ok(())
+}
+
+/// The camera rays (pixel after pixel, `spp` each) and, for each that hits a surface, its
+/// bounce and sun rays.
+fn make_sets(scene: &Scene, accel: &Accel, spp: u32) -> Result<(Vec<Ray>, Vec<Secondary>)> {
+    let camera = CameraModel::new(&scene.camera, &scene.film)?;
+    let (w, h) = (scene.film.width, scene.film.height);
+    let n = u64::from(w) * u64::from(h) * u64::from(spp);
+    let rays: Vec<Ray> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let px = i / u64::from(spp);
+            let (x, y) = ((px % u64::from(w)) as f32, (px / u64::from(w)) as f32);
+            let film = Vec2::new(x + unit(i, 0), y + unit(i, 1));
+            let (origin, dir) = camera.generate_ray(film, Vec2::splat(0.5));
+            Ray {
+                origin,
+                dir,
+                tmax: f32::INFINITY,
+            }
+        })
+        .collect();
+    let sun = scene.lights.iter().find_map(|l| match l {
+        Light::Sun { direction, .. } => Some(direction.normalize()),
+        _ => None,
+    });
+    let secondary = rays
+        .par_iter()
+        .enumerate()
+        .filter_map(|(i, ray)| {
+            let hit = accel.intersect(ray)?;
+            let HitKind::Triangle { prim, bary } = hit.kind else {
+                return None;
+            };
+            let (p, info) = accel.surface(prim, bary);
+            let n = info.n;
+            let (a, b) = n.any_orthonormal_pair();
+            let i = i as u64;
+            let (r2, phi) = (unit(i, 2), std::f32::consts::TAU * unit(i, 3));
+            let z = (1.0 - r2).max(0.0).sqrt() * if unit(i, 4) < 0.5 { 1.0 } else { -1.0 };
+            let r = r2.sqrt();
+            let dir = (a * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize();
+            let bounce = Ray {
+                origin: spawn_origin(p, n, dir),
+                dir,
+                tmax: f32::INFINITY,
+            };
+            let sun = sun.map(|s: Vec3| Ray {
+                origin: spawn_origin(p, n, s),
+                dir: s,
+                tmax: f32::INFINITY,
+            });
+            Some(Secondary {
+                bounce,
+                sun,
+                skip: prim,
+            })
+        })
+        .collect();
+    Ok((rays, secondary))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A camera above a quad that fills its view, under a sun: every camera ray makes a
+    /// bounce ray from the quad (on both sides, about half each, cosine-weighted) and an
+    /// unblocked sun ray; the sets are the same from run to run.
+    #[test]
+    fn sets_of_a_quad_under_the_sun() {
+        let toml = r#"
+[camera]
+position = [0, 2, 0]
+look_at = [0, 0, 0]
+up = [0, 0, -1]
+fov = 40.0
+
+[film]
+width = 8
+height = 6
+spp = 4
+
+[[light]]
+type = "sun"
+direction = [0.3, 1, 0.2]
+irradiance = [1, 1, 1]
+
+[[material]]
+name = "m"
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+
+[[object]]
+type = "quad"
+material = "m"
+corner = [-10, 0, 10]
+edge_u = [20, 0, 0]
+edge_v = [0, 0, -20]
+"#;
+        let scene = lamina_scene::parse_scene(toml, std::path::Path::new("quad.toml")).unwrap();
+        let accel = Accel::build_on(&scene, Backend::Lamina).unwrap();
+        let (camera, secondary) = make_sets(&scene, &accel, 4).unwrap();
+        assert_eq!(camera.len(), 8 * 6 * 4);
+        assert_eq!(
+            secondary.len(),
+            camera.len(),
+            "every camera ray hits the quad"
+        );
+        let mut up = 0;
+        let mut cos = 0.0;
+        for s in &secondary {
+            assert!(s.bounce.origin.y.abs() < 1e-3, "{:?}", s.bounce);
+            assert!((s.bounce.dir.length() - 1.0).abs() < 1e-5);
+            up += usize::from(s.bounce.dir.y > 0.0);
+            cos += s.bounce.dir.y.abs();
+            let sun = s.sun.expect("a sun ray");
+            assert!(!accel.occluded_skip(&sun, s.skip), "nothing above the quad");
+            assert!(
+                accel.intersect_skip(&s.bounce, s.skip).is_none(),
+                "nothing else"
+            );
+        }
+        let n = secondary.len();
+        assert!(up > n / 4 && up < 3 * n / 4, "{up} of {n} up");
+        // Cosine-weighted: the mean |cos| is 2/3.
+        let mean = cos / n as f32;
+        assert!((mean - 2.0 / 3.0).abs() < 0.08, "mean cosine {mean}");
+        let (again, _) = make_sets(&scene, &accel, 4).unwrap();
+        assert_eq!(again, camera);
+    }
+}

@@ -16,13 +16,31 @@ pub fn square_to_disk(u: Vec2) -> Vec2 {
     }
     let x_major = p.x.abs() > p.y.abs();
     let (r, other) = if x_major { (p.x, p.y) } else { (p.y, p.x) };
+    // The angle is `a` (x major) or `π/2 - a` (y major), `|a| <= π/4`: its cosine and
+    // sine are `a`'s, in one order or the other, from short series on that range.
     let a = std::f32::consts::FRAC_PI_4 * (other / r);
-    let theta = if x_major {
-        a
-    } else {
-        std::f32::consts::FRAC_PI_2 - a
-    };
-    r * Vec2::new(theta.cos(), theta.sin())
+    let (c, s) = cos_sin_quarter(a);
+    let (x, y) = if x_major { (c, s) } else { (s, c) };
+    r * Vec2::new(x, y)
+}
+
+/// `(cos a, sin a)` for `|a| <= π/4`, within 2 units in the last place of the libm
+/// values: Taylor series to degree 10 and 11 (their next terms are below 3e-9 on the
+/// range), without the general functions' range reduction and call.
+#[inline]
+fn cos_sin_quarter(a: f32) -> (f32, f32) {
+    let a2 = a * a;
+    let c = 1.0
+        + a2 * (-1.0 / 2.0
+            + a2 * (1.0 / 24.0
+                + a2 * (-1.0 / 720.0 + a2 * (1.0 / 40_320.0 + a2 * (-1.0 / 3_628_800.0)))));
+    let s = a
+        * (1.0
+            + a2 * (-1.0 / 6.0
+                + a2 * (1.0 / 120.0
+                    + a2 * (-1.0 / 5_040.0
+                        + a2 * (1.0 / 362_880.0 + a2 * (-1.0 / 39_916_800.0))))));
+    (c, s)
 }
 
 /// Cosine-weighted direction on the `+z` hemisphere; density [`cosine_hemisphere_pdf`].
@@ -91,8 +109,32 @@ mod tests {
         r * Vec2::new(theta.cos(), theta.sin())
     }
 
+    /// [`cos_sin_quarter`] against libm's over the whole range, ends included: within 2
+    /// ulp (of the larger of the value and 2⁻²⁴, near zero), `cos² + sin²` within 4e-7 of 1.
     #[test]
-    fn square_to_disk_is_the_branched_map_bit_for_bit() {
+    fn cos_sin_quarter_is_libm_within_two_ulp() {
+        let q = std::f32::consts::FRAC_PI_4;
+        let n = 1_000_000;
+        let mut worst = 0.0f32;
+        for i in 0..=n {
+            let a = -q + 2.0 * q * (i as f32 / n as f32);
+            for a in [a, a.clamp(-q, q), -a] {
+                let (c, s) = cos_sin_quarter(a);
+                let (want_s, want_c) = a.sin_cos();
+                for (got, want) in [(c, want_c), (s, want_s)] {
+                    let ulp = (want.abs().max(1.0 / 16_777_216.0)) * f32::EPSILON;
+                    let e = (got - want).abs() / ulp;
+                    worst = worst.max(e);
+                    assert!(e <= 2.0, "a = {a}: {got} vs {want} ({e} ulp)");
+                }
+                assert!((c * c + s * s - 1.0).abs() < 4e-7, "a = {a}");
+            }
+        }
+        assert!(worst > 0.0, "compared something");
+    }
+
+    #[test]
+    fn square_to_disk_is_the_branched_map() {
         let mut rng = Pcg32::new(17);
         let mut points: Vec<Vec2> = (0..200_000)
             .map(|_| Vec2::new(rng.next_f32(), rng.next_f32()))
@@ -105,10 +147,10 @@ mod tests {
         }
         for u in points {
             let (got, want) = (square_to_disk(u), square_to_disk_branched(u));
-            assert_eq!(
-                got.to_array().map(f32::to_bits),
-                want.to_array().map(f32::to_bits),
-                "{u}"
+            // The same point but for the last bits of the cosine and sine (above).
+            assert!(
+                (got - want).abs().max_element() <= 3.0 * f32::EPSILON,
+                "{u}: {got} vs {want}"
             );
             assert!(got.length() <= 1.0 + 1e-6, "{u}: {got}");
         }

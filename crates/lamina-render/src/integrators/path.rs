@@ -185,15 +185,7 @@ fn trace(
         if !(bs.pdf > 0.0) {
             break;
         }
-        // Unit within rounding (a unit sample in an orthonormal frame): renormalized only
-        // when it is not, so that the next ray does not wait on a square root and a
-        // division (a branch the CPU predicts, where the arithmetic would be in the way).
-        let dir = frame.to_world(bs.wi);
-        let dir = if (dir.length_squared() - 1.0).abs() <= 1e-6 {
-            dir
-        } else {
-            dir.normalize()
-        };
+        let dir = frame.to_world_unit(bs.wi);
         if !frame.consistent(dir) {
             break; // its geometric side disagrees with the BSDF's: no light goes there
         }

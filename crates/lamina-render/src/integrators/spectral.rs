@@ -326,7 +326,7 @@ pub fn radiance_sets<const G: usize>(
                 None => break,
             }
         };
-        let dir = frame.to_world(wi).normalize();
+        let dir = frame.to_world_unit(wi);
         if !frame.consistent(dir) {
             break; // its geometric side disagrees with the BSDF's: no light goes there
         }

@@ -217,7 +217,7 @@ pub(crate) fn measure(
                         && let Some(bs) = bsdf.sample(wo, Vec3::new(u1, u2.x, u2.y))
                         && bs.pdf > 0.0
                     {
-                        let dir = frame.to_world(bs.wi).normalize();
+                        let dir = frame.to_world_unit(bs.wi);
                         if frame.consistent(dir) {
                             w = bs.f / bs.pdf;
                             if !w.is_finite() {

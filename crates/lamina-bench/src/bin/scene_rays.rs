@@ -26,8 +26,11 @@ use anyhow::{Result, bail};
 use clap::Parser;
 use glam::{Vec2, Vec3};
 use lamina_core::{Light, Scene};
+use lamina_leaf::frame::Frame;
+use lamina_leaf::sampling::cosine_hemisphere;
 use lamina_render::accel::{Accel, Backend, HitKind, PrimRef, Ray, spawn_origin};
 use lamina_render::camera::CameraModel;
+use lamina_render::sampler::hash_combine;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -87,16 +90,8 @@ struct Report<'a> {
 
 /// A hash to `[0, 1)` of a ray index and a dimension (the sets' only randomness).
 fn unit(i: u64, dim: u32) -> f32 {
-    let mut x =
-        (i as u32) ^ ((i >> 32) as u32).wrapping_mul(0x85eb_ca6b) ^ dim.wrapping_mul(0x9e37_79b9);
-    for _ in 0..2 {
-        x ^= x >> 16;
-        x = x.wrapping_mul(0x7feb_352d);
-        x ^= x >> 15;
-        x = x.wrapping_mul(0x846c_a68b);
-        x ^= x >> 16;
-    }
-    (x >> 8) as f32 * (1.0 / 16_777_216.0)
+    let h = hash_combine(hash_combine(dim, i as u32), (i >> 32) as u32);
+    (h >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
 /// A set's tracing: the hits (or blocked rays) it counts.
@@ -311,12 +306,13 @@ fn make_sets(scene: &Scene, accel: &Accel, spp: u32) -> Result<(Vec<Ray>, Vec<Se
             };
             let (p, info) = accel.surface(prim, bary);
             let n = info.n;
-            let (a, b) = n.any_orthonormal_pair();
             let i = i as u64;
-            let (r2, phi) = (unit(i, 2), std::f32::consts::TAU * unit(i, 3));
-            let z = (1.0 - r2).max(0.0).sqrt() * if unit(i, 4) < 0.5 { 1.0 } else { -1.0 };
-            let r = r2.sqrt();
-            let dir = (a * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize();
+            // What a diffuse leaf's BSDF samples: cosine-weighted, either side.
+            let mut local = cosine_hemisphere(Vec2::new(unit(i, 2), unit(i, 3)));
+            if unit(i, 4) >= 0.5 {
+                local.z = -local.z;
+            }
+            let dir = Frame::from_normal(n).to_world(local).normalize();
             let bounce = Ray {
                 origin: spawn_origin(p, n, dir),
                 dir,

@@ -37,6 +37,23 @@ import mitsuba_compare as mc  # noqa: E402
 from common import fmt_table  # noqa: E402
 
 
+# The file that marks an --out folder as this script's: it writes only into a new or empty
+# folder, or one it wrote before (never over files it did not write).
+MARK = ".mitsuba_rays"
+
+
+def claim_out(out):
+    if out.exists() and not out.is_dir():
+        sys.exit(f"--out {out}: is a file; name a folder")
+    out.mkdir(parents=True, exist_ok=True)
+    entries = sorted(p.name for p in out.iterdir())
+    if entries and MARK not in entries:
+        shown = ", ".join(entries[:5]) + (", ..." if len(entries) > 5 else "")
+        sys.exit(f"--out {out}: the folder holds files this script did not write ({shown}); "
+                 "nothing was changed. Name a new or empty folder.")
+    (out / MARK).write_text("written by bench/mitsuba_rays.py\n")
+
+
 def scene_rays_binary(embree, build):
     exe = common.REPO_DIR / "target" / "release" / "scene_rays"
     if build:
@@ -121,7 +138,7 @@ def main():
     args = ap.parse_args()
 
     out = Path(args.out).resolve()
-    out.mkdir(parents=True, exist_ok=True)
+    claim_out(out)
     exe = scene_rays_binary(args.embree, not args.no_build)
     mi, dr = common.setup_mitsuba(args.threads)
 

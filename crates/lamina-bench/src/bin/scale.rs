@@ -8,7 +8,8 @@
 //! `--child`), so the peak memory (VmHWM) is that level's alone. Prints the table and
 //! writes `scale.csv`, `scale.json`, one PNG frame per run and, through
 //! `crates/lamina-bench/plot_scale.py` (matplotlib), the scaling plot `scale.png` into `--out`
-//! (default `crates/lamina-bench/results`). It replaces only files an earlier run wrote
+//! (default `out/scale`, ignored by git: a quick or partial run never touches the published
+//! table; `--out crates/lamina-bench/results` publishes). It replaces only files an earlier run wrote
 //! (`scale.json`'s `"generator"`, lamina's mark on the CSV and the PNGs; `--force` to
 //! replace others), checked before the first run.
 
@@ -63,8 +64,10 @@ struct Args {
     /// Seed of the tree.
     #[arg(long, default_value_t = 11)]
     seed: u64,
-    /// Output folder for the table, the frames and the plot.
-    #[arg(long, default_value = "crates/lamina-bench/results")]
+    /// Output folder for the table, the frames and the plot. The default is ignored by git;
+    /// `crates/lamina-bench/results` holds the published table (README) and is written only
+    /// when named.
+    #[arg(long, default_value = "out/scale")]
     out: PathBuf,
     /// Skip the plot (no Python needed).
     #[arg(long)]

@@ -56,10 +56,17 @@ impl FilterSampler {
     #[inline]
     pub fn sample(&self, u: Vec2) -> Vec2 {
         let p = match &self.dist {
-            Some(d) => Vec2::new(d.sample(u.x).0, d.sample(u.y).0),
+            Some(d) => Self::tabulated(d, u),
             None => u,
         };
         (p * 2.0 - Vec2::ONE) * self.radius
+    }
+
+    /// A tabulated filter's two searches, out of line: the box filter's path (the common
+    /// one) stays a few instructions that inline into every camera sample.
+    #[inline(never)]
+    fn tabulated(d: &Distribution1D, u: Vec2) -> Vec2 {
+        Vec2::new(d.sample(u.x).0, d.sample(u.y).0)
     }
 }
 

@@ -28,7 +28,7 @@ use crate::accel::{AccelMemory, Hit, Ray};
 use crate::error::RenderError;
 use crate::film::Accumulator;
 use crate::integrators::{SceneContext, paper, path};
-use crate::sampler::{PixelSampler, fold_seed};
+use crate::sampler::{PixelSampler, PixelStream, fold_seed};
 use glam::{Vec2, Vec3};
 use lamina_core::{Integrator, Scene, SpectralMode};
 use rayon::prelude::*;
@@ -551,9 +551,9 @@ fn render_tile<E: Estimator>(
     // Sample `i` of pixel `(x, y)`: its sampler (past the film and lens draws) and camera
     // ray.
     // With `unit` false the direction is left unnormalized ([`normalize_dirs`] then).
-    let camera = |x: u32, y: u32, i: u32, unit: bool| {
-        let mut sampler = PixelSampler::new(seed, x, y, i);
-        let film_u = sampler.next_2d();
+    // `stream` is pixel `(x, y)`'s ([`PixelStream`]: its seeds hashed once per pixel).
+    let camera = |stream: &PixelStream, x: u32, y: u32, i: u32, unit: bool| {
+        let (mut sampler, film_u) = stream.film(i);
         // A pinhole reads no lens sample: its draw is skipped, not made (the same stream).
         let lens_u = sampler.next_2d_if(ctx.camera.uses_lens());
         let pos = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + ctx.filter.sample(film_u);
@@ -602,12 +602,13 @@ fn render_tile<E: Estimator>(
         let mut batch = [none; FIRST_HITS];
         for y in tile.y0..tile.y0 + tile.h {
             for x in tile.x0..tile.x0 + tile.w {
+                let stream = PixelStream::new(seed, x, y);
                 let mut i = s0;
                 while i < s1 {
                     let n = (s1 - i).min(FIRST_HITS as u32) as usize;
                     for (k, (sampler, ray)) in samplers[..n].iter_mut().zip(&mut batch).enumerate()
                     {
-                        (*sampler, *ray) = camera(x, y, i + k as u32, false);
+                        (*sampler, *ray) = camera(&stream, x, y, i + k as u32, false);
                     }
                     normalize_dirs(&mut batch);
                     ctx.accel.intersect_many(&batch[..n], &mut hits[..n]);
@@ -624,8 +625,10 @@ fn render_tile<E: Estimator>(
     let mut pending = None;
     for y in tile.y0..tile.y0 + tile.h {
         for x in tile.x0..tile.x0 + tile.w {
+            let stream = PixelStream::new(seed, x, y);
             for i in s0..s1 {
-                if let Some((at, (mut sampler, ray))) = pending.replace((at, camera(x, y, i, true)))
+                if let Some((at, (mut sampler, ray))) =
+                    pending.replace((at, camera(&stream, x, y, i, true)))
                 {
                     run(at, &mut sampler, ray, None);
                 }

@@ -68,8 +68,20 @@ fn shuffled(rindex: u32, seed: u32) -> u32 {
 /// one bit reversal per coordinate remains.
 #[inline]
 fn point_2d(i: u32, seed: u32) -> Vec2 {
-    let x = laine_karras(i, hash_u32(seed ^ 0x5bd1_e995));
-    let y = laine_karras(sobol1_reversed(i), hash_u32(seed ^ 0x1b87_3593));
+    point_2d_seeded(i, point_seeds(seed))
+}
+
+/// The two coordinates' scrambling seeds of dimension seed `seed` (see [`point_2d`]).
+#[inline]
+fn point_seeds(seed: u32) -> [u32; 2] {
+    [hash_u32(seed ^ 0x5bd1_e995), hash_u32(seed ^ 0x1b87_3593)]
+}
+
+/// [`point_2d`] with its coordinates' seeds ([`point_seeds`]) given.
+#[inline]
+fn point_2d_seeded(i: u32, [sx, sy]: [u32; 2]) -> Vec2 {
+    let x = laine_karras(i, sx);
+    let y = laine_karras(sobol1_reversed(i), sy);
     // Both reversed by one 64-bit reversal (`y` above `x`: the reversed `x` comes out on
     // top), about the cost of one 32-bit reversal on x86, which has no instruction for it.
     let xy = ((u64::from(y) << 32) | u64::from(x)).reverse_bits();
@@ -110,6 +122,46 @@ const DIM_HASHES: [u32; 64] = {
 #[inline]
 pub fn fold_seed(seed: u64) -> u32 {
     hash_u32(seed as u32) ^ hash_u32((seed >> 32) as u32 ^ 0x68e3_1da4)
+}
+
+/// What every sample of one pixel shares: the pixel's seed and the seeds of its first
+/// dimension pair (the film position), so that a pixel's samples hash them once
+/// ([`PixelStream::film`]) rather than each sample again.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelStream {
+    pixel_seed: u32,
+    /// The first dimension's seed.
+    film_seed: u32,
+    /// Its coordinates' scrambling seeds.
+    film_points: [u32; 2],
+}
+
+impl PixelStream {
+    /// The samples of pixel `(x, y)` for the folded render `seed`.
+    #[inline]
+    pub fn new(seed: u32, x: u32, y: u32) -> Self {
+        let mut first = PixelSampler::new(seed, x, y, 0);
+        let film_seed = first.next_seed();
+        PixelStream {
+            pixel_seed: first.pixel_seed,
+            film_seed,
+            film_points: point_seeds(film_seed),
+        }
+    }
+
+    /// Sample `index`'s first draw (the film position, in `[0, 1)²`) and its stream after
+    /// it: bit for bit `PixelSampler::new(seed, x, y, index)` and its `next_2d()`.
+    #[inline]
+    pub fn film(&self, index: u32) -> (PixelSampler, Vec2) {
+        let rindex = index.reverse_bits();
+        let u = point_2d_seeded(shuffled(rindex, self.film_seed), self.film_points);
+        let sampler = PixelSampler {
+            pixel_seed: self.pixel_seed,
+            rindex,
+            dim: 1,
+        };
+        (sampler, u)
+    }
 }
 
 /// The sample stream of one pixel sample: call [`PixelSampler::next_2d`] /
@@ -314,6 +366,34 @@ mod tests {
 
     /// A value drawn ahead is the one the draw gives when its turn comes, and skipping it
     /// leaves the stream where drawing would.
+    #[test]
+    fn pixel_stream_is_the_pixel_sampler() {
+        for seed in [0u32, 1, 0xdead_beef] {
+            for (x, y) in [
+                (0u32, 0u32),
+                (1, 0),
+                (0, 1),
+                (511, 7),
+                (1919, 1079),
+                (u32::MAX, 3),
+            ] {
+                let stream = PixelStream::new(seed, x, y);
+                for index in (0..300).chain([1 << 16, u32::MAX - 1, u32::MAX]) {
+                    let mut want = PixelSampler::new(seed, x, y, index);
+                    let want_u = want.next_2d();
+                    let (mut got, got_u) = stream.film(index);
+                    assert_eq!(got_u.x.to_bits(), want_u.x.to_bits());
+                    assert_eq!(got_u.y.to_bits(), want_u.y.to_bits());
+                    // The streams go on the same.
+                    for _ in 0..5 {
+                        assert_eq!(got.next_2d(), want.next_2d());
+                        assert_eq!(got.next_1d(), want.next_1d());
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn peeked_values_are_the_drawn_ones() {
         let start = PixelSampler::new(fold_seed(7), 12, 34, 5);

@@ -222,6 +222,13 @@ def main():
             print(f"lamina / Mitsuba {integ} warm at equal spp (render s, median): " + ", ".join(
                 f"light_sampling={m} %.2fx" % (sorted(lam_secs[m])[len(lam_secs[m]) // 2] / warm)
                 for m in modes))
+            for m in modes:
+                if len(lam_imgs[m]) > 1:
+                    lt = sorted(lam_secs[m])[len(lam_secs[m]) // 2]
+                    ratio, el, em = common.equal_error_ratio(lt, lam_imgs[m][:2], warm, mit_imgs[integ][:2])
+                    print(f"lamina light_sampling={m} / Mitsuba {integ} ({args.mitsuba_sampler} sampler) "
+                          f"at equal error: {ratio:.2f}x (seed-to-seed RMSE lamina {el:.5f}, "
+                          f"Mitsuba {em:.5f}; {common.EQUAL_ERROR_NOTE})")
 
     print()
     crow = []

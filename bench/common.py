@@ -490,6 +490,23 @@ def compare(a, b, eps_frac=0.05):
             "rmse": rmse, "rmse_rel": rmse / mb}
 
 
+def equal_error_ratio(secs_a, pair_a, secs_b, pair_b):
+    """Renderer a's time to renderer b's error, relative to b's time (below 1: a reaches the
+    same error sooner). `pair_a` / `pair_b`: two runs of each at the same spp with different
+    seeds (their RMSE is sqrt(2) x one image's error, the same factor on both sides). It is
+    the ratio of time x mean squared error at this spp: b's spp rescaled to a's error on the
+    Monte Carlo rate (error^2 ~ 1 / spp), exact where b samples independently; where b's
+    sampler converges faster than that, the ratio favours a. Returns (ratio, rmse_a, rmse_b)."""
+    ea = compare(pair_a[0], pair_a[1])["rmse"]
+    eb = compare(pair_b[0], pair_b[1])["rmse"]
+    return secs_a * ea * ea / (secs_b * eb * eb), ea, eb
+
+
+EQUAL_ERROR_NOTE = ("time x squared seed-to-seed RMSE at equal spp: Mitsuba's spp scaled to "
+                    "lamina's error at error^2 ~ 1/spp, exact for Mitsuba's independent sampler; "
+                    "a low-discrepancy Mitsuba sampler converges faster, so there it favours lamina")
+
+
 def estimate_shift(a, b):
     """Sub-pixel offset (dx right, dy down, in pixels) of image `a` relative to `b`, by least
     squares on a - b = -(dx, dy) . grad b (central differences). Near 0 when the cameras and

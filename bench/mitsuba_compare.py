@@ -352,6 +352,13 @@ def main():
     print("lamina / Mitsuba warm at equal spp (render s, mean of the two seeds): " + ", ".join(
         f"light_sampling={m} %.2fx" % (sum(r[2]["secs"] if r[2] else r[1] for r in runs[m]) / 2 / warm)
         for m in modes))
+    for m in modes:
+        lt = sum(r[2]["secs"] if r[2] else r[1] for r in runs[m]) / 2
+        ratio, el, em = common.equal_error_ratio(lt, [runs[m][0][0], runs[m][1][0]],
+                                                 warm, [mit[0][0], mit[1][0]])
+        print(f"lamina light_sampling={m} / Mitsuba ({args.mitsuba_sampler} sampler) at equal error: "
+              f"{ratio:.2f}x (seed-to-seed RMSE lamina {el:.5f}, Mitsuba {em:.5f}; "
+              f"{common.EQUAL_ERROR_NOTE})")
 
     # ---- side-by-side PNG
     mean = common.image_mean(lam[0][0])

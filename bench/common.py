@@ -491,12 +491,13 @@ def compare(a, b, eps_frac=0.05):
 
 
 def equal_error_ratio(secs_a, pair_a, secs_b, pair_b):
-    """Renderer a's time to renderer b's error, relative to b's time (below 1: a reaches the
-    same error sooner). `pair_a` / `pair_b`: two runs of each at the same spp with different
-    seeds (their RMSE is sqrt(2) x one image's error, the same factor on both sides). It is
-    the ratio of time x mean squared error at this spp: b's spp rescaled to a's error on the
-    Monte Carlo rate (error^2 ~ 1 / spp), exact where b samples independently; where b's
-    sampler converges faster than that, the ratio favours a. Returns (ratio, rmse_a, rmse_b)."""
+    """Renderer a's time relative to the time renderer b needs to reach a's error (below 1:
+    a is faster at equal error). `pair_a` / `pair_b`: two runs of each at the same spp with
+    different seeds (their RMSE is sqrt(2) x one image's error, the same factor on both
+    sides). It is the ratio of time x mean squared error at this spp: b's spp rescaled to
+    a's error on the Monte Carlo rate (error^2 ~ 1 / spp) with b's time proportional to its
+    spp, exact where b samples independently; where b's sampler converges faster than that,
+    the ratio favours a. Returns (ratio, rmse_a, rmse_b)."""
     ea = compare(pair_a[0], pair_a[1])["rmse"]
     eb = compare(pair_b[0], pair_b[1])["rmse"]
     return secs_a * ea * ea / (secs_b * eb * eb), ea, eb

@@ -364,8 +364,8 @@ mod tests {
         }
     }
 
-    /// A value drawn ahead is the one the draw gives when its turn comes, and skipping it
-    /// leaves the stream where drawing would.
+    /// A pixel's stream gives each sample's film draw and the stream after it bit for bit
+    /// as the sample's own sampler does.
     #[test]
     fn pixel_stream_is_the_pixel_sampler() {
         for seed in [0u32, 1, 0xdead_beef] {
@@ -394,6 +394,8 @@ mod tests {
         }
     }
 
+    /// A value drawn ahead is the one the draw gives when its turn comes, and skipping it
+    /// leaves the stream where drawing would.
     #[test]
     fn peeked_values_are_the_drawn_ones() {
         let start = PixelSampler::new(fold_seed(7), 12, 34, 5);

@@ -112,6 +112,7 @@ fn main() {
                         .ok()
                         .and_then(|s| s.parse().ok())
                         .unwrap_or(1.0),
+                    ..Default::default()
                 },
             )
             .unwrap();

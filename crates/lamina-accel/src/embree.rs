@@ -63,8 +63,8 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicIsize, Ordering};
 
 /// The raw Embree 3 API: just what this module calls (see `/usr/include/embree3`).
-#[allow(non_camel_case_types, dead_code)]
-mod ffi {
+#[allow(non_camel_case_types, dead_code, clippy::upper_case_acronyms)]
+pub(crate) mod ffi {
     use std::ffi::{c_char, c_int, c_uint, c_void};
 
     pub type RTCDevice = *mut c_void;
@@ -175,6 +175,111 @@ mod ffi {
     const _: () = assert!(std::mem::align_of::<RTCRayHit>() == 16);
     const _: () = assert!(std::mem::size_of::<RTCIntersectContext>() == 24);
     const _: () = assert!(std::mem::size_of::<RTCFilterFunctionNArguments>() == 48);
+
+    /// `RTCBVH` (rtcore_builder.h).
+    pub type RTCBVH = *mut c_void;
+    /// `RTCThreadLocalAllocator` (rtcore_builder.h).
+    pub type RTCThreadLocalAllocator = *mut c_void;
+
+    /// `struct RTCBuildPrimitive` (rtcore_builder.h).
+    #[repr(C, align(32))]
+    #[derive(Clone, Copy, Debug, Default)]
+    pub struct RTCBuildPrimitive {
+        pub lower: [f32; 3],
+        pub geom_id: c_uint,
+        pub upper: [f32; 3],
+        pub prim_id: c_uint,
+    }
+
+    /// `struct RTCBounds` (rtcore_common.h).
+    #[repr(C, align(16))]
+    #[derive(Clone, Copy, Debug, Default)]
+    pub struct RTCBounds {
+        pub lower: [f32; 3],
+        pub align0: f32,
+        pub upper: [f32; 3],
+        pub align1: f32,
+    }
+
+    /// `RTCCreateNodeFunction` (rtcore_builder.h).
+    pub type RTCCreateNodeFunction = unsafe extern "C" fn(
+        alloc: RTCThreadLocalAllocator,
+        count: c_uint,
+        user: *mut c_void,
+    ) -> *mut c_void;
+    /// `RTCSetNodeChildrenFunction` (rtcore_builder.h).
+    pub type RTCSetNodeChildrenFunction = unsafe extern "C" fn(
+        node: *mut c_void,
+        children: *mut *mut c_void,
+        count: c_uint,
+        user: *mut c_void,
+    );
+    /// `RTCSetNodeBoundsFunction` (rtcore_builder.h).
+    pub type RTCSetNodeBoundsFunction = unsafe extern "C" fn(
+        node: *mut c_void,
+        bounds: *const *const RTCBounds,
+        count: c_uint,
+        user: *mut c_void,
+    );
+    /// `RTCCreateLeafFunction` (rtcore_builder.h).
+    pub type RTCCreateLeafFunction = unsafe extern "C" fn(
+        alloc: RTCThreadLocalAllocator,
+        prims: *const RTCBuildPrimitive,
+        count: usize,
+        user: *mut c_void,
+    ) -> *mut c_void;
+    /// `RTCSplitPrimitiveFunction` (rtcore_builder.h).
+    pub type RTCSplitPrimitiveFunction = unsafe extern "C" fn(
+        prim: *const RTCBuildPrimitive,
+        dim: c_uint,
+        pos: f32,
+        left: *mut RTCBounds,
+        right: *mut RTCBounds,
+        user: *mut c_void,
+    );
+
+    /// `struct RTCBuildArguments` (rtcore_builder.h).
+    #[repr(C)]
+    #[derive(Debug)]
+    pub struct RTCBuildArguments {
+        pub byte_size: usize,
+        pub build_quality: c_int,
+        pub build_flags: c_int,
+        pub max_branching_factor: c_uint,
+        pub max_depth: c_uint,
+        pub sah_block_size: c_uint,
+        pub min_leaf_size: c_uint,
+        pub max_leaf_size: c_uint,
+        pub traversal_cost: f32,
+        pub intersection_cost: f32,
+        pub bvh: RTCBVH,
+        pub primitives: *mut RTCBuildPrimitive,
+        pub primitive_count: usize,
+        pub primitive_array_capacity: usize,
+        pub create_node: Option<RTCCreateNodeFunction>,
+        pub set_node_children: Option<RTCSetNodeChildrenFunction>,
+        pub set_node_bounds: Option<RTCSetNodeBoundsFunction>,
+        pub create_leaf: Option<RTCCreateLeafFunction>,
+        pub split_primitive: Option<RTCSplitPrimitiveFunction>,
+        pub build_progress: Option<unsafe extern "C" fn(user: *mut c_void, n: f64) -> bool>,
+        pub user_ptr: *mut c_void,
+    }
+
+    const _: () = assert!(std::mem::size_of::<RTCBuildPrimitive>() == 32);
+    const _: () = assert!(std::mem::size_of::<RTCBounds>() == 32);
+    const _: () = assert!(std::mem::size_of::<RTCBuildArguments>() == 136);
+
+    #[link(name = "embree3")]
+    unsafe extern "C" {
+        pub fn rtcNewBVH(device: RTCDevice) -> RTCBVH;
+        pub fn rtcBuildBVH(args: *const RTCBuildArguments) -> *mut c_void;
+        pub fn rtcThreadLocalAlloc(
+            alloc: RTCThreadLocalAllocator,
+            bytes: usize,
+            align: usize,
+        ) -> *mut c_void;
+        pub fn rtcReleaseBVH(bvh: RTCBVH);
+    }
 
     #[link(name = "embree3")]
     unsafe extern "C" {

@@ -229,7 +229,11 @@ fn pack_of(geom: &Geometry, ids: &[u32]) -> (Pack, u8) {
 impl<const W: usize> Blas<W> {
     /// The bottom level of `geom`: invalid primitives left out. The passes over every
     /// primitive (validity, boxes, packs) run in parallel, as does the binary build.
-    pub(crate) fn build(geom: &Geometry, trav_cost: f32) -> Self {
+    pub(crate) fn build(
+        geom: &Geometry,
+        trav_cost: f32,
+        builder: crate::Builder,
+    ) -> Result<Self, crate::AccelError> {
         use rayon::prelude::*;
         let valid: Vec<u32> = (0..geom.prims.len() as u32)
             .into_par_iter()
@@ -243,7 +247,7 @@ impl<const W: usize> Blas<W> {
             bounds: None,
         };
         if valid.is_empty() {
-            return blas;
+            return Ok(blas);
         }
         let bounds: Vec<Aabb> = valid
             .par_iter()
@@ -262,14 +266,25 @@ impl<const W: usize> Blas<W> {
             blas.root = LEAF;
             (vec![p], vec![pending])
         } else {
-            let bin = crate::build::build_binary(
-                &bounds,
-                crate::build::BuildParams {
-                    max_leaf: 4,
-                    pack: 4,
-                    trav_cost,
-                },
-            );
+            let params = crate::build::BuildParams {
+                max_leaf: 4,
+                pack: 4,
+                trav_cost,
+            };
+            let bin = match builder {
+                crate::Builder::Lamina => crate::build::build_binary(&bounds, params),
+                #[cfg(feature = "embree")]
+                crate::Builder::EmbreeHigh => {
+                    let polys: Vec<_> = valid
+                        .iter()
+                        .map(|&i| {
+                            let p = &geom.prims[i as usize];
+                            crate::embree_build::Poly::of_prim(p.v, p.quad)
+                        })
+                        .collect();
+                    crate::embree_build::build_binary(&polys, &bounds, params)?
+                }
+            };
             let mut leaves: Vec<(u32, u32)> = bin
                 .nodes
                 .iter()
@@ -285,12 +300,18 @@ impl<const W: usize> Blas<W> {
             leaves
                 .par_iter()
                 .map(|&(start, count)| {
+                    // A leaf names a primitive once (a builder with spatial splits may
+                    // give it two references there).
                     let mut ids = [0u32; 4];
-                    let order = &bin.order[start as usize..(start + count) as usize];
-                    for (id, &k) in ids.iter_mut().zip(order) {
-                        *id = valid[k as usize];
+                    let mut n = 0;
+                    for &k in &bin.order[start as usize..(start + count) as usize] {
+                        let id = valid[k as usize];
+                        if !ids[..n].contains(&id) {
+                            ids[n] = id;
+                            n += 1;
+                        }
                     }
-                    pack_of(geom, &ids[..order.len()])
+                    pack_of(geom, &ids[..n])
                 })
                 .unzip()
         };
@@ -317,7 +338,7 @@ impl<const W: usize> Blas<W> {
         }
         blas.packs = PageArray::new(packs);
         blas.alpha = PageArray::new(alpha);
-        blas
+        Ok(blas)
     }
 
     /// Heap bytes.

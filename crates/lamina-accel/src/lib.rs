@@ -45,6 +45,8 @@ pub mod desc;
 pub mod direction;
 #[cfg(feature = "embree")]
 pub mod embree;
+#[cfg(feature = "embree")]
+mod embree_build;
 pub mod grid;
 mod kernel;
 mod layout;
@@ -312,6 +314,8 @@ pub struct BuildOptions {
     pub kernel: Kernel,
     /// SAH cost of a node visit relative to a 4-primitive leaf test (default 1.0).
     pub trav_cost: f32,
+    /// Which builder makes the bottom levels' trees ([`Builder::Lamina`] by default).
+    pub builder: Builder,
 }
 
 impl Default for BuildOptions {
@@ -319,8 +323,23 @@ impl Default for BuildOptions {
         BuildOptions {
             kernel: Kernel::best(),
             trav_cost: 1.0,
+            builder: Builder::Lamina,
         }
     }
+}
+
+/// The builder of the bottom levels' binary trees (before the collapse to the wide layout,
+/// which is always lamina's).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Builder {
+    /// lamina's binned SAH (`build.rs`).
+    #[default]
+    Lamina,
+    /// Embree 3's builder at `RTC_BUILD_QUALITY_HIGH` (binned SAH with spatial splits),
+    /// cargo feature `embree`: lamina's traversal over Embree's tree, to compare the two
+    /// builders' trees with the traversal held fixed.
+    #[cfg(feature = "embree")]
+    EmbreeHigh,
 }
 
 #[derive(Clone, Debug)]
@@ -371,7 +390,11 @@ pub struct Accel {
     engine: Engine,
 }
 
-fn build_levels<const W: usize>(desc: &SceneDesc, trav_cost: f32) -> Result<Levels<W>, AccelError> {
+fn build_levels<const W: usize>(
+    desc: &SceneDesc,
+    trav_cost: f32,
+    builder: Builder,
+) -> Result<Levels<W>, AccelError> {
     if desc.instances.len() >= 1 << 30 {
         return Err(AccelError::TooLarge("instances"));
     }
@@ -403,7 +426,7 @@ fn build_levels<const W: usize>(desc: &SceneDesc, trav_cost: f32) -> Result<Leve
         });
     }
     let (world, protos) = rayon::join(
-        || Blas::<W>::build(&desc.world, trav_cost),
+        || Blas::<W>::build(&desc.world, trav_cost, builder),
         || {
             use rayon::prelude::*;
             desc.prototypes
@@ -411,14 +434,15 @@ fn build_levels<const W: usize>(desc: &SceneDesc, trav_cost: f32) -> Result<Leve
                 .zip(&used)
                 .map(|(g, &u)| {
                     if u {
-                        Blas::<W>::build(g, trav_cost)
+                        Blas::<W>::build(g, trav_cost, builder)
                     } else {
-                        Blas::<W>::build(&Geometry::default(), trav_cost)
+                        Blas::<W>::build(&Geometry::default(), trav_cost, builder)
                     }
                 })
-                .collect::<Vec<_>>()
+                .collect::<Result<Vec<_>, _>>()
         },
     );
+    let (world, protos) = (world?, protos?);
     let (ids, boxes) = top_boxes(desc, &protos);
     let (tlas, top_recs) = if boxes.is_empty() {
         (None, Vec::new())
@@ -597,8 +621,8 @@ impl Accel {
             return Err(AccelError::Kernel(opts.kernel));
         }
         let engine = match opts.kernel.width() {
-            8 => Engine::W8(build_levels::<8>(desc, opts.trav_cost)?),
-            _ => Engine::W4(build_levels::<4>(desc, opts.trav_cost)?),
+            8 => Engine::W8(build_levels::<8>(desc, opts.trav_cost, opts.builder)?),
+            _ => Engine::W4(build_levels::<4>(desc, opts.trav_cost, opts.builder)?),
         };
         Ok(Accel {
             kernel: opts.kernel,

@@ -194,19 +194,33 @@ fn kernels() -> Vec<Kernel> {
         .collect()
 }
 
+/// The builders this build has: lamina's, and with the `embree` feature Embree's (its
+/// spatial splits put a primitive in several leaves).
+fn builders() -> Vec<crate::Builder> {
+    vec![
+        crate::Builder::Lamina,
+        #[cfg(feature = "embree")]
+        crate::Builder::EmbreeHigh,
+    ]
+}
+
 /// Closest hits and occlusion equal brute force on thousands of random rays (a handful of
 /// rays grazing an edge may differ by rounding: at most 0.2 %, and a different hit must be
-/// at the same distance).
+/// at the same distance), for every kernel and builder.
 fn check(desc: &SceneDesc, seed: u64) {
     let f = |id: u32, uv: Vec2| {
         assert_eq!(id, 0);
         matte(uv)
     };
-    for kernel in kernels() {
+    let runs = kernels()
+        .into_iter()
+        .flat_map(|k| builders().into_iter().map(move |b| (k, b)));
+    for (kernel, builder) in runs {
         let a = Accel::build_with(
             desc,
             BuildOptions {
                 kernel,
+                builder,
                 ..Default::default()
             },
         )
@@ -295,6 +309,39 @@ fn world_geometry_matches_brute_force() {
 #[test]
 fn instances_match_brute_force() {
     check(&scene(2, true), 12);
+}
+
+/// Long, thin primitives across the scene (where Embree's builder splits references, so a
+/// primitive sits in several leaves) among small ones: the answers stay brute force's.
+#[test]
+fn long_primitives_match_brute_force() {
+    let mut desc = scene(3, false);
+    let mut r = rng(33);
+    for i in 0..120 {
+        let c = Vec3::new(r(), r(), r()) * 4.0;
+        let (a, b) = (unit(&mut r) * 3.5, unit(&mut r) * 0.05);
+        desc.world.prims.push(if i % 2 == 0 {
+            Prim::triangle([c - a * 0.5, c + a * 0.5, c + b])
+        } else {
+            Prim::parallelogram(c - a * 0.5, a, b)
+        });
+    }
+    check(&desc, 13);
+    #[cfg(feature = "embree")]
+    {
+        let packs = |builder| {
+            let opts = BuildOptions {
+                builder,
+                ..Default::default()
+            };
+            Accel::build_with(&desc, opts).unwrap().world_counts().1
+        };
+        // The spatial splits took effect: more leaf packs than lamina's tree.
+        assert!(
+            packs(crate::Builder::EmbreeHigh) > packs(crate::Builder::Lamina),
+            "Embree's builder split no primitive"
+        );
+    }
 }
 
 /// Every kernel gives bit-identical leaf results, so the same hits.

@@ -87,6 +87,12 @@ struct Args {
     /// all of the chosen scenes' cases by default.
     #[arg(long, value_delimiter = ',')]
     cases: Vec<String>,
+    /// The builder of lamina's bottom-level trees: `lamina` (its binned SAH) or `embree`
+    /// (Embree 3's high-quality builder with spatial splits, through `rtcBuildBVH`; needs
+    /// the `embree` cargo feature): lamina's traversal over either tree, to compare the
+    /// builders with the traversal held fixed.
+    #[arg(long, default_value = "lamina", value_parser = ["lamina", "embree"])]
+    builder: String,
 }
 
 /// Rays of the counters and the cross-check.
@@ -353,7 +359,12 @@ fn build(
         desc.world.prims.len() + desc.prototypes.iter().map(|g| g.prims.len()).sum::<usize>();
     let instances = desc.instances.len();
     let t = Instant::now();
-    let lamina = Accel::build(&desc).with_context(|| format!("lamina build of {name}"))?;
+    let opts = lamina_accel::BuildOptions {
+        builder: builder(&args.builder)?,
+        ..Default::default()
+    };
+    let lamina =
+        Accel::build_with(&desc, opts).with_context(|| format!("lamina build of {name}"))?;
     builds.push(BuildRow {
         scene: name,
         engine: "lamina",
@@ -394,6 +405,16 @@ fn build(
         lamina,
         #[cfg(feature = "embree")]
         embree,
+    })
+}
+
+/// The `--builder` named `name`.
+fn builder(name: &str) -> Result<lamina_accel::Builder> {
+    Ok(match name {
+        "lamina" => lamina_accel::Builder::Lamina,
+        #[cfg(feature = "embree")]
+        "embree" => lamina_accel::Builder::EmbreeHigh,
+        _ => bail!("--builder {name}: this build has no Embree (build with --features embree)"),
     })
 }
 
@@ -654,11 +675,12 @@ fn main() -> Result<()> {
     }
     let machine = machine(&args);
     println!(
-        "{} ({} logical CPUs), load {}; lamina kernel {}; {}",
+        "{} ({} logical CPUs), load {}; lamina kernel {}, {} builder; {}",
         machine.cpu,
         machine.logical_cpus,
         machine.load_average_at_start,
         machine.lamina_kernel,
+        args.builder,
         machine.embree.as_deref().unwrap_or("no Embree (--embree)")
     );
     println!(

@@ -94,7 +94,8 @@ pub(crate) struct BNode {
 /// A binary BVH; node 0 is the root. Unused arena slots have `count == u32::MAX`.
 pub(crate) struct Binary {
     pub nodes: Vec<BNode>,
-    /// Primitive indices in leaf order.
+    /// Primitive indices in leaf order (each once from `build_binary`; Embree's builder,
+    /// `embree_build`, may name one in several leaves, and twice in one).
     pub order: Vec<u32>,
 }
 

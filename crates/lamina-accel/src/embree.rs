@@ -62,7 +62,8 @@ use std::ptr;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicIsize, Ordering};
 
-/// The raw Embree 3 API: just what this module calls (see `/usr/include/embree3`).
+/// The raw Embree 3 API: just what this module and `embree_build` call (see
+/// `/usr/include/embree3`).
 #[allow(non_camel_case_types, dead_code, clippy::upper_case_acronyms)]
 pub(crate) mod ffi {
     use std::ffi::{c_char, c_int, c_uint, c_void};
@@ -268,6 +269,11 @@ pub(crate) mod ffi {
     const _: () = assert!(std::mem::size_of::<RTCBuildPrimitive>() == 32);
     const _: () = assert!(std::mem::size_of::<RTCBounds>() == 32);
     const _: () = assert!(std::mem::size_of::<RTCBuildArguments>() == 136);
+    const _: () = assert!(std::mem::offset_of!(RTCBuildArguments, bvh) == 48);
+    const _: () = assert!(std::mem::offset_of!(RTCBuildArguments, primitives) == 56);
+    const _: () = assert!(std::mem::offset_of!(RTCBuildArguments, create_node) == 80);
+    const _: () = assert!(std::mem::offset_of!(RTCBuildArguments, split_primitive) == 112);
+    const _: () = assert!(std::mem::offset_of!(RTCBuildArguments, user_ptr) == 128);
 
     #[link(name = "embree3")]
     unsafe extern "C" {
@@ -279,10 +285,6 @@ pub(crate) mod ffi {
             align: usize,
         ) -> *mut c_void;
         pub fn rtcReleaseBVH(bvh: RTCBVH);
-    }
-
-    #[link(name = "embree3")]
-    unsafe extern "C" {
         pub fn rtcNewDevice(config: *const c_char) -> RTCDevice;
         pub fn rtcReleaseDevice(device: RTCDevice);
         pub fn rtcGetDeviceError(device: RTCDevice) -> c_int;

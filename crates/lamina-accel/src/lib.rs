@@ -302,7 +302,7 @@ pub enum AccelError {
     /// More than 2³⁰ primitives in one geometry, or 2³⁰ instances.
     #[error("{0}: more than 2^30 entries")]
     TooLarge(&'static str),
-    /// An error of the Embree backend.
+    /// An error of the Embree backend or of Embree's builder ([`Builder::EmbreeHigh`]).
     #[error("Embree: {0}")]
     Embree(String),
 }
@@ -323,7 +323,7 @@ impl Default for BuildOptions {
         BuildOptions {
             kernel: Kernel::best(),
             trav_cost: 1.0,
-            builder: Builder::Lamina,
+            builder: Builder::default(),
         }
     }
 }
@@ -331,6 +331,7 @@ impl Default for BuildOptions {
 /// The builder of the bottom levels' binary trees (before the collapse to the wide layout,
 /// which is always lamina's).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum Builder {
     /// lamina's binned SAH (`build.rs`).
     #[default]
@@ -615,7 +616,7 @@ impl Accel {
 
     /// Builds the structure for `opts.kernel`; an error when the CPU lacks it, for an
     /// instance naming a missing prototype or with a transform that is not finite and
-    /// invertible.
+    /// invertible, or when Embree's builder (`opts.builder`) fails.
     pub fn build_with(desc: &SceneDesc, opts: BuildOptions) -> Result<Accel, AccelError> {
         if !opts.kernel.available() {
             return Err(AccelError::Kernel(opts.kernel));

@@ -1,7 +1,8 @@
 //! Ray throughput of lamina-accel against Embree 3 on the same scenes and rays.
 //!
 //! `cargo run --release -p lamina-bench --bin rays -- [--embree] [--json FILE]
-//! [--threads 1,2] [--quick]` (`--embree` needs `--features embree` and libembree-dev).
+//! [--threads 1,2] [--quick] [--builder lamina|embree]` (`--embree` and `--builder embree`
+//! need `--features embree` and libembree-dev).
 //!
 //! Scenes ([`lamina_bench::rays`]): `cards` (100k leaf cards with a leaf matte and a
 //! ground, as `lamina-render`'s ray bench), `cards_opaque` (the same cards without the
@@ -240,6 +241,8 @@ struct Machine {
     os: String,
     load_average_at_start: String,
     lamina_kernel: String,
+    /// `--builder`: who built lamina's bottom-level trees.
+    lamina_builder: String,
     embree: Option<String>,
     quick: bool,
     repeat: usize,
@@ -284,6 +287,7 @@ fn machine(args: &Args) -> Machine {
         ),
         load_average_at_start: read_trim("/proc/loadavg"),
         lamina_kernel: format!("{:?}", Kernel::best()),
+        lamina_builder: args.builder.clone(),
         embree: args.embree.then(|| {
             format!(
                 "Embree 3 (libembree3), {}",
@@ -680,7 +684,7 @@ fn main() -> Result<()> {
         machine.logical_cpus,
         machine.load_average_at_start,
         machine.lamina_kernel,
-        args.builder,
+        machine.lamina_builder,
         machine.embree.as_deref().unwrap_or("no Embree (--embree)")
     );
     println!(

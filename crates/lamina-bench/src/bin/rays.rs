@@ -677,6 +677,8 @@ fn main() -> Result<()> {
         }
         scale.cards = n;
     }
+    // A builder this build lacks: refused before any output.
+    builder(&args.builder)?;
     let machine = machine(&args);
     println!(
         "{} ({} logical CPUs), load {}; lamina kernel {}, {} builder; {}",

@@ -227,8 +227,9 @@ fn pack_of(geom: &Geometry, ids: &[u32]) -> (Pack, u8) {
 }
 
 impl<const W: usize> Blas<W> {
-    /// The bottom level of `geom`: invalid primitives left out. The passes over every
-    /// primitive (validity, boxes, packs) run in parallel, as does the binary build.
+    /// The bottom level of `geom`: invalid primitives left out, the binary tree made by
+    /// `builder` (an error only from Embree's). The passes over every primitive
+    /// (validity, boxes, packs) run in parallel, as does the binary build.
     pub(crate) fn build(
         geom: &Geometry,
         trav_cost: f32,

@@ -57,6 +57,7 @@ mod tests;
 mod top;
 mod traverse;
 pub mod view;
+pub mod wide;
 
 pub use build::Aabb;
 pub use desc::{Geometry, Instance, Prim, PrimAlpha, SceneDesc, Sphere};

@@ -92,6 +92,34 @@ impl CameraModel {
         self.aperture > 0.0
     }
 
+    /// For a pinhole (no lens: [`CameraModel::uses_lens`] is false) the rays through film
+    /// positions `(fx[k], fy[k])` (pixels) side by side: their common origin is returned,
+    /// their unit directions go to `d` (per axis). Bit for bit [`CameraModel::generate_ray`]'s.
+    #[inline(always)]
+    pub fn pinhole_lanes<const N: usize>(
+        &self,
+        fx: &[f32; N],
+        fy: &[f32; N],
+        d: &mut [[f32; N]; 3],
+    ) -> Vec3 {
+        debug_assert!(!self.uses_lens());
+        for k in 0..N {
+            let nx = 2.0 * fx[k] * self.inv_width - 1.0;
+            let ny = self.aspect - 2.0 * fy[k] * self.inv_width;
+            let (a, b) = (nx * self.tan_half, ny * self.tan_half);
+            let mut v = [0.0f32; 3];
+            for (c, v) in v.iter_mut().enumerate() {
+                *v = (self.forward[c] + self.right[c] * a) + self.up[c] * b;
+            }
+            // glam's `normalize`: `v * (1 / |v|)`, `|v|² = (x² + y²) + z²`.
+            let inv = 1.0 / ((v[0] * v[0] + v[1] * v[1]) + v[2] * v[2]).sqrt();
+            for c in 0..3 {
+                d[c][k] = v[c] * inv;
+            }
+        }
+        self.origin
+    }
+
     /// The ray (origin, unit direction) through film position `film` (pixels), using
     /// `lens ∈ [0, 1)²` to pick a point on the lens.
     #[inline]
@@ -123,6 +151,7 @@ impl CameraModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
     use lamina_core::{PixelFilter, ToneMap};
 
     #[test]
@@ -155,5 +184,41 @@ mod tests {
         let mut bad = cam;
         bad.look_at = bad.position;
         assert!(CameraModel::new(&bad, &film).is_err());
+    }
+
+    #[test]
+    fn pinhole_lanes_are_generate_ray() {
+        let cam = Camera {
+            position: Vec3::new(0.35, 1.5, 3.7),
+            look_at: Vec3::new(0.0, 0.95, 0.0),
+            up: Vec3::Y,
+            fov_deg: 50.0,
+            aperture_radius: 0.0,
+            focus_distance: 1.0,
+        };
+        let film = Film {
+            width: 640,
+            height: 360,
+            spp: 1,
+            filter: PixelFilter::Box,
+            exposure: 0.0,
+            tonemap: ToneMap::Clamp,
+            spectral: lamina_core::SpectralMode::Rgb,
+        };
+        let m = CameraModel::new(&cam, &film).unwrap();
+        assert!(!m.uses_lens());
+        let fx: [f32; 8] = std::array::from_fn(|k| k as f32 * 83.7 + 0.25);
+        let fy: [f32; 8] = std::array::from_fn(|k| 359.9 - k as f32 * 51.3);
+        let mut d = [[0.0f32; 8]; 3];
+        let o = m.pinhole_lanes(&fx, &fy, &mut d);
+        for k in 0..8 {
+            let (ro, rd) = m.generate_ray(Vec2::new(fx[k], fy[k]), Vec2::ZERO);
+            assert_eq!(o, ro);
+            let lane = Vec3::new(d[0][k], d[1][k], d[2][k]);
+            assert_eq!(
+                lane.to_array().map(f32::to_bits),
+                rd.to_array().map(f32::to_bits)
+            );
+        }
     }
 }

@@ -256,8 +256,118 @@ impl PixelSampler {
     }
 }
 
+/// A pixel's samples drawn side by side, for the wavefront path tracer: every sample of a
+/// wave belongs to one pixel and draws its dimensions in the same order, so at each draw
+/// they share the dimension and its seed (hashed once per wave, not per sample), and only
+/// the index shuffle and the point differ lane by lane. Each lane's numbers are bit for bit
+/// those [`PixelSampler`] draws for that sample.
+#[derive(Clone, Copy, Debug)]
+pub struct LaneSampler<const N: usize> {
+    pixel_seed: u32,
+    /// Per lane, the sample index with its bits reversed.
+    rindex: [u32; N],
+    dim: u32,
+}
+
+impl<const N: usize> LaneSampler<N> {
+    /// Samples `i0..i0 + N` of pixel `stream`, past their film draws, which go to `(x, y)`
+    /// (in `[0, 1)²`: [`PixelStream::film`]'s).
+    #[inline(always)]
+    pub fn film(stream: &PixelStream, i0: u32, x: &mut [f32; N], y: &mut [f32; N]) -> Self {
+        let mut rindex = [0u32; N];
+        for k in 0..N {
+            rindex[k] = i0.wrapping_add(k as u32).reverse_bits();
+            let i = shuffled(rindex[k], stream.film_seed);
+            x[k] = to_unit(laine_karras(i, stream.film_points[0]).reverse_bits());
+            y[k] = to_unit(laine_karras(sobol1_reversed(i), stream.film_points[1]).reverse_bits());
+        }
+        LaneSampler {
+            pixel_seed: stream.pixel_seed,
+            rindex,
+            dim: 1,
+        }
+    }
+
+    /// The seed of the dimension `ahead` draws on.
+    #[inline(always)]
+    fn seed(&self, ahead: u32) -> u32 {
+        PixelSampler {
+            pixel_seed: self.pixel_seed,
+            rindex: 0,
+            dim: self.dim + ahead,
+        }
+        .next_seed()
+    }
+
+    /// Every lane's [`PixelSampler::peek_1d`]`(ahead)`.
+    #[inline(always)]
+    pub fn peek_1d(&self, ahead: u32, out: &mut [f32; N]) {
+        let seed = self.seed(ahead);
+        let ps = hash_u32(seed ^ 0x5bd1_e995);
+        for (o, &r) in out.iter_mut().zip(&self.rindex) {
+            *o = to_unit(laine_karras(shuffled(r, seed), ps).reverse_bits());
+        }
+    }
+
+    /// Every lane's [`PixelSampler::peek_2d`]`(ahead)`, as `(x, y)`.
+    #[inline(always)]
+    pub fn peek_2d(&self, ahead: u32, x: &mut [f32; N], y: &mut [f32; N]) {
+        let seed = self.seed(ahead);
+        let [sx, sy] = point_seeds(seed);
+        for k in 0..N {
+            let i = shuffled(self.rindex[k], seed);
+            x[k] = to_unit(laine_karras(i, sx).reverse_bits());
+            y[k] = to_unit(laine_karras(sobol1_reversed(i), sy).reverse_bits());
+        }
+    }
+
+    /// Skips `n` draws in every lane.
+    #[inline(always)]
+    pub fn skip(&mut self, n: u32) {
+        self.dim += n;
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn lane_sampler_draws_each_samples_numbers() {
+        for (seed, x, y, i0) in [
+            (7u32, 3u32, 5u32, 0u32),
+            (0xdead_beef, 511, 0, 16),
+            (1, 0, 9, 48),
+        ] {
+            let stream = PixelStream::new(seed, x, y);
+            let (mut fx, mut fy) = ([0.0f32; 16], [0.0f32; 16]);
+            let mut lanes = LaneSampler::<16>::film(&stream, i0, &mut fx, &mut fy);
+            let mut singles: Vec<PixelSampler> = (0..16)
+                .map(|k| {
+                    let (s, u) = stream.film(i0 + k);
+                    assert_eq!(
+                        (u.x.to_bits(), u.y.to_bits()),
+                        (fx[k as usize].to_bits(), fy[k as usize].to_bits())
+                    );
+                    s
+                })
+                .collect();
+            for step in 0..40u32 {
+                let (mut a, mut b, mut c) = ([0.0f32; 16], [0.0f32; 16], [0.0f32; 16]);
+                lanes.peek_1d(step % 3, &mut a);
+                lanes.peek_2d(step % 3 + 1, &mut b, &mut c);
+                for (k, s) in singles.iter_mut().enumerate() {
+                    assert_eq!(a[k].to_bits(), s.peek_1d(step % 3).to_bits());
+                    let u = s.peek_2d(step % 3 + 1);
+                    assert_eq!(
+                        (b[k].to_bits(), c[k].to_bits()),
+                        (u.x.to_bits(), u.y.to_bits())
+                    );
+                    s.skip(1 + step % 2);
+                }
+                lanes.skip(1 + step % 2);
+            }
+        }
+    }
+
     /// Nested uniform (Owen) scrambling of a 32-bit fixed-point value in `[0, 1)`.
     fn owen_scramble(x: u32, seed: u32) -> u32 {
         laine_karras(x.reverse_bits(), seed).reverse_bits()

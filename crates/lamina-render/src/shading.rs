@@ -101,6 +101,13 @@ impl ShadingFrame {
         }
     }
 
+    /// Whether the frame is a smooth (vertex or mapped) normal's rather than the
+    /// geometric one: only then can [`ShadingFrame::consistent`] be false.
+    #[inline]
+    pub fn is_smooth(&self) -> bool {
+        self.smooth
+    }
+
     /// Whether the unit world direction `w` lies on the same side of the geometric and the
     /// shading normal (always true for flat shading). Light from, or scattering to, an
     /// inconsistent direction is zero.

@@ -464,6 +464,7 @@ fn task(dir: &Path, index: u32) -> Result<()> {
             quiet: false,
             // Workers trace with the default engine, the one every build has.
             accel: Default::default(),
+            one_path_at_a_time: false,
         },
     })
 }

@@ -27,6 +27,7 @@
 use crate::accel::{AccelMemory, Hit, Ray};
 use crate::error::RenderError;
 use crate::film::Accumulator;
+use crate::integrators::wave::Wave;
 use crate::integrators::{SceneContext, paper, path};
 use crate::sampler::{PixelSampler, PixelStream, fold_seed};
 use glam::{Vec2, Vec3};
@@ -74,6 +75,11 @@ pub struct RenderOptions {
     /// The ray-casting engine: lamina-accel (the default) or, in builds with the `embree`
     /// feature, Embree 3 (an error otherwise). The images agree within noise.
     pub accel: crate::accel::Backend,
+    /// Follow every path on its own ([`crate::integrators::path`]) even where the
+    /// wavefront path tracer serves the scene (`integrators::wave`: a pixel's samples side
+    /// by side). The image is the same bit for bit either way; this is for checks and
+    /// timing.
+    pub one_path_at_a_time: bool,
 }
 
 /// Sample indices `[start, end)` of every pixel (of `0..spp` of the full render).
@@ -254,7 +260,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
     let (acc, stats) = match scene.film.spectral {
         SpectralMode::Rgb => {
             let ctx = SceneContext::new(scene, opts.accel)?;
-            job.run(&ctx, &RgbEstimator::new(&ctx), opts, start)
+            job.run(&ctx, &RgbEstimator::new(&ctx, opts), opts, start)
         }
         SpectralMode::Visible => crate::spectral::render_visible(scene, &job, opts, start)?,
     };
@@ -292,16 +298,22 @@ pub(crate) trait Estimator: Sync {
     fn takes_first_hit(&self) -> bool {
         false
     }
+    /// The wavefront path tracer that estimates this render's pixels (RGB, 3 channels),
+    /// where it serves the scene.
+    fn wave(&self) -> Option<&Wave> {
+        None
+    }
 }
 
 /// The RGB render: the scene's integrator, linear Rec.709.
 struct RgbEstimator {
     integrator: Integrator,
     ambient: Vec3,
+    wave: Option<Wave>,
 }
 
 impl RgbEstimator {
-    fn new(ctx: &SceneContext) -> Self {
+    fn new(ctx: &SceneContext, opts: &RenderOptions) -> Self {
         let integrator = ctx.scene.integrator;
         let ambient = match integrator {
             Integrator::Paper { ambient } => ambient.unwrap_or(ctx.lights.sky_mean),
@@ -310,6 +322,11 @@ impl RgbEstimator {
         RgbEstimator {
             integrator,
             ambient,
+            wave: if opts.one_path_at_a_time {
+                None
+            } else {
+                Wave::new(ctx)
+            },
         }
     }
 }
@@ -345,6 +362,10 @@ impl Estimator for RgbEstimator {
 
     fn takes_first_hit(&self) -> bool {
         matches!(self.integrator, Integrator::Path { .. })
+    }
+
+    fn wave(&self) -> Option<&Wave> {
+        self.wave.as_ref()
     }
 }
 
@@ -585,6 +606,17 @@ fn render_tile<E: Estimator>(
     // that the sampler's and the camera's arithmetic overlaps that path's ray walks
     // rather than holding up the next camera ray. The order of the additions is the same.
     let mut at = 0usize;
+    if let Some(wave) = est.wave() {
+        debug_assert_eq!(c, 3);
+        for y in tile.y0..tile.y0 + tile.h {
+            for x in tile.x0..tile.x0 + tile.w {
+                let stream = PixelStream::new(seed, x, y);
+                wave.pixel(ctx, &stream, x, y, s0, s1, &mut sums[at..at + c], &mut rays);
+                at += c;
+            }
+        }
+        return (sums, rays);
+    }
     if est.takes_first_hit() {
         // A pixel's samples in groups: their camera rays made, then their first hits found
         // one after the other (independent walks the CPU overlaps, where each path's own

@@ -540,6 +540,14 @@ impl Accel {
             .expect("a PrimRef's instance comes from this Accel")
     }
 
+    /// Asks for [`Accel::surface`]'s record of `prim` ahead of the call (a cache hint).
+    #[inline]
+    pub fn prefetch_surface(&self, prim: PrimRef) {
+        if let Some(s) = self.blas_of(prim).prims.get(prim.prim as usize) {
+            lamina_accel::wide::prefetch(s);
+        }
+    }
+
     /// The surface at barycentric `bary` on primitive `prim` (from a [`HitKind::Triangle`]),
     /// in world space: the position (from the primitive's vertices, more precise than
     /// `origin + t·dir`) and the shading data. For an instance the geometric normal is

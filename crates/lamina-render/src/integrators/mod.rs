@@ -4,6 +4,7 @@
 pub mod paper;
 pub mod path;
 pub mod spectral;
+pub(crate) mod wave;
 
 use crate::accel::{Accel, FLAG_EMITTER, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
 use crate::camera::CameraModel;

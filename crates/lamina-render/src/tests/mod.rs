@@ -26,3 +26,4 @@ mod render_loop;
 pub(crate) mod scenes;
 mod shading_normals;
 mod spectral;
+mod wavefront;

@@ -1,0 +1,637 @@
+//! The path tracer over a pixel's samples side by side: a *wavefront* of up to
+//! [`LANES`] paths followed vertex by vertex, the same estimator as [`super::path`] and
+//! the same numbers bit for bit, computed in another order.
+//!
+//! [`super::path::trace`] follows one path to its end before the next starts: every
+//! vertex is a chain of dependent work (hit, surface, light samples, shadow rays, BSDF
+//! sample, next ray). Here a pixel's samples advance together: their camera rays are made
+//! in vector lanes, their next-event and BSDF arithmetic runs in loops over the lanes that
+//! the compiler vectorizes ([`lamina_accel::wide::run_wide`]: AVX2 + FMA where the CPU has
+//! them), their random numbers share each dimension's seed (a pixel's samples draw the
+//! same dimensions in the same order, [`LaneSampler`]), and their ray queries are issued
+//! back to back, independent walks the CPU overlaps. The ray queries stay one ray at a
+//! time ([`crate::accel::Accel`]'s), and so do the per-lane parts that read memory (the
+//! hit's surface, a light's sample): only their order changes.
+//!
+//! **What it serves** ([`Wave::new`]): RGB renders with the `path` integrator and
+//! `light_sampling = "all"` whose materials are all `diffuse` or `diffuse_transmission`
+//! with constant colours and no normal map: the diffuse leaves of canopy and comparison
+//! scenes. Geometry (mattes, instances, vertex normals, periodic domains), lights, sky,
+//! camera and filter are whatever the scene has. Other scenes, and renders with
+//! [`crate::RenderOptions::one_path_at_a_time`], take [`super::path`] one path at a time;
+//! `wavefront_is_path_bit_for_bit` (the render tests) renders both ways and compares
+//! every pixel's sums.
+//!
+//! Per lane the work follows `path::trace` step for step, with the arithmetic of
+//! `Lambertian` / `DiffuseTransmission` (`lamina_leaf::lambert`), `ShadingFrame`,
+//! `cosine_hemisphere`, `spawn_origin` and `power_heuristic` written out over the lanes in
+//! the same operation order, so that every lane's value is the one-path value.
+
+// Lane loops index several arrays of the same lane side by side (`for k in 0..LANES`):
+// the form the compiler vectorizes, and the clearest for structure-of-arrays code.
+#![allow(clippy::needless_range_loop)]
+
+use super::SceneContext;
+use crate::accel::{Hit, HitKind, ID_MASK, PrimRef, Ray};
+use crate::lights::{AnyLight, LightSample, power_heuristic};
+use crate::sampler::{LaneSampler, PixelStream};
+use crate::shading::{ShadingFrame, shading_normal};
+use glam::{Vec2, Vec3};
+use lamina_accel::wide::{WideTask, run_wide};
+use lamina_core::{ColorInput, Integrator, Material};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_4};
+
+/// Paths of a wave: a pixel's samples of one pass, up to this many at a time.
+pub(crate) const LANES: usize = 16;
+/// Most lights next-event estimation samples at a vertex in a scene the wave serves.
+const MAX_LIGHTS: usize = 8;
+
+type Lanes = [f32; LANES];
+type Lanes3 = [[f32; LANES]; 3];
+
+/// A served material's lobes: `R / π` on the side of `wo`, `T / π` across, the reflection
+/// lobe sampled with probability `pr` (`diffuse`: `T = 0`, `pr = 1`, which is
+/// `Lambertian`'s arithmetic exactly).
+#[derive(Clone, Copy, Debug)]
+struct Lobes {
+    r: [f32; 3],
+    t: [f32; 3],
+    pr: f32,
+}
+
+/// The wavefront path tracer for one scene (module docs).
+#[derive(Debug)]
+pub(crate) struct Wave {
+    /// Per material index.
+    lobes: Vec<Lobes>,
+    max_depth: u32,
+    rr_depth: u32,
+    /// Whether any primitive or shape emits (quad and sphere lights): only then can a hit
+    /// be an emitter's.
+    emitters: bool,
+}
+
+impl Wave {
+    /// The wave for `ctx`'s scene, or `None` where it does not serve it (module docs).
+    pub(crate) fn new(ctx: &SceneContext) -> Option<Wave> {
+        let Integrator::Path {
+            max_depth,
+            rr_depth,
+            ..
+        } = ctx.scene.integrator
+        else {
+            return None;
+        };
+        if ctx.lights.pick.is_some() || ctx.lights.nee().len() > MAX_LIGHTS || !ctx.sets.is_empty()
+        {
+            return None;
+        }
+        let constant = |c: &ColorInput| match c {
+            ColorInput::Constant(v) => Some(*v),
+            _ => None,
+        };
+        let mut lobes = Vec::with_capacity(ctx.scene.materials.len());
+        for m in &ctx.scene.materials {
+            if m.normal_map().is_some() {
+                return None;
+            }
+            lobes.push(match m {
+                Material::Diffuse { reflectance, .. } => Lobes {
+                    r: constant(reflectance)?.to_array(),
+                    t: [0.0; 3],
+                    pr: 1.0,
+                },
+                Material::DiffuseTransmission {
+                    reflectance,
+                    transmittance,
+                    ..
+                } => {
+                    let (r, t) = (constant(reflectance)?, constant(transmittance)?);
+                    // `DiffuseTransmission::reflect_probability`.
+                    let lum = |c: Vec3| lamina_leaf::sampling::luminance(c).max(0.0);
+                    let (lr, lt) = (lum(r), lum(t));
+                    Lobes {
+                        r: r.to_array(),
+                        t: t.to_array(),
+                        pr: if lr + lt <= 0.0 { 0.5 } else { lr / (lr + lt) },
+                    }
+                }
+                _ => return None,
+            });
+        }
+        let emitters = ctx
+            .lights
+            .lights
+            .iter()
+            .any(|l| matches!(l, AnyLight::Quad(_) | AnyLight::Sphere(_)));
+        Some(Wave {
+            lobes,
+            max_depth,
+            rr_depth,
+            emitters,
+        })
+    }
+
+    /// Samples `s0..s1` of pixel `(x, y)` (`stream`: its [`PixelStream`]), each sample's
+    /// radiance (RGB) added into `sum` in sample order as the one-path loop adds it (a
+    /// non-finite sample counts as black); the rays traced are added to `rays`.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn pixel(
+        &self,
+        ctx: &SceneContext,
+        stream: &PixelStream,
+        x: u32,
+        y: u32,
+        s0: u32,
+        s1: u32,
+        sum: &mut [f64],
+        rays: &mut u64,
+    ) {
+        let mut i = s0;
+        while i < s1 {
+            let n = (s1 - i).min(LANES as u32) as usize;
+            let l = run_wide(Paths {
+                wave: self,
+                ctx,
+                stream,
+                pixel: (x, y),
+                first: i,
+                n,
+                rays: &mut *rays,
+            });
+            for k in 0..n {
+                let v = [l[0][k], l[1][k], l[2][k]];
+                if v.iter().all(|c| c.is_finite()) {
+                    for (s, c) in sum.iter_mut().zip(v) {
+                        *s += c as f64;
+                    }
+                }
+            }
+            i += n as u32;
+        }
+    }
+}
+
+/// One wave: samples `first..first + n` of one pixel, run through [`run_wide`].
+struct Paths<'a, 'c> {
+    wave: &'a Wave,
+    ctx: &'a SceneContext<'c>,
+    stream: &'a PixelStream,
+    pixel: (u32, u32),
+    first: u32,
+    n: usize,
+    rays: &'a mut u64,
+}
+
+impl WideTask for Paths<'_, '_> {
+    /// Each lane's radiance (W m⁻² sr⁻¹, linear Rec.709), per channel.
+    type Output = Lanes3;
+
+    #[inline(always)]
+    fn run(self) -> Lanes3 {
+        let Paths {
+            wave,
+            ctx,
+            stream,
+            pixel,
+            first,
+            n,
+            rays,
+        } = self;
+        wave.trace(ctx, stream, pixel, first, n, rays)
+    }
+}
+
+/// A vertex's surfaces, lane by lane: the point, the shading frame (`s`, `t`, `n`), the
+/// geometric normal, whether the frame is smooth, and the material's lobes.
+struct Surfaces {
+    p: Lanes3,
+    s: Lanes3,
+    t: Lanes3,
+    n: Lanes3,
+    ng: Lanes3,
+    smooth: [bool; LANES],
+    r: Lanes3,
+    tr: Lanes3,
+    pr: Lanes,
+    prim: [PrimRef; LANES],
+}
+
+impl Surfaces {
+    fn new() -> Self {
+        let z = [[0.0; LANES]; 3];
+        Surfaces {
+            p: z,
+            s: z,
+            t: z,
+            n: z,
+            ng: z,
+            smooth: [false; LANES],
+            r: z,
+            tr: z,
+            pr: [0.0; LANES],
+            prim: [PrimRef::NONE; LANES],
+        }
+    }
+}
+
+/// The lanes set in `b`, as a bit mask.
+#[inline(always)]
+fn bits(b: &[bool; LANES]) -> u32 {
+    let mut m = 0u32;
+    for (k, &v) in b.iter().enumerate() {
+        m |= u32::from(v) << k;
+    }
+    m
+}
+
+/// The lanes of mask `m`, lowest first.
+#[inline(always)]
+fn lanes_of(mut m: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (m != 0).then(|| {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            k
+        })
+    })
+}
+
+#[inline(always)]
+fn get3(a: &Lanes3, k: usize) -> Vec3 {
+    Vec3::new(a[0][k], a[1][k], a[2][k])
+}
+
+#[inline(always)]
+fn set3(a: &mut Lanes3, k: usize, v: Vec3) {
+    for c in 0..3 {
+        a[c][k] = v[c];
+    }
+}
+
+/// Adds `v` to lane `k` (per channel, as `Vec3 += Vec3`).
+#[inline(always)]
+fn add3(a: &mut Lanes3, k: usize, v: Vec3) {
+    for c in 0..3 {
+        a[c][k] += v[c];
+    }
+}
+
+/// `a · b` lane `k`, as glam's `Vec3::dot`: `(x x' + y y') + z z'`.
+#[inline(always)]
+fn dot(a: [f32; 3], b: &Lanes3, k: usize) -> f32 {
+    (a[0] * b[0][k] + a[1] * b[1][k]) + a[2] * b[2][k]
+}
+
+/// `cosine_hemisphere_pdf`.
+#[inline(always)]
+fn cos_pdf(c: f32) -> f32 {
+    c.max(0.0) * FRAC_1_PI
+}
+
+/// The lobe probability `DiffuseTransmission::pdf` (and `Lambertian`'s, `pr = 1`) weighs
+/// with for `wo.z · wi.z = c`.
+#[inline(always)]
+fn lobe_of(c: f32, pr: f32) -> f32 {
+    if c > 0.0 {
+        pr
+    } else if c < 0.0 {
+        1.0 - pr
+    } else {
+        0.0
+    }
+}
+
+impl Wave {
+    /// The radiance of samples `first..first + n` of `pixel` (module docs: the steps are
+    /// `path::trace`'s, named alike).
+    #[inline(always)]
+    fn trace(
+        &self,
+        ctx: &SceneContext,
+        stream: &PixelStream,
+        (x, y): (u32, u32),
+        first: u32,
+        n: usize,
+        rays: &mut u64,
+    ) -> Lanes3 {
+        // Camera rays: film draws, the filter's offsets, the camera.
+        let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
+        let mut sampler = LaneSampler::<LANES>::film(stream, first, &mut fx, &mut fy);
+        for k in 0..LANES {
+            let off = ctx.filter.sample(Vec2::new(fx[k], fy[k]));
+            fx[k] = (x as f32 + 0.5) + off.x;
+            fy[k] = (y as f32 + 0.5) + off.y;
+        }
+        let mut o = [[0.0f32; LANES]; 3];
+        let mut d = [[0.0f32; LANES]; 3];
+        if ctx.camera.uses_lens() {
+            let (mut lx, mut ly) = ([0.0f32; LANES], [0.0f32; LANES]);
+            sampler.peek_2d(0, &mut lx, &mut ly);
+            for k in 0..n {
+                let (ro, rd) = ctx
+                    .camera
+                    .generate_ray(Vec2::new(fx[k], fy[k]), Vec2::new(lx[k], ly[k]));
+                set3(&mut o, k, ro);
+                set3(&mut d, k, rd);
+            }
+        } else {
+            let eye = ctx.camera.pinhole_lanes(&fx, &fy, &mut d);
+            for (c, o) in o.iter_mut().enumerate() {
+                *o = [eye[c]; LANES];
+            }
+        }
+        sampler.skip(1); // the lens draw, made or skipped
+        let ray_of = |o: &Lanes3, d: &Lanes3, k: usize| Ray {
+            origin: get3(o, k),
+            dir: get3(d, k),
+            tmax: f32::INFINITY,
+        };
+        let mut hit: [Option<Hit>; LANES] = [None; LANES];
+        {
+            let cam: [Ray; LANES] = std::array::from_fn(|k| ray_of(&o, &d, k));
+            let m = crate::accel::Accel::MANY;
+            for (r, h) in cam[..n].chunks(m).zip(hit[..n].chunks_mut(m)) {
+                ctx.accel.intersect_many(r, h);
+            }
+            for h in &hit[..n] {
+                if let Some(Hit {
+                    kind: HitKind::Triangle { prim, .. },
+                    ..
+                }) = h
+                {
+                    ctx.accel.prefetch_surface(*prim);
+                }
+            }
+        }
+
+        let lights = &ctx.lights.lights;
+        let nee = ctx.lights.nee();
+        let nl = nee.len() as u32;
+        let mut alive: u32 = (1u32 << n) - 1;
+        let mut l = [[0.0f32; LANES]; 3];
+        let mut beta = [[1.0f32; LANES]; 3];
+        let mut prev_pdf = [0.0f32; LANES];
+        let mut bary = [Vec2::ZERO; LANES];
+        let mut g = Surfaces::new();
+        let mut bounces = 0u32;
+        loop {
+            *rays += u64::from(alive.count_ones());
+            // Misses see the infinite lights, emitters end their paths, and so do other
+            // shapes and the depth limit.
+            for k in lanes_of(alive) {
+                let ray = ray_of(&o, &d, k);
+                let b = get3(&beta, k);
+                let Some(h) = hit[k] else {
+                    for (i, light) in lights.iter().enumerate().filter(|(_, l)| l.is_infinite()) {
+                        let (le, pdf) = light.escaped(ray.dir);
+                        if le != Vec3::ZERO {
+                            let w = if bounces == 0 {
+                                1.0
+                            } else {
+                                power_heuristic(prev_pdf[k], pdf * ctx.lights.pick_prob(i))
+                            };
+                            add3(&mut l, k, b * le * w);
+                        }
+                    }
+                    alive &= !(1 << k);
+                    continue;
+                };
+                if let Some((le, pdf)) = self
+                    .emitters
+                    .then(|| ctx.emitter(h.kind, &ray, h.t))
+                    .flatten()
+                {
+                    let w = if bounces == 0 {
+                        1.0
+                    } else {
+                        power_heuristic(prev_pdf[k], pdf)
+                    };
+                    add3(&mut l, k, b * le * w);
+                    alive &= !(1 << k);
+                    continue;
+                }
+                match h.kind {
+                    HitKind::Triangle { prim, bary: b } if bounces < self.max_depth => {
+                        g.prim[k] = prim;
+                        bary[k] = b;
+                    }
+                    _ => alive &= !(1 << k),
+                }
+            }
+            if alive == 0 {
+                break;
+            }
+            // The surfaces (per lane: memory reads).
+            for k in lanes_of(alive) {
+                let (prim, b) = (g.prim[k], bary[k]);
+                let (p, info) = ctx.accel.surface(prim, b);
+                let lobes = &self.lobes[(info.flags & ID_MASK) as usize];
+                let ns = shading_normal(&ctx.accel, prim, b, &info, None);
+                let frame = ShadingFrame::new(&info, ns, -get3(&d, k));
+                set3(&mut g.p, k, p);
+                set3(&mut g.s, k, frame.frame.s);
+                set3(&mut g.t, k, frame.frame.t);
+                set3(&mut g.n, k, frame.frame.n);
+                set3(&mut g.ng, k, info.n);
+                g.smooth[k] = frame.is_smooth();
+                for c in 0..3 {
+                    g.r[c][k] = lobes.r[c];
+                    g.tr[c][k] = lobes.t[c];
+                }
+                g.pr[k] = lobes.pr;
+            }
+            // wo's height in the shading frame (its other coordinates no lobe reads).
+            let mut woz = [0.0f32; LANES];
+            for k in 0..LANES {
+                woz[k] = dot([-d[0][k], -d[1][k], -d[2][k]], &g.n, k);
+            }
+            // Next-event estimation: each light's sample per lane, its value in lanes, the
+            // shadow rays per lane.
+            for (j, light) in nee.iter().enumerate() {
+                let (mut ux, mut uy) = ([0.0f32; LANES], [0.0f32; LANES]);
+                if light.uses_sample() {
+                    sampler.peek_2d(j as u32, &mut ux, &mut uy);
+                }
+                let mut ls: [Option<LightSample>; LANES] = [None; LANES];
+                let mut wi = [[0.0f32; LANES]; 3];
+                let mut li = [[0.0f32; LANES]; 3];
+                let mut lpdf = [1.0f32; LANES];
+                let mut delta = [false; LANES];
+                let mut valid = [false; LANES];
+                for k in lanes_of(alive) {
+                    let Some(mut s) = light.sample(get3(&g.p, k), Vec2::new(ux[k], uy[k])) else {
+                        continue;
+                    };
+                    s.pdf *= 1.0; // the pick probability under `light_sampling = "all"`
+                    let frame_ok = !g.smooth[k]
+                        || (s.wi.dot(get3(&g.ng, k)) > 0.0) == (s.wi.dot(get3(&g.n, k)) > 0.0);
+                    valid[k] = s.pdf > 0.0 && s.li != Vec3::ZERO && frame_ok;
+                    set3(&mut wi, k, s.wi);
+                    set3(&mut li, k, s.li);
+                    lpdf[k] = s.pdf;
+                    delta[k] = s.delta;
+                    ls[k] = Some(s);
+                }
+                let mut shoot = [false; LANES];
+                let mut add = [[0.0f32; LANES]; 3];
+                for k in 0..LANES {
+                    let wiz = dot([wi[0][k], wi[1][k], wi[2][k]], &g.n, k);
+                    let c = woz[k] * wiz;
+                    let cos = FRAC_1_PI * wiz.abs();
+                    // `eval`: R on wo's side, T across, nothing edge-on.
+                    let (fr, fg, fb) = if c > 0.0 {
+                        (g.r[0][k] * cos, g.r[1][k] * cos, g.r[2][k] * cos)
+                    } else if c < 0.0 {
+                        (g.tr[0][k] * cos, g.tr[1][k] * cos, g.tr[2][k] * cos)
+                    } else {
+                        (0.0, 0.0, 0.0)
+                    };
+                    let bpdf = lobe_of(c, g.pr[k]) * cos_pdf(wiz.abs());
+                    // `power_heuristic(lpdf, bpdf)`; delta lights weigh 1.
+                    let (a2, b2) = (lpdf[k] * lpdf[k], bpdf * bpdf);
+                    let ph = if a2.is_infinite() {
+                        1.0
+                    } else if a2 + b2 > 0.0 {
+                        a2 / (a2 + b2)
+                    } else {
+                        0.0
+                    };
+                    let scale = if delta[k] { 1.0 } else { ph } / lpdf[k];
+                    add[0][k] = ((beta[0][k] * fr) * li[0][k]) * scale;
+                    add[1][k] = ((beta[1][k] * fg) * li[1][k]) * scale;
+                    add[2][k] = ((beta[2][k] * fb) * li[2][k]) * scale;
+                    shoot[k] = valid[k] && (fr != 0.0 || fg != 0.0 || fb != 0.0);
+                }
+                for k in lanes_of(alive & bits(&shoot)) {
+                    let s = ls[k].as_ref().expect("a valid lane has its sample");
+                    if ctx.unoccluded(get3(&g.p, k), get3(&g.ng, k), g.prim[k], s, rays) {
+                        add3(&mut l, k, get3(&add, k));
+                    }
+                }
+            }
+            // The BSDF's numbers come after the lights' (one each), then roulette's.
+            let mut u1 = [0.0f32; LANES];
+            let (mut u2, mut u3) = ([0.0f32; LANES], [0.0f32; LANES]);
+            sampler.peek_1d(nl, &mut u1);
+            sampler.peek_2d(nl + 1, &mut u2, &mut u3);
+            sampler.skip(nl + 2);
+            let roulette = bounces + 1 >= self.rr_depth;
+            let mut ur = [0.0f32; LANES];
+            if roulette {
+                sampler.peek_1d(0, &mut ur);
+                sampler.skip(1);
+            }
+            // The BSDF sample, the throughput, roulette and the next ray, in lanes.
+            let mut go = [false; LANES];
+            let mut pdfs = [0.0f32; LANES];
+            let mut next_o = [[0.0f32; LANES]; 3];
+            let mut next_d = [[0.0f32; LANES]; 3];
+            for k in 0..LANES {
+                // `cosine_hemisphere(u2, u3)` by the concentric map.
+                let px = 2.0 * u2[k] - 1.0;
+                let py = 2.0 * u3[k] - 1.0;
+                let centre = px == 0.0 && py == 0.0;
+                let x_major = px.abs() > py.abs();
+                let (r0, other) = if x_major { (px, py) } else { (py, px) };
+                let a = FRAC_PI_4 * (other / r0);
+                let (cc, sn) = cos_sin_quarter(a);
+                let (dx, dy) = if x_major { (cc, sn) } else { (sn, cc) };
+                let r = if centre { 0.0 } else { r0 };
+                let (dx, dy) = if centre { (0.0, 0.0) } else { (dx, dy) };
+                let z = (1.0 - r * r).max(0.0).sqrt();
+                let (wx, wy) = (r * dx, r * dy);
+                // The lobe: reflection stays on wo's side, transmission crosses.
+                let reflect = u1[k] < g.pr[k];
+                let flip = (woz[k] < 0.0) == reflect;
+                let wz = if flip { -z } else { z };
+                let lobe = if reflect { g.pr[k] } else { 1.0 - g.pr[k] };
+                let cos = wz.abs();
+                let pdf = lobe * cos_pdf(cos);
+                let fc = FRAC_1_PI * cos;
+                let mut b = [0.0f32; 3];
+                for c in 0..3 {
+                    let albedo = if reflect { g.r[c][k] } else { g.tr[c][k] };
+                    b[c] = beta[c][k] * ((albedo * fc) / pdf);
+                }
+                // `ShadingFrame::to_world_unit`.
+                let mut w = [0.0f32; 3];
+                for c in 0..3 {
+                    w[c] = (g.s[c][k] * wx + g.t[c][k] * wy) + g.n[c][k] * wz;
+                }
+                let len2 = (w[0] * w[0] + w[1] * w[1]) + w[2] * w[2];
+                let renorm = (len2 - 1.0).abs() > 1e-6;
+                let inv = 1.0 / len2.sqrt();
+                for v in &mut w {
+                    *v = if renorm { *v * inv } else { *v };
+                }
+                let wng = dot(w, &g.ng, k);
+                let consistent = !g.smooth[k] || (wng > 0.0) == (dot(w, &g.n, k) > 0.0);
+                let mx = b[0].max(b[1]).max(b[2]);
+                let mut on = woz[k] != 0.0
+                    && pdf > 0.0
+                    && consistent
+                    && mx > 0.0
+                    && b.iter().all(|v| v.is_finite());
+                if roulette {
+                    let q = mx.min(1.0);
+                    let cut = q < 1.0;
+                    on &= !cut || ur[k] < q;
+                    for v in &mut b {
+                        *v = if cut { *v / q } else { *v };
+                    }
+                }
+                go[k] = on;
+                pdfs[k] = pdf;
+                for c in 0..3 {
+                    beta[c][k] = b[c];
+                }
+                // `spawn_origin(p, ng, w)`.
+                let p = [g.p[0][k], g.p[1][k], g.p[2][k]];
+                let eps = 2e-5 * (1.0 + p[0].abs().max(p[1].abs()).max(p[2].abs()));
+                let e = if wng >= 0.0 { eps } else { -eps };
+                for c in 0..3 {
+                    next_o[c][k] = p[c] + g.ng[c][k] * e;
+                    next_d[c][k] = w[c];
+                }
+            }
+            alive &= bits(&go);
+            prev_pdf = pdfs;
+            o = next_o;
+            d = next_d;
+            bounces += 1;
+            // The next rays, back to back.
+            for k in lanes_of(alive) {
+                hit[k] = ctx.accel.intersect_skip(&ray_of(&o, &d, k), g.prim[k]);
+                if let Some(Hit {
+                    kind: HitKind::Triangle { prim, .. },
+                    ..
+                }) = hit[k]
+                {
+                    ctx.accel.prefetch_surface(prim);
+                }
+            }
+            if alive == 0 {
+                break;
+            }
+        }
+        l
+    }
+}
+
+/// `lamina_leaf::sampling`'s `(cos a, sin a)` for `|a| <= π/4` (the same series, the same
+/// operation order).
+#[inline(always)]
+fn cos_sin_quarter(a: f32) -> (f32, f32) {
+    let x = a * a;
+    let (x2, x4) = (x * x, (x * x) * (x * x));
+    let c01 = 1.0 - 0.5 * x;
+    let c23 = 1.0 / 24.0 - (1.0 / 720.0) * x;
+    let c45 = 1.0 / 40_320.0 - (1.0 / 3_628_800.0) * x;
+    let c = (c01 + x2 * c23) + x4 * c45;
+    let s01 = 1.0 - (1.0 / 6.0) * x;
+    let s23 = 1.0 / 120.0 - (1.0 / 5_040.0) * x;
+    let s45 = 1.0 / 362_880.0 - (1.0 / 39_916_800.0) * x;
+    let s = a * ((s01 + x2 * s23) + x4 * s45);
+    (c, s)
+}

@@ -1,0 +1,204 @@
+//! The wavefront path tracer (`integrators::wave`) against the one-path path tracer: the
+//! scenes it serves render to the same sums bit for bit, with the same ray count, whatever
+//! the geometry, lights, camera, filter, sample range and crop; the scenes it does not
+//! serve are left to the one-path loop.
+
+use super::scenes::*;
+use crate::accel::Backend;
+use crate::integrators::SceneContext;
+use crate::integrators::wave::Wave;
+use crate::{Crop, RenderOptions, SampleRange, render};
+use glam::{Vec3, Vec4};
+use lamina_core::{
+    AlphaMask, ColorInput, Integrator, Light, LightSampling, Material, PixelFilter, Scene, Sky,
+    SkySampling,
+};
+use lamina_leaf::{Texture, Wrap};
+
+fn served(scene: &Scene) -> bool {
+    let ctx = SceneContext::new(scene, Backend::default()).unwrap();
+    Wave::new(&ctx).is_some()
+}
+
+/// Renders `scene` both ways with `o` and asserts equal sums (bit for bit) and rays.
+fn same_both_ways(what: &str, scene: &Scene, o: &RenderOptions) {
+    assert!(served(scene), "{what}: the wave should serve this scene");
+    let keep = RenderOptions {
+        keep_sums: true,
+        ..o.clone()
+    };
+    let wave = render(scene, &keep).unwrap();
+    let one = render(
+        scene,
+        &RenderOptions {
+            one_path_at_a_time: true,
+            ..keep
+        },
+    )
+    .unwrap();
+    let (a, b) = (wave.sums.unwrap(), one.sums.unwrap());
+    assert_eq!(a.len(), b.len(), "{what}");
+    let differing = a
+        .iter()
+        .zip(&b)
+        .filter(|(x, y)| x.to_array().map(f64::to_bits) != y.to_array().map(f64::to_bits))
+        .count();
+    assert_eq!(
+        differing,
+        0,
+        "{what}: {differing} of {} pixels differ",
+        a.len()
+    );
+    assert_eq!(wave.stats.rays, one.stats.rays, "{what}: rays");
+    assert!(
+        a.iter().any(|s| s.max_element() > 0.0),
+        "{what}: a black image proves little"
+    );
+}
+
+fn path(scene: &mut Scene, max_depth: u32, rr_depth: u32) {
+    scene.integrator = Integrator::Path {
+        max_depth,
+        rr_depth,
+        light_sampling: LightSampling::All,
+        sky_sampling: Default::default(),
+    };
+}
+
+#[test]
+fn wavefront_is_path_bit_for_bit() {
+    // The small canopy: a finite sun, a quad, a sphere and a point light, a constant sky
+    // left to BSDF samples, a Gaussian filter, both served materials. 21 spp: passes of 1,
+    // 1, 2, 4, 8 and 5 samples, so waves of every fill.
+    let base = small_canopy_scene();
+    same_both_ways("canopy", &base, &opts(21, 2));
+    same_both_ways(
+        "canopy, another seed, one thread",
+        &base,
+        &RenderOptions {
+            seed: 12345,
+            ..opts(40, 1)
+        },
+    );
+    // Deep paths, roulette from the first bounce, and a depth limit of one and zero.
+    for (d, rr) in [(12, 1), (1, 5), (0, 5)] {
+        let mut s = base.clone();
+        path(&mut s, d, rr);
+        same_both_ways(&format!("max_depth {d}, rr_depth {rr}"), &s, &opts(9, 2));
+    }
+    // A thin lens and a box filter; a delta sun only.
+    let mut s = base.clone();
+    s.camera.aperture_radius = 0.05;
+    s.camera.focus_distance = 2.5;
+    s.film.filter = PixelFilter::Box;
+    s.lights = vec![sun(Vec3::new(0.3, 1.0, 0.5), 400.0)];
+    same_both_ways("lens, box filter, delta sun", &s, &opts(16, 2));
+    // The sky sampled by next-event estimation too, and an image sky.
+    let mut s = base.clone();
+    s.integrator = Integrator::Path {
+        max_depth: 5,
+        rr_depth: 2,
+        light_sampling: LightSampling::All,
+        sky_sampling: SkySampling::Light,
+    };
+    same_both_ways("sky sampled", &s, &opts(8, 2));
+    let tex = Texture::from_texels(
+        8,
+        4,
+        (0..32)
+            .map(|i| Vec4::new(0.2 + 0.05 * (i % 5) as f32, 0.4, 0.6, 1.0))
+            .collect(),
+        Wrap::Repeat,
+    );
+    s.sky = Some(Sky::Image {
+        map: tex,
+        scale: 1.5,
+        rotation_deg: 30.0,
+        spectral: None,
+    });
+    same_both_ways("image sky", &s, &opts(8, 2));
+    // Alpha-matted cards: the mattes act in the ray queries only.
+    let mut s = base.clone();
+    let matte = Texture::from_texels(
+        2,
+        2,
+        vec![Vec4::ZERO, Vec4::ONE, Vec4::ONE, Vec4::ONE],
+        Wrap::Clamp,
+    );
+    s.materials[0] = Material::DiffuseTransmission {
+        name: "matted".into(),
+        reflectance: ColorInput::Constant(Vec3::new(0.1, 0.3, 0.05)),
+        transmittance: ColorInput::Constant(Vec3::new(0.1, 0.4, 0.05)),
+        alpha: Some(AlphaMask {
+            map: matte,
+            use_alpha_channel: false,
+            cutoff: 0.5,
+        }),
+    };
+    same_both_ways("alpha mattes", &s, &opts(12, 2));
+    // Instances (rotated, scaled, mirrored).
+    let (inst, _) = instanced_and_flat(&test_transforms());
+    same_both_ways("instances", &inst, &opts(8, 2));
+    // Vertex normals: smooth shading frames and their side checks.
+    let sphere = sphere_scene(
+        uv_sphere(Vec3::ZERO, 1.0, 12, 24, true, 1),
+        vec![
+            sun(Vec3::new(0.5, 0.8, 0.3), 300.0),
+            Light::Point {
+                position: Vec3::new(-1.5, 1.0, 2.0),
+                intensity: Vec3::splat(4.0),
+            },
+        ],
+        Some(Sky::Constant(Vec3::new(0.2, 0.3, 0.5))),
+    );
+    same_both_ways("smooth sphere", &sphere, &opts(16, 2));
+    // A part of a split render: a sample range and a crop.
+    same_both_ways(
+        "samples 5..19 of 24, a crop",
+        &base,
+        &RenderOptions {
+            samples: Some(SampleRange { start: 5, end: 19 }),
+            crop: Some(Crop {
+                x0: 7,
+                y0: 3,
+                x1: 31,
+                y1: 22,
+            }),
+            ..opts(24, 2)
+        },
+    );
+}
+
+#[test]
+fn wavefront_serves_diffuse_materials_under_all_light_sampling_only() {
+    let base = small_canopy_scene();
+    assert!(served(&base));
+    let mut s = base.clone();
+    s.integrator = Integrator::Path {
+        max_depth: 5,
+        rr_depth: 2,
+        light_sampling: LightSampling::One,
+        sky_sampling: Default::default(),
+    };
+    assert!(!served(&s), "one light per vertex");
+    let mut s = base.clone();
+    s.integrator = Integrator::Paper { ambient: None };
+    assert!(!served(&s), "the paper's integrator");
+    let mut s = base.clone();
+    s.materials[1] = Material::Diffuse {
+        name: "textured".into(),
+        reflectance: ColorInput::Texture {
+            map: Texture::from_texels(1, 1, vec![Vec4::ONE], Wrap::Repeat),
+            factor: Vec3::splat(0.5),
+        },
+        alpha: None,
+    };
+    assert!(!served(&s), "a textured colour");
+    let mut s = base;
+    let leaf = lamina_leaf::LeafMaterial::new(Default::default(), Default::default()).unwrap();
+    s.materials[0] = Material::Leaf {
+        name: "leaf".into(),
+        leaf: std::sync::Arc::new(leaf),
+    };
+    assert!(!served(&s), "the leaf material");
+}

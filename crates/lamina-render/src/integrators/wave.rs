@@ -148,6 +148,10 @@ impl Wave {
         rays: &mut u64,
     ) {
         let mut i = s0;
+        // The vertices' surfaces, reused from wave to wave (lanes hold stale values
+        // until a hit fills them; the lane loops compute on them harmlessly and the
+        // results are dropped).
+        let mut g = Surfaces::new();
         while i < s1 {
             let n = (s1 - i).min(LANES as u32) as usize;
             let l = run_wide(Paths {
@@ -158,6 +162,7 @@ impl Wave {
                 first: i,
                 n,
                 rays: &mut *rays,
+                g: &mut g,
             });
             for k in 0..n {
                 let v = [l[0][k], l[1][k], l[2][k]];
@@ -181,6 +186,7 @@ struct Paths<'a, 'c> {
     first: u32,
     n: usize,
     rays: &'a mut u64,
+    g: &'a mut Surfaces,
 }
 
 impl WideTask for Paths<'_, '_> {
@@ -197,8 +203,9 @@ impl WideTask for Paths<'_, '_> {
             first,
             n,
             rays,
+            g,
         } = self;
-        wave.trace(ctx, stream, pixel, first, n, rays)
+        wave.trace(ctx, stream, pixel, first, n, rays, g)
     }
 }
 
@@ -305,6 +312,7 @@ fn lobe_of(c: f32, pr: f32) -> f32 {
 impl Wave {
     /// The radiance of samples `first..first + n` of `pixel` (module docs: the steps are
     /// `path::trace`'s, named alike).
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn trace(
         &self,
@@ -314,6 +322,7 @@ impl Wave {
         first: u32,
         n: usize,
         rays: &mut u64,
+        g: &mut Surfaces,
     ) -> Lanes3 {
         // Camera rays: film draws, the filter's offsets, the camera.
         let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
@@ -373,7 +382,6 @@ impl Wave {
         let mut beta = [[1.0f32; LANES]; 3];
         let mut prev_pdf = [0.0f32; LANES];
         let mut bary = [Vec2::ZERO; LANES];
-        let mut g = Surfaces::new();
         let mut bounces = 0u32;
         loop {
             *rays += u64::from(alive.count_ones());

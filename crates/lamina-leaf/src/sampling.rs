@@ -36,8 +36,10 @@ fn concentric(u: Vec2) -> (f32, Vec2) {
 /// values: Taylor series to degree 10 and 11 (their next terms are below 3e-9 on the
 /// range), without the general functions' range reduction and call, each evaluated in
 /// pairs of terms (Estrin's scheme) so that its chain of dependent operations is short.
+/// Public for code that runs the concentric map in vector lanes (lamina-render's wavefront
+/// path tracer), so that its lanes compute these very values.
 #[inline]
-fn cos_sin_quarter(a: f32) -> (f32, f32) {
+pub fn cos_sin_quarter(a: f32) -> (f32, f32) {
     let x = a * a;
     let (x2, x4) = (x * x, (x * x) * (x * x));
     let c01 = 1.0 - 0.5 * x;

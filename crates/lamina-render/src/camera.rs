@@ -154,6 +154,19 @@ mod tests {
 
     use lamina_core::{PixelFilter, ToneMap};
 
+    /// A `w x h` film, 1 spp, box filter.
+    fn box_film(width: u32, height: u32) -> Film {
+        Film {
+            width,
+            height,
+            spp: 1,
+            filter: PixelFilter::Box,
+            exposure: 0.0,
+            tonemap: ToneMap::Clamp,
+            spectral: lamina_core::SpectralMode::Rgb,
+        }
+    }
+
     #[test]
     fn centre_ray_looks_at_target_and_corners_match_fov() {
         let cam = Camera {
@@ -164,15 +177,7 @@ mod tests {
             aperture_radius: 0.0,
             focus_distance: 1.0,
         };
-        let film = Film {
-            width: 200,
-            height: 100,
-            spp: 1,
-            filter: PixelFilter::Box,
-            exposure: 0.0,
-            tonemap: ToneMap::Clamp,
-            spectral: lamina_core::SpectralMode::Rgb,
-        };
+        let film = box_film(200, 100);
         let m = CameraModel::new(&cam, &film).unwrap();
         let (_, d) = m.generate_ray(Vec2::new(100.0, 50.0), Vec2::ZERO);
         assert!((d - Vec3::NEG_Z).length() < 1e-6);
@@ -196,15 +201,7 @@ mod tests {
             aperture_radius: 0.0,
             focus_distance: 1.0,
         };
-        let film = Film {
-            width: 640,
-            height: 360,
-            spp: 1,
-            filter: PixelFilter::Box,
-            exposure: 0.0,
-            tonemap: ToneMap::Clamp,
-            spectral: lamina_core::SpectralMode::Rgb,
-        };
+        let film = box_film(640, 360);
         let m = CameraModel::new(&cam, &film).unwrap();
         assert!(!m.uses_lens());
         let fx: [f32; 8] = std::array::from_fn(|k| k as f32 * 83.7 + 0.25);

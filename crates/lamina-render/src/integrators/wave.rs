@@ -543,7 +543,7 @@ impl Wave {
                 let x_major = px.abs() > py.abs();
                 let (r0, other) = if x_major { (px, py) } else { (py, px) };
                 let a = FRAC_PI_4 * (other / r0);
-                let (cc, sn) = cos_sin_quarter(a);
+                let (cc, sn) = lamina_leaf::sampling::cos_sin_quarter(a);
                 let (dx, dy) = if x_major { (cc, sn) } else { (sn, cc) };
                 let r = if centre { 0.0 } else { r0 };
                 let (dx, dy) = if centre { (0.0, 0.0) } else { (dx, dy) };
@@ -625,21 +625,4 @@ impl Wave {
         }
         l
     }
-}
-
-/// `lamina_leaf::sampling`'s `(cos a, sin a)` for `|a| <= π/4` (the same series, the same
-/// operation order).
-#[inline(always)]
-fn cos_sin_quarter(a: f32) -> (f32, f32) {
-    let x = a * a;
-    let (x2, x4) = (x * x, (x * x) * (x * x));
-    let c01 = 1.0 - 0.5 * x;
-    let c23 = 1.0 / 24.0 - (1.0 / 720.0) * x;
-    let c45 = 1.0 / 40_320.0 - (1.0 / 3_628_800.0) * x;
-    let c = (c01 + x2 * c23) + x4 * c45;
-    let s01 = 1.0 - (1.0 / 6.0) * x;
-    let s23 = 1.0 / 120.0 - (1.0 / 5_040.0) * x;
-    let s45 = 1.0 / 362_880.0 - (1.0 / 39_916_800.0) * x;
-    let s = a * ((s01 + x2 * s23) + x4 * s45);
-    (c, s)
 }

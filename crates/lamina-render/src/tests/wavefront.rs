@@ -1,14 +1,16 @@
 //! The wavefront path tracer (`integrators::wave`) against the one-path path tracer: the
 //! scenes it serves render to the same sums bit for bit, with the same ray count, whatever
-//! the geometry, lights, camera, filter, sample range and crop; the scenes it does not
-//! serve are left to the one-path loop.
+//! the geometry (mattes, instances, a periodic domain, vertex normals), lights, sky,
+//! camera, filter, sample range and crop; the scenes it does not serve are left to the
+//! one-path loop.
 
 use super::scenes::*;
 use crate::accel::Backend;
 use crate::integrators::SceneContext;
 use crate::integrators::wave::Wave;
 use crate::{Crop, RenderOptions, SampleRange, render};
-use glam::{Vec3, Vec4};
+use glam::{Vec2, Vec3, Vec4};
+use lamina_core::radiometry::{Periodic, Rect};
 use lamina_core::{
     AlphaMask, ColorInput, Integrator, Light, LightSampling, Material, PixelFilter, Scene, Sky,
     SkySampling,
@@ -139,6 +141,16 @@ fn wavefront_is_path_bit_for_bit() {
     // Instances (rotated, scaled, mirrored).
     let (inst, _) = instanced_and_flat(&test_transforms());
     same_both_ways("instances", &inst, &opts(8, 2));
+    // The same in a periodic domain (the ground spans the cell), seen from inside it.
+    let mut periodic = inst.clone();
+    periodic.radiometry.periodic = Some(Periodic {
+        cell: Rect {
+            min: Vec2::splat(-3.0),
+            max: Vec2::splat(3.0),
+        },
+    });
+    periodic.camera.position = Vec3::new(0.4, 0.3, 2.5);
+    same_both_ways("periodic domain", &periodic, &opts(8, 2));
     // Vertex normals: smooth shading frames and their side checks.
     let sphere = sphere_scene(
         uv_sphere(Vec3::ZERO, 1.0, 12, 24, true, 1),

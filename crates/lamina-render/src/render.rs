@@ -322,7 +322,10 @@ impl RgbEstimator {
         RgbEstimator {
             integrator,
             ambient,
-            wave: if opts.one_path_at_a_time {
+            // Compiled for the plain x86-64 target (no AVX2) the wave's lane loops are
+            // slower than one path at a time (bench/README.md), so it runs only where
+            // `run_wide` has the wide units.
+            wave: if opts.one_path_at_a_time || !lamina_accel::wide::wide_available() {
                 None
             } else {
                 Wave::new(ctx)

@@ -17,8 +17,10 @@
 //! `light_sampling = "all"` whose materials are all `diffuse` or `diffuse_transmission`
 //! with constant colours and no normal map: the diffuse leaves of canopy and comparison
 //! scenes. Geometry (mattes, instances, vertex normals, periodic domains), lights, sky,
-//! camera and filter are whatever the scene has. Other scenes, and renders with
-//! [`crate::RenderOptions::one_path_at_a_time`], take [`super::path`] one path at a time;
+//! camera and filter are whatever the scene has. Other scenes, renders with
+//! [`crate::RenderOptions::one_path_at_a_time`], and CPUs without AVX2 + FMA (where the
+//! lane loops compiled for plain x86-64 are slower than one path at a time) take
+//! [`super::path`] one path at a time;
 //! `wavefront_is_path_bit_for_bit` (the render tests) renders both ways and compares
 //! every pixel's sums.
 //!

@@ -390,11 +390,10 @@ impl Wave {
             // Misses see the infinite lights, emitters end their paths, and so do other
             // shapes and the depth limit.
             for k in lanes_of(alive) {
-                let ray = ray_of(&o, &d, k);
-                let b = get3(&beta, k);
                 let Some(h) = hit[k] else {
+                    let (dir, b) = (get3(&d, k), get3(&beta, k));
                     for (i, light) in lights.iter().enumerate().filter(|(_, l)| l.is_infinite()) {
-                        let (le, pdf) = light.escaped(ray.dir);
+                        let (le, pdf) = light.escaped(dir);
                         if le != Vec3::ZERO {
                             let w = if bounces == 0 {
                                 1.0
@@ -409,9 +408,10 @@ impl Wave {
                 };
                 if let Some((le, pdf)) = self
                     .emitters
-                    .then(|| ctx.emitter(h.kind, &ray, h.t))
+                    .then(|| ctx.emitter(h.kind, &ray_of(&o, &d, k), h.t))
                     .flatten()
                 {
+                    let b = get3(&beta, k);
                     let w = if bounces == 0 {
                         1.0
                     } else {

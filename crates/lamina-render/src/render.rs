@@ -611,13 +611,8 @@ fn render_tile<E: Estimator>(
     let mut at = 0usize;
     if let Some(wave) = est.wave() {
         debug_assert_eq!(c, 3);
-        for y in tile.y0..tile.y0 + tile.h {
-            for x in tile.x0..tile.x0 + tile.w {
-                let stream = PixelStream::new(seed, x, y);
-                wave.pixel(ctx, &stream, x, y, s0, s1, &mut sums[at..at + c], &mut rays);
-                at += c;
-            }
-        }
+        let rect = (tile.x0, tile.y0, tile.w, tile.h);
+        wave.tile(ctx, seed, rect, s0, s1, &mut sums, &mut rays);
         return (sums, rays);
     }
     if est.takes_first_hit() {

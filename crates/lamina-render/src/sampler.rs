@@ -118,6 +118,21 @@ const DIM_HASHES: [u32; 64] = {
     t
 };
 
+/// `hash_u32(dim)`, from the table for the first dimensions.
+#[inline(always)]
+fn dim_hash(dim: u32) -> u32 {
+    match DIM_HASHES.get(dim as usize) {
+        Some(&h) => h,
+        None => hash_u32(dim),
+    }
+}
+
+/// The seed of a pixel's dimension whose [`dim_hash`] is `h`: `hash_combine(pixel_seed, dim)`.
+#[inline(always)]
+fn dim_seed(pixel_seed: u32, h: u32) -> u32 {
+    hash_u32(pixel_seed ^ h.wrapping_add(0x9e37_79b9))
+}
+
 /// Folds a 64-bit user seed to the 32-bit seed of the hashes.
 #[inline]
 pub fn fold_seed(seed: u64) -> u32 {
@@ -189,12 +204,9 @@ impl PixelSampler {
     /// The next dimension's seed: `hash_combine(pixel_seed, dim)`.
     #[inline]
     fn next_seed(&mut self) -> u32 {
-        let h = match DIM_HASHES.get(self.dim as usize) {
-            Some(&h) => h,
-            None => hash_u32(self.dim),
-        };
+        let h = dim_hash(self.dim);
         self.dim += 1;
-        hash_u32(self.pixel_seed ^ h.wrapping_add(0x9e37_79b9))
+        dim_seed(self.pixel_seed, h)
     }
 
     /// The next dimension pair, in `[0, 1)²`.
@@ -256,68 +268,83 @@ impl PixelSampler {
     }
 }
 
-/// A pixel's samples drawn side by side, for the wavefront path tracer: every sample of a
-/// wave belongs to one pixel and draws its dimensions in the same order, so at each draw
-/// they share the dimension and its seed (hashed once per wave, not per sample), and only
-/// the index shuffle and the point differ lane by lane. Each lane's numbers are bit for bit
+/// Pixel samples drawn side by side, for the wavefront path tracer: lane `k` is sample
+/// `index[k]` of some pixel, and every lane draws its dimensions in the same order, so at
+/// each draw they share the dimension. Where all lanes are samples of one pixel (a pass of
+/// 16 samples) they share its seed too, hashed once per wave rather than per sample, and
+/// only the index shuffle and the point differ lane by lane; lanes of several pixels (the
+/// first passes, of 1 to 8 samples) hash their own. Each lane's numbers are bit for bit
 /// those [`PixelSampler`] draws for that sample.
 #[derive(Clone, Copy, Debug)]
 pub struct LaneSampler<const N: usize> {
-    pixel_seed: u32,
+    /// Per lane, its pixel's seed.
+    pixel_seed: [u32; N],
+    /// Whether every lane's pixel seed is the same (one pixel's samples).
+    one_pixel: bool,
     /// Per lane, the sample index with its bits reversed.
     rindex: [u32; N],
     dim: u32,
 }
 
 impl<const N: usize> LaneSampler<N> {
-    /// Samples `i0..i0 + N` of pixel `stream`, past their film draws, which go to `(x, y)`
-    /// (in `[0, 1)²`: [`PixelStream::film`]'s).
+    /// Lane `k`: sample `index[k]` of the pixel whose stream is `streams[k]`, past its film
+    /// draw, which goes to `(x[k], y[k])` (in `[0, 1)²`: [`PixelStream::film`]'s).
     #[inline(always)]
-    pub fn film(stream: &PixelStream, i0: u32, x: &mut [f32; N], y: &mut [f32; N]) -> Self {
+    pub fn film(
+        streams: &[PixelStream; N],
+        index: &[u32; N],
+        x: &mut [f32; N],
+        y: &mut [f32; N],
+    ) -> Self {
         let mut rindex = [0u32; N];
+        let mut pixel_seed = [0u32; N];
         for k in 0..N {
-            rindex[k] = i0.wrapping_add(k as u32).reverse_bits();
-            let i = shuffled(rindex[k], stream.film_seed);
-            x[k] = to_unit(laine_karras(i, stream.film_points[0]).reverse_bits());
-            y[k] = to_unit(laine_karras(sobol1_reversed(i), stream.film_points[1]).reverse_bits());
+            let s = &streams[k];
+            rindex[k] = index[k].reverse_bits();
+            pixel_seed[k] = s.pixel_seed;
+            let i = shuffled(rindex[k], s.film_seed);
+            x[k] = to_unit(laine_karras(i, s.film_points[0]).reverse_bits());
+            y[k] = to_unit(laine_karras(sobol1_reversed(i), s.film_points[1]).reverse_bits());
         }
         LaneSampler {
-            pixel_seed: stream.pixel_seed,
+            one_pixel: pixel_seed.iter().all(|&p| p == pixel_seed[0]),
+            pixel_seed,
             rindex,
             dim: 1,
         }
     }
 
-    /// The seed of the dimension `ahead` draws on.
+    /// Per lane, the seed of the dimension `ahead` draws on, and `f` of it (the point's
+    /// seeds): once for all lanes where they are one pixel's.
     #[inline(always)]
-    fn seed(&self, ahead: u32) -> u32 {
-        PixelSampler {
-            pixel_seed: self.pixel_seed,
-            rindex: 0,
-            dim: self.dim + ahead,
+    fn seeds<T: Copy>(&self, ahead: u32, f: impl Fn(u32) -> T) -> ([u32; N], [T; N]) {
+        let h = dim_hash(self.dim + ahead);
+        if self.one_pixel {
+            let s = dim_seed(self.pixel_seed[0], h);
+            ([s; N], [f(s); N])
+        } else {
+            let s: [u32; N] = std::array::from_fn(|k| dim_seed(self.pixel_seed[k], h));
+            (s, std::array::from_fn(|k| f(s[k])))
         }
-        .next_seed()
     }
 
     /// Every lane's [`PixelSampler::peek_1d`]`(ahead)`.
     #[inline(always)]
     pub fn peek_1d(&self, ahead: u32, out: &mut [f32; N]) {
-        let seed = self.seed(ahead);
-        let ps = hash_u32(seed ^ 0x5bd1_e995);
-        for (o, &r) in out.iter_mut().zip(&self.rindex) {
-            *o = to_unit(laine_karras(shuffled(r, seed), ps).reverse_bits());
+        let (seed, ps) = self.seeds(ahead, |s| hash_u32(s ^ 0x5bd1_e995));
+        for k in 0..N {
+            out[k] = to_unit(laine_karras(shuffled(self.rindex[k], seed[k]), ps[k]).reverse_bits());
         }
     }
 
     /// Every lane's [`PixelSampler::peek_2d`]`(ahead)`, as `(x, y)`.
     #[inline(always)]
     pub fn peek_2d(&self, ahead: u32, x: &mut [f32; N], y: &mut [f32; N]) {
-        let seed = self.seed(ahead);
-        let [sx, sy] = point_seeds(seed);
+        let (seed, ps) = self.seeds(ahead, point_seeds);
         for k in 0..N {
-            let i = shuffled(self.rindex[k], seed);
-            x[k] = to_unit(laine_karras(i, sx).reverse_bits());
-            y[k] = to_unit(laine_karras(sobol1_reversed(i), sy).reverse_bits());
+            let i = shuffled(self.rindex[k], seed[k]);
+            x[k] = to_unit(laine_karras(i, ps[k][0]).reverse_bits());
+            y[k] = to_unit(laine_karras(sobol1_reversed(i), ps[k][1]).reverse_bits());
         }
     }
 
@@ -330,30 +357,51 @@ impl<const N: usize> LaneSampler<N> {
 
 #[cfg(test)]
 mod tests {
+    /// Each lane of a [`LaneSampler`] draws its sample's numbers: lanes of one pixel
+    /// (shared seeds) and lanes of several pixels (the first passes' waves), some pixels
+    /// with several samples side by side.
     #[test]
     fn lane_sampler_draws_each_samples_numbers() {
-        for (seed, x, y, i0) in [
-            (7u32, 3u32, 5u32, 0u32),
-            (0xdead_beef, 511, 0, 16),
-            (1, 0, 9, 48),
-        ] {
-            let stream = PixelStream::new(seed, x, y);
+        let one_pixel = |seed: u32, x: u32, y: u32, i0: u32| -> Vec<(u32, u32, u32, u32)> {
+            (0..16).map(|k| (seed, x, y, i0 + k)).collect()
+        };
+        let cases = [
+            one_pixel(7, 3, 5, 0),
+            one_pixel(0xdead_beef, 511, 0, 16),
+            one_pixel(1, 0, 9, 48),
+            // 16 pixels of a row, one sample each (a pass of 1 sample).
+            (0..16).map(|k| (7, 100 + k, 4, 1)).collect(),
+            // 4 pixels of 4 samples (a pass of 4), another seed.
+            (0..16).map(|k| (99, 8 + k / 4, 2, 4 + k % 4)).collect(),
+            // 5 pixels of 3 samples and a sixth pixel's first, across rows.
+            (0..16)
+                .map(|k| (3, 31 + k / 3 % 2, 7 + k / 6, 5 + k % 3))
+                .collect(),
+        ];
+        for lanes in cases {
+            let streams: [PixelStream; 16] =
+                std::array::from_fn(|k| PixelStream::new(lanes[k].0, lanes[k].1, lanes[k].2));
+            let index: [u32; 16] = std::array::from_fn(|k| lanes[k].3);
             let (mut fx, mut fy) = ([0.0f32; 16], [0.0f32; 16]);
-            let mut lanes = LaneSampler::<16>::film(&stream, i0, &mut fx, &mut fy);
+            let mut wave = LaneSampler::<16>::film(&streams, &index, &mut fx, &mut fy);
+            let shared = lanes
+                .iter()
+                .all(|l| l.0 == lanes[0].0 && l.1 == lanes[0].1 && l.2 == lanes[0].2);
+            assert_eq!(wave.one_pixel, shared);
             let mut singles: Vec<PixelSampler> = (0..16)
                 .map(|k| {
-                    let (s, u) = stream.film(i0 + k);
+                    let (s, u) = streams[k].film(index[k]);
                     assert_eq!(
                         (u.x.to_bits(), u.y.to_bits()),
-                        (fx[k as usize].to_bits(), fy[k as usize].to_bits())
+                        (fx[k].to_bits(), fy[k].to_bits())
                     );
                     s
                 })
                 .collect();
             for step in 0..40u32 {
                 let (mut a, mut b, mut c) = ([0.0f32; 16], [0.0f32; 16], [0.0f32; 16]);
-                lanes.peek_1d(step % 3, &mut a);
-                lanes.peek_2d(step % 3 + 1, &mut b, &mut c);
+                wave.peek_1d(step % 3, &mut a);
+                wave.peek_2d(step % 3 + 1, &mut b, &mut c);
                 for (k, s) in singles.iter_mut().enumerate() {
                     assert_eq!(a[k].to_bits(), s.peek_1d(step % 3).to_bits());
                     let u = s.peek_2d(step % 3 + 1);
@@ -363,7 +411,7 @@ mod tests {
                     );
                     s.skip(1 + step % 2);
                 }
-                lanes.skip(1 + step % 2);
+                wave.skip(1 + step % 2);
             }
         }
     }

@@ -134,59 +134,118 @@ impl Wave {
         })
     }
 
-    /// Samples `s0..s1` of pixel `(x, y)` (`stream`: its [`PixelStream`]), each sample's
-    /// radiance (RGB) added into `sum` in sample order as the one-path loop adds it (a
+    /// Samples `s0..s1` of every pixel of the `w` x `h` pixels from `(x0, y0)` (a tile,
+    /// row by row; `seed`: the folded render seed), each sample's radiance (RGB) added into
+    /// its pixel's three `sums` (row-major) in sample order as the one-path loop adds it (a
     /// non-finite sample counts as black); the rays traced are added to `rays`.
+    ///
+    /// The samples go into waves of [`LANES`] in that order: a pass of 16 samples makes
+    /// one wave per pixel, a pass of fewer (the first passes add 1, 1, 2, 4 and 8) puts
+    /// several pixels' samples side by side, so that no lane idles while others run (a
+    /// wave of one sample costs nearly a full wave's lane work, and its one ray walk
+    /// overlaps no other).
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn pixel(
+    pub(crate) fn tile(
         &self,
         ctx: &SceneContext,
-        stream: &PixelStream,
-        x: u32,
-        y: u32,
+        seed: u32,
+        (x0, y0, w, h): (u32, u32, u32, u32),
         s0: u32,
         s1: u32,
-        sum: &mut [f64],
+        sums: &mut [f64],
         rays: &mut u64,
     ) {
-        let mut i = s0;
-        // The vertices' surfaces, reused from wave to wave (lanes hold stale values
-        // until a hit fills them; the lane loops compute on them harmlessly and the
-        // results are dropped).
+        debug_assert_eq!(sums.len(), (w * h) as usize * 3);
+        let mut lanes = WaveLanes::new();
+        // The vertices' surfaces, reused from wave to wave (lanes hold stale values until
+        // a hit fills them; the lane loops compute on them harmlessly and the results are
+        // dropped).
         let mut g = Surfaces::new();
-        while i < s1 {
-            let n = (s1 - i).min(LANES as u32) as usize;
-            let l = run_wide(Paths {
-                wave: self,
-                ctx,
-                stream,
-                pixel: (x, y),
-                first: i,
-                n,
-                rays: &mut *rays,
-                g: &mut g,
-            });
-            for k in 0..n {
-                let v = [l[0][k], l[1][k], l[2][k]];
-                if v.iter().all(|c| c.is_finite()) {
-                    for (s, c) in sum.iter_mut().zip(v) {
-                        *s += c as f64;
+        for y in y0..y0 + h {
+            for x in x0..x0 + w {
+                let stream = PixelStream::new(seed, x, y);
+                let at = ((y - y0) * w + (x - x0)) as usize * 3;
+                for i in s0..s1 {
+                    if lanes.n == LANES {
+                        self.run(ctx, &mut lanes, &mut g, sums, rays);
                     }
+                    let k = lanes.n;
+                    lanes.stream[k] = stream;
+                    lanes.pixel[k] = (x, y);
+                    lanes.index[k] = i;
+                    lanes.at[k] = at;
+                    lanes.n += 1;
                 }
             }
-            i += n as u32;
+        }
+        if lanes.n > 0 {
+            self.run(ctx, &mut lanes, &mut g, sums, rays);
+        }
+    }
+
+    /// Traces `lanes`' wave, adds each lane's radiance to its pixel's sums in lane order
+    /// and empties the wave.
+    fn run(
+        &self,
+        ctx: &SceneContext,
+        lanes: &mut WaveLanes,
+        g: &mut Surfaces,
+        sums: &mut [f64],
+        rays: &mut u64,
+    ) {
+        // The lanes past `n` repeat lane 0's sample: computed on, never added.
+        for k in lanes.n..LANES {
+            lanes.stream[k] = lanes.stream[0];
+            lanes.pixel[k] = lanes.pixel[0];
+            lanes.index[k] = lanes.index[0];
+        }
+        let l = run_wide(Paths {
+            wave: self,
+            ctx,
+            lanes,
+            rays,
+            g,
+        });
+        for k in 0..lanes.n {
+            let v = [l[0][k], l[1][k], l[2][k]];
+            if v.iter().all(|c| c.is_finite()) {
+                let at = lanes.at[k];
+                for (s, c) in sums[at..at + 3].iter_mut().zip(v) {
+                    *s += c as f64;
+                }
+            }
+        }
+        lanes.n = 0;
+    }
+}
+
+/// The samples of a wave: lane `k < n` is sample `index[k]` of pixel `pixel[k]`, whose
+/// stream is `stream[k]` and whose sums start at `at[k]`.
+struct WaveLanes {
+    stream: [PixelStream; LANES],
+    pixel: [(u32, u32); LANES],
+    index: [u32; LANES],
+    at: [usize; LANES],
+    n: usize,
+}
+
+impl WaveLanes {
+    fn new() -> Self {
+        WaveLanes {
+            stream: [PixelStream::new(0, 0, 0); LANES],
+            pixel: [(0, 0); LANES],
+            index: [0; LANES],
+            at: [0; LANES],
+            n: 0,
         }
     }
 }
 
-/// One wave: samples `first..first + n` of one pixel, run through [`run_wide`].
+/// One wave, run through [`run_wide`].
 struct Paths<'a, 'c> {
     wave: &'a Wave,
     ctx: &'a SceneContext<'c>,
-    stream: &'a PixelStream,
-    pixel: (u32, u32),
-    first: u32,
-    n: usize,
+    lanes: &'a WaveLanes,
     rays: &'a mut u64,
     g: &'a mut Surfaces,
 }
@@ -200,14 +259,11 @@ impl WideTask for Paths<'_, '_> {
         let Paths {
             wave,
             ctx,
-            stream,
-            pixel,
-            first,
-            n,
+            lanes,
             rays,
             g,
         } = self;
-        wave.trace(ctx, stream, pixel, first, n, rays, g)
+        wave.trace(ctx, lanes, rays, g)
     }
 }
 
@@ -312,25 +368,23 @@ fn lobe_of(c: f32, pr: f32) -> f32 {
 }
 
 impl Wave {
-    /// The radiance of samples `first..first + n` of `pixel` (module docs: the steps are
-    /// `path::trace`'s, named alike).
-    #[allow(clippy::too_many_arguments)]
+    /// The radiance of `lanes`' samples (module docs: the steps are `path::trace`'s, named
+    /// alike).
     #[inline(always)]
     fn trace(
         &self,
         ctx: &SceneContext,
-        stream: &PixelStream,
-        (x, y): (u32, u32),
-        first: u32,
-        n: usize,
+        lanes: &WaveLanes,
         rays: &mut u64,
         g: &mut Surfaces,
     ) -> Lanes3 {
+        let n = lanes.n;
         // Camera rays: film draws, the filter's offsets, the camera.
         let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
-        let mut sampler = LaneSampler::<LANES>::film(stream, first, &mut fx, &mut fy);
+        let mut sampler = LaneSampler::<LANES>::film(&lanes.stream, &lanes.index, &mut fx, &mut fy);
         for k in 0..LANES {
             let off = ctx.filter.sample(Vec2::new(fx[k], fy[k]));
+            let (x, y) = lanes.pixel[k];
             fx[k] = (x as f32 + 0.5) + off.x;
             fy[k] = (y as f32 + 0.5) + off.y;
         }

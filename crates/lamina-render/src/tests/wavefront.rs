@@ -76,6 +76,13 @@ fn wavefront_is_path_bit_for_bit() {
     // 1, 2, 4, 8 and 5 samples, so waves of every fill.
     let base = small_canopy_scene();
     same_both_ways("canopy", &base, &opts(21, 2));
+    // An odd image size and 7 spp (passes of 1, 1, 2 and 3): the first passes' waves hold
+    // several pixels, some pixels' samples span two waves, and tiles end in partly filled
+    // waves.
+    let mut s = base.clone();
+    s.film.width = 37;
+    s.film.height = 23;
+    same_both_ways("37 x 23 pixels, 7 spp", &s, &opts(7, 2));
     same_both_ways(
         "canopy, another seed, one thread",
         &base,

@@ -206,14 +206,22 @@ impl Wave {
             rays,
             g,
         });
-        for k in 0..lanes.n {
-            let v = [l[0][k], l[1][k], l[2][k]];
-            if v.iter().all(|c| c.is_finite()) {
-                let at = lanes.at[k];
-                for (s, c) in sums[at..at + 3].iter_mut().zip(v) {
-                    *s += c as f64;
+        // A pixel's lanes are neighbours: their sum is kept in registers across them (the
+        // same additions in the same order, without a store and reload between each).
+        let mut k = 0;
+        while k < lanes.n {
+            let at = lanes.at[k];
+            let mut acc = [sums[at], sums[at + 1], sums[at + 2]];
+            while k < lanes.n && lanes.at[k] == at {
+                let v = [l[0][k], l[1][k], l[2][k]];
+                if v.iter().all(|c| c.is_finite()) {
+                    for (s, c) in acc.iter_mut().zip(v) {
+                        *s += c as f64;
+                    }
                 }
+                k += 1;
             }
+            sums[at..at + 3].copy_from_slice(&acc);
         }
         lanes.n = 0;
     }

@@ -34,8 +34,8 @@ pub struct RenderFlags {
     /// for comparison; in builds with the `embree` feature).
     #[arg(long, value_name = "ENGINE", default_value = "lamina", value_parser = parse_accel)]
     pub accel: lamina_render::accel::Backend,
-    /// Follow every path on its own, even where the wavefront path tracer (a pixel's
-    /// samples side by side) serves the scene: the same image bit for bit, for timing.
+    /// Follow every path on its own, even where the wavefront path tracer (pixel samples
+    /// side by side) serves the scene: the same image bit for bit, for timing.
     #[arg(long)]
     pub one_path_at_a_time: bool,
 }

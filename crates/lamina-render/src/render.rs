@@ -76,8 +76,8 @@ pub struct RenderOptions {
     /// feature, Embree 3 (an error otherwise). The images agree within noise.
     pub accel: crate::accel::Backend,
     /// Follow every path on its own ([`crate::integrators::path`]) even where the
-    /// wavefront path tracer serves the scene (`integrators::wave`: a pixel's samples side
-    /// by side). The image is the same bit for bit either way; this is for checks and
+    /// wavefront path tracer serves the scene (`integrators::wave`: pixel samples side by
+    /// side). The image is the same bit for bit either way; this is for checks and
     /// timing.
     pub one_path_at_a_time: bool,
 }

@@ -1,15 +1,19 @@
-//! The path tracer over a pixel's samples side by side: a *wavefront* of up to
-//! [`LANES`] paths followed vertex by vertex, the same estimator as [`super::path`] and
-//! the same numbers bit for bit, computed in another order.
+//! The path tracer over pixel samples side by side: a *wavefront* of up to [`LANES`]
+//! paths followed vertex by vertex, the same estimator as [`super::path`] and the same
+//! numbers bit for bit, computed in another order.
 //!
 //! [`super::path::trace`] follows one path to its end before the next starts: every
 //! vertex is a chain of dependent work (hit, surface, light samples, shadow rays, BSDF
-//! sample, next ray). Here a pixel's samples advance together: their camera rays are made
-//! in vector lanes, their next-event and BSDF arithmetic runs in loops over the lanes that
-//! the compiler vectorizes ([`lamina_accel::wide::run_wide`]: AVX2 + FMA where the CPU has
-//! them), their random numbers share each dimension's seed (a pixel's samples draw the
-//! same dimensions in the same order, [`LaneSampler`]), and their ray queries are issued
-//! back to back, independent walks the CPU overlaps. The ray queries stay one ray at a
+//! sample, next ray). Here the samples of a tile's pass advance [`LANES`] at a time: a
+//! pixel's 16 samples of a full pass, or several pixels' samples side by side in the
+//! first passes (of 1 to 8 samples per pixel), so that no lane idles for want of samples.
+//! Their camera rays are made in vector lanes, their next-event and BSDF arithmetic runs
+//! in loops over the lanes that the compiler vectorizes ([`lamina_accel::wide::run_wide`]:
+//! AVX2 + FMA where the CPU has them), their random numbers are drawn dimension by
+//! dimension for all lanes (every sample draws the same dimensions in the same order;
+//! lanes of one pixel share each dimension's seed, [`LaneSampler`]), and their ray queries
+//! are issued back to back, independent walks the CPU overlaps. Each lane's radiance is
+//! added to its pixel's sums in sample order, as the one-path loop adds it. The ray queries stay one ray at a
 //! time ([`crate::accel::Accel`]'s), and so do the per-lane parts that read memory (the
 //! hit's surface, a light's sample): only their order changes.
 //!
@@ -43,7 +47,8 @@ use lamina_accel::wide::{WideTask, run_wide};
 use lamina_core::{ColorInput, Integrator, Material};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_4};
 
-/// Paths of a wave: a pixel's samples of one pass, up to this many at a time.
+/// Paths of a wave: samples of one pass (one pixel's or several pixels'), up to this many
+/// at a time.
 pub(crate) const LANES: usize = 16;
 /// Most lights next-event estimation samples at a vertex in a scene the wave serves.
 const MAX_LIGHTS: usize = 8;

@@ -17,10 +17,11 @@
 //! time ([`crate::accel::Accel`]'s), and so do the per-lane parts that read memory (the
 //! hit's surface, a light's sample): only their order changes.
 //!
-//! **What it serves** ([`Wave::new`]): RGB renders with the `path` integrator and
-//! `light_sampling = "all"` whose materials are all `diffuse` or `diffuse_transmission`
-//! with constant colours and no normal map: the diffuse leaves of canopy and comparison
-//! scenes. Geometry (mattes, instances, vertex normals, periodic domains), lights, sky,
+//! **What it serves** ([`Wave::new`]): RGB renders with the `path` integrator whose
+//! materials are all `diffuse` or `diffuse_transmission` with constant colours and no
+//! normal map: the diffuse leaves of canopy and comparison scenes. Next-event estimation
+//! samples every light (`light_sampling = "all"`, up to [`MAX_LIGHTS`] of them) or one
+//! light per lane drawn by power (`"one"`, any number). Geometry (mattes, instances, vertex normals, periodic domains), lights, sky,
 //! camera and filter are whatever the scene has. Other scenes, renders with
 //! [`crate::RenderOptions::one_path_at_a_time`], and CPUs without AVX2 + FMA (where the
 //! lane loops compiled for plain x86-64 are slower than one path at a time) take
@@ -50,7 +51,8 @@ use std::f32::consts::{FRAC_1_PI, FRAC_PI_4};
 /// Paths of a wave: samples of one pass (one pixel's or several pixels'), up to this many
 /// at a time.
 pub(crate) const LANES: usize = 16;
-/// Most lights next-event estimation samples at a vertex in a scene the wave serves.
+/// Most lights next-event estimation samples at a vertex, under `light_sampling = "all"`,
+/// in a scene the wave serves.
 const MAX_LIGHTS: usize = 8;
 
 type Lanes = [f32; LANES];
@@ -89,8 +91,8 @@ impl Wave {
         else {
             return None;
         };
-        if ctx.lights.pick.is_some() || ctx.lights.nee().len() > MAX_LIGHTS || !ctx.sets.is_empty()
-        {
+        let all = ctx.lights.pick.is_none();
+        if (all && ctx.lights.nee().len() > MAX_LIGHTS) || !ctx.sets.is_empty() {
             return None;
         }
         let constant = |c: &ColorInput| match c {
@@ -524,11 +526,23 @@ impl Wave {
                 woz[k] = dot([-d[0][k], -d[1][k], -d[2][k]], &g.n, k);
             }
             // Next-event estimation: each light's sample per lane, its value in lanes, the
-            // shadow rays per lane.
-            for (j, light) in nee.iter().enumerate() {
+            // shadow rays per lane. Every light of `nee` in turn (`light_sampling = "all"`),
+            // or (`"one"`) one light per lane, drawn by the vertex's first number
+            // (`SceneContext::nee_lights`), its sample's numbers after it.
+            let picked = ctx.lights.pick.as_ref().map(|pick| {
+                let mut u = [0.0f32; LANES];
+                sampler.peek_1d(0, &mut u);
+                let (mut which, mut prob) = ([0usize; LANES], [1.0f32; LANES]);
+                for k in lanes_of(alive) {
+                    (which[k], prob[k]) = pick.choose(u[k]);
+                }
+                (which, prob)
+            });
+            let (first, rounds) = if picked.is_some() { (1, 1) } else { (0, nl) };
+            for j in 0..rounds {
                 let (mut ux, mut uy) = ([0.0f32; LANES], [0.0f32; LANES]);
-                if light.uses_sample() {
-                    sampler.peek_2d(j as u32, &mut ux, &mut uy);
+                if picked.is_some() || nee[j as usize].uses_sample() {
+                    sampler.peek_2d(first + j, &mut ux, &mut uy);
                 }
                 let mut ls: [Option<LightSample>; LANES] = [None; LANES];
                 let mut wi = [[0.0f32; LANES]; 3];
@@ -537,10 +551,21 @@ impl Wave {
                 let mut delta = [false; LANES];
                 let mut valid = [false; LANES];
                 for k in lanes_of(alive) {
-                    let Some(mut s) = light.sample(get3(&g.p, k), Vec2::new(ux[k], uy[k])) else {
+                    // The lane's light and the probability it was drawn with (1 under "all").
+                    let (light, pick) = match &picked {
+                        Some((which, prob)) => (&nee[which[k]], prob[k]),
+                        None => (&nee[j as usize], 1.0),
+                    };
+                    // A light that reads no sample gets zeros (`next_2d_if`).
+                    let u = if light.uses_sample() {
+                        Vec2::new(ux[k], uy[k])
+                    } else {
+                        Vec2::ZERO
+                    };
+                    let Some(mut s) = light.sample(get3(&g.p, k), u) else {
                         continue;
                     };
-                    s.pdf *= 1.0; // the pick probability under `light_sampling = "all"`
+                    s.pdf *= pick;
                     let frame_ok = !g.smooth[k]
                         || (s.wi.dot(get3(&g.ng, k)) > 0.0) == (s.wi.dot(get3(&g.n, k)) > 0.0);
                     valid[k] = s.pdf > 0.0 && s.li != Vec3::ZERO && frame_ok;
@@ -587,12 +612,14 @@ impl Wave {
                     }
                 }
             }
-            // The BSDF's numbers come after the lights' (one each), then roulette's.
+            // The BSDF's numbers come after the lights' (one each, after the pick's), then
+            // roulette's.
+            let drawn = first + rounds;
             let mut u1 = [0.0f32; LANES];
             let (mut u2, mut u3) = ([0.0f32; LANES], [0.0f32; LANES]);
-            sampler.peek_1d(nl, &mut u1);
-            sampler.peek_2d(nl + 1, &mut u2, &mut u3);
-            sampler.skip(nl + 2);
+            sampler.peek_1d(drawn, &mut u1);
+            sampler.peek_2d(drawn + 1, &mut u2, &mut u3);
+            sampler.skip(drawn + 2);
             let roulette = bounces + 1 >= self.rr_depth;
             let mut ur = [0.0f32; LANES];
             if roulette {

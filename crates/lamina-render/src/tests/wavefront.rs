@@ -128,6 +128,22 @@ fn wavefront_is_path_bit_for_bit() {
         spectral: None,
     });
     same_both_ways("image sky", &s, &opts(8, 2));
+    // One light per vertex drawn by power (`light_sampling = "one"`): the sun, the quad,
+    // the sphere and the point light, and the image sky sampled by next-event estimation
+    // too; then with the sky left to BSDF samples.
+    for sky_sampling in [SkySampling::Light, SkySampling::default()] {
+        s.integrator = Integrator::Path {
+            max_depth: 6,
+            rr_depth: 2,
+            light_sampling: LightSampling::One,
+            sky_sampling,
+        };
+        same_both_ways(
+            &format!("one light drawn, {sky_sampling:?}"),
+            &s,
+            &opts(11, 2),
+        );
+    }
     // Alpha-matted cards: the mattes act in the ray queries only.
     let mut s = base.clone();
     let matte = Texture::from_texels(
@@ -191,7 +207,7 @@ fn wavefront_is_path_bit_for_bit() {
 }
 
 #[test]
-fn wavefront_serves_diffuse_materials_under_all_light_sampling_only() {
+fn wavefront_serves_diffuse_materials_only() {
     let base = small_canopy_scene();
     assert!(served(&base));
     let mut s = base.clone();
@@ -201,7 +217,22 @@ fn wavefront_serves_diffuse_materials_under_all_light_sampling_only() {
         light_sampling: LightSampling::One,
         sky_sampling: Default::default(),
     };
-    assert!(!served(&s), "one light per vertex");
+    assert!(served(&s), "one light per vertex");
+    // More lights than "all" samples in a wave: "all" leaves them to the one-path loop,
+    // "one" draws one per lane.
+    let mut s = base.clone();
+    while s.lights.len() <= 8 {
+        s.lights
+            .push(sun(Vec3::new(0.1 * s.lights.len() as f32, 1.0, 0.2), 10.0));
+    }
+    assert!(!served(&s), "nine lights, all sampled");
+    s.integrator = Integrator::Path {
+        max_depth: 5,
+        rr_depth: 2,
+        light_sampling: LightSampling::One,
+        sky_sampling: Default::default(),
+    };
+    assert!(served(&s), "nine lights, one drawn");
     let mut s = base.clone();
     s.integrator = Integrator::Paper { ambient: None };
     assert!(!served(&s), "the paper's integrator");

@@ -210,13 +210,16 @@ fn wavefront_is_path_bit_for_bit() {
 fn wavefront_serves_diffuse_materials_only() {
     let base = small_canopy_scene();
     assert!(served(&base));
-    let mut s = base.clone();
-    s.integrator = Integrator::Path {
-        max_depth: 5,
-        rr_depth: 2,
-        light_sampling: LightSampling::One,
-        sky_sampling: Default::default(),
+    let one_light = |s: &mut Scene| {
+        s.integrator = Integrator::Path {
+            max_depth: 5,
+            rr_depth: 2,
+            light_sampling: LightSampling::One,
+            sky_sampling: Default::default(),
+        }
     };
+    let mut s = base.clone();
+    one_light(&mut s);
     assert!(served(&s), "one light per vertex");
     // More lights than "all" samples in a wave: "all" leaves them to the one-path loop,
     // "one" draws one per lane.
@@ -226,12 +229,7 @@ fn wavefront_serves_diffuse_materials_only() {
             .push(sun(Vec3::new(0.1 * s.lights.len() as f32, 1.0, 0.2), 10.0));
     }
     assert!(!served(&s), "nine lights, all sampled");
-    s.integrator = Integrator::Path {
-        max_depth: 5,
-        rr_depth: 2,
-        light_sampling: LightSampling::One,
-        sky_sampling: Default::default(),
-    };
+    one_light(&mut s);
     assert!(served(&s), "nine lights, one drawn");
     let mut s = base.clone();
     s.integrator = Integrator::Paper { ambient: None };

@@ -63,9 +63,11 @@ pub struct DiffuseTransmission {
 }
 
 impl DiffuseTransmission {
-    /// Probability of sampling the reflection lobe, proportional to its luminance.
+    /// Probability of sampling the reflection lobe, proportional to its luminance (Rec.709
+    /// luminance of the reflectance against that of reflectance plus transmittance; one
+    /// half when both are black).
     #[inline]
-    fn reflect_probability(&self) -> f32 {
+    pub fn reflect_probability(&self) -> f32 {
         let r = luminance(self.reflectance).max(0.0);
         let t = luminance(self.transmittance).max(0.0);
         if r + t <= 0.0 { 0.5 } else { r / (r + t) }

@@ -18,11 +18,12 @@
 //! hit's surface, a light's sample): only their order changes.
 //!
 //! **What it serves** ([`Wave::new`]): RGB renders with the `path` integrator whose
-//! materials are all `diffuse` or `diffuse_transmission` with constant colours and no
-//! normal map: the diffuse leaves of canopy and comparison scenes. Next-event estimation
-//! samples every light (`light_sampling = "all"`, up to [`MAX_LIGHTS`] of them) or one
-//! light per lane drawn by power (`"one"`, any number). Geometry (mattes, instances, vertex normals, periodic domains), lights, sky,
-//! camera and filter are whatever the scene has. Other scenes, renders with
+//! materials are all `diffuse` or `diffuse_transmission` without a normal map, their
+//! colours constant or from textures (looked up per hit): the diffuse leaves of canopy and
+//! comparison scenes. Next-event estimation samples every light (`light_sampling =
+//! "all"`, up to [`MAX_LIGHTS`] of them) or one light per lane drawn by power (`"one"`,
+//! any number). Geometry (mattes, instances, vertex normals, periodic domains), lights,
+//! sky, camera and filter are whatever the scene has. Other scenes, renders with
 //! [`crate::RenderOptions::one_path_at_a_time`], and CPUs without AVX2 + FMA (where the
 //! lane loops compiled for plain x86-64 are slower than one path at a time) take
 //! [`super::path`] one path at a time;
@@ -46,6 +47,7 @@ use crate::shading::{ShadingFrame, shading_normal};
 use glam::{Vec2, Vec3};
 use lamina_accel::wide::{WideTask, run_wide};
 use lamina_core::{ColorInput, Integrator, Material};
+use lamina_leaf::lambert::DiffuseTransmission;
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_4};
 
 /// Paths of a wave: samples of one pass (one pixel's or several pixels'), up to this many
@@ -58,8 +60,8 @@ const MAX_LIGHTS: usize = 8;
 type Lanes = [f32; LANES];
 type Lanes3 = [[f32; LANES]; 3];
 
-/// A served material's lobes: `R / π` on the side of `wo`, `T / π` across, the reflection
-/// lobe sampled with probability `pr` (`diffuse`: `T = 0`, `pr = 1`, which is
+/// A served material's lobes at a point: `R / π` on the side of `wo`, `T / π` across, the
+/// reflection lobe sampled with probability `pr` (`diffuse`: `T = 0`, `pr = 1`, which is
 /// `Lambertian`'s arithmetic exactly).
 #[derive(Clone, Copy, Debug)]
 struct Lobes {
@@ -68,11 +70,51 @@ struct Lobes {
     pr: f32,
 }
 
+impl Lobes {
+    /// `m`'s lobes at texture coordinates `uv` (the colours as `SurfaceBsdf::at` reads
+    /// them); `None` for a material the wave does not serve.
+    fn of(m: &Material, uv: Vec2) -> Option<Lobes> {
+        if m.normal_map().is_some() {
+            return None;
+        }
+        match m {
+            Material::Diffuse { reflectance, .. } => Some(Lobes {
+                r: reflectance.at(uv).to_array(),
+                t: [0.0; 3],
+                pr: 1.0,
+            }),
+            Material::DiffuseTransmission {
+                reflectance,
+                transmittance,
+                ..
+            } => {
+                let d = DiffuseTransmission {
+                    reflectance: reflectance.at(uv),
+                    transmittance: transmittance.at(uv),
+                };
+                Some(Lobes {
+                    r: d.reflectance.to_array(),
+                    t: d.transmittance.to_array(),
+                    pr: d.reflect_probability(),
+                })
+            }
+            _ => None,
+        }
+    }
+}
+
+/// A served material: its lobes, or (colours from textures) looked up at each hit.
+#[derive(Clone, Copy, Debug)]
+enum Served {
+    Constant(Lobes),
+    Textured,
+}
+
 /// The wavefront path tracer for one scene (module docs).
 #[derive(Debug)]
 pub(crate) struct Wave {
     /// Per material index.
-    lobes: Vec<Lobes>,
+    lobes: Vec<Served>,
     max_depth: u32,
     rr_depth: u32,
     /// Whether any primitive or shape emits (quad and sphere lights): only then can a hit
@@ -95,37 +137,20 @@ impl Wave {
         if (all && ctx.lights.nee().len() > MAX_LIGHTS) || !ctx.sets.is_empty() {
             return None;
         }
-        let constant = |c: &ColorInput| match c {
-            ColorInput::Constant(v) => Some(*v),
-            _ => None,
-        };
+        let constant = |c: &ColorInput| matches!(c, ColorInput::Constant(_));
         let mut lobes = Vec::with_capacity(ctx.scene.materials.len());
         for m in &ctx.scene.materials {
-            if m.normal_map().is_some() {
-                return None;
-            }
+            let here = Lobes::of(m, Vec2::ZERO)?;
             lobes.push(match m {
-                Material::Diffuse { reflectance, .. } => Lobes {
-                    r: constant(reflectance)?.to_array(),
-                    t: [0.0; 3],
-                    pr: 1.0,
-                },
+                Material::Diffuse { reflectance, .. } if constant(reflectance) => {
+                    Served::Constant(here)
+                }
                 Material::DiffuseTransmission {
                     reflectance,
                     transmittance,
                     ..
-                } => {
-                    let (r, t) = (constant(reflectance)?, constant(transmittance)?);
-                    // `DiffuseTransmission::reflect_probability`.
-                    let lum = |c: Vec3| lamina_leaf::sampling::luminance(c).max(0.0);
-                    let (lr, lt) = (lum(r), lum(t));
-                    Lobes {
-                        r: r.to_array(),
-                        t: t.to_array(),
-                        pr: if lr + lt <= 0.0 { 0.5 } else { lr / (lr + lt) },
-                    }
-                }
-                _ => return None,
+                } if constant(reflectance) && constant(transmittance) => Served::Constant(here),
+                _ => Served::Textured,
             });
         }
         let emitters = ctx
@@ -505,7 +530,12 @@ impl Wave {
             for k in lanes_of(alive) {
                 let (prim, b) = (g.prim[k], bary[k]);
                 let (p, info) = ctx.accel.surface(prim, b);
-                let lobes = &self.lobes[(info.flags & ID_MASK) as usize];
+                let m = (info.flags & ID_MASK) as usize;
+                let lobes = match self.lobes[m] {
+                    Served::Constant(l) => l,
+                    Served::Textured => Lobes::of(&ctx.scene.materials[m], info.uv_at(b))
+                        .expect("a served material"),
+                };
                 let ns = shading_normal(&ctx.accel, prim, b, &info, None);
                 let frame = ShadingFrame::new(&info, ns, -get3(&d, k));
                 set3(&mut g.p, k, p);

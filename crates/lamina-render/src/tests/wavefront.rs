@@ -163,6 +163,33 @@ fn wavefront_is_path_bit_for_bit() {
         }),
     };
     same_both_ways("alpha mattes", &s, &opts(12, 2));
+    // Colours from textures, looked up per hit: a textured reflectance and transmittance
+    // (their luminance ratio, the lobe choice, varying over the card) and a textured
+    // diffuse.
+    let mut s = base.clone();
+    let tex = |a: f32, b: f32| ColorInput::Texture {
+        map: Texture::from_texels(
+            4,
+            4,
+            (0..16)
+                .map(|i| Vec4::new(a * (i % 4) as f32, b + 0.05 * (i / 4) as f32, 0.1, 1.0))
+                .collect(),
+            Wrap::Repeat,
+        ),
+        factor: Vec3::new(0.9, 0.8, 1.0),
+    };
+    s.materials[0] = Material::DiffuseTransmission {
+        name: "textured leaf".into(),
+        reflectance: tex(0.1, 0.2),
+        transmittance: tex(0.05, 0.3),
+        alpha: None,
+    };
+    s.materials[1] = Material::Diffuse {
+        name: "textured".into(),
+        reflectance: tex(0.2, 0.1),
+        alpha: None,
+    };
+    same_both_ways("textured colours", &s, &opts(12, 2));
     // Instances (rotated, scaled, mirrored).
     let (inst, _) = instanced_and_flat(&test_transforms());
     same_both_ways("instances", &inst, &opts(8, 2));
@@ -243,7 +270,7 @@ fn wavefront_serves_diffuse_materials_only() {
         },
         alpha: None,
     };
-    assert!(!served(&s), "a textured colour");
+    assert!(served(&s), "a textured colour");
     let mut s = base;
     let leaf = lamina_leaf::LeafMaterial::new(Default::default(), Default::default()).unwrap();
     s.materials[0] = Material::Leaf {

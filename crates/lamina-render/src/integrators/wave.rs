@@ -13,9 +13,9 @@
 //! dimension for all lanes (every sample draws the same dimensions in the same order;
 //! lanes of one pixel share each dimension's seed, [`LaneSampler`]), and their ray queries
 //! are issued back to back, independent walks the CPU overlaps. Each lane's radiance is
-//! added to its pixel's sums in sample order, as the one-path loop adds it. The ray queries stay one ray at a
-//! time ([`crate::accel::Accel`]'s), and so do the per-lane parts that read memory (the
-//! hit's surface, a light's sample): only their order changes.
+//! added to its pixel's sums in sample order, as the one-path loop adds it. The ray
+//! queries stay one ray at a time ([`crate::accel::Accel`]'s), and so do the per-lane
+//! parts that read memory (the hit's surface, a light's sample): only their order changes.
 //!
 //! **What it serves** ([`Wave::new`]): RGB renders with the `path` integrator whose
 //! materials are all `diffuse` or `diffuse_transmission` without a normal map, their
@@ -71,18 +71,25 @@ struct Lobes {
 }
 
 impl Lobes {
-    /// `m`'s lobes at texture coordinates `uv` (the colours as `SurfaceBsdf::at` reads
-    /// them); `None` for a material the wave does not serve.
-    fn of(m: &Material, uv: Vec2) -> Option<Lobes> {
-        if m.normal_map().is_some() {
-            return None;
-        }
+    /// Whether the wave serves material `m`: `diffuse` or `diffuse_transmission` without a
+    /// normal map.
+    fn serves(m: &Material) -> bool {
+        m.normal_map().is_none()
+            && matches!(
+                m,
+                Material::Diffuse { .. } | Material::DiffuseTransmission { .. }
+            )
+    }
+
+    /// Served material `m`'s lobes at texture coordinates `uv` (its colours as
+    /// `SurfaceBsdf::at` reads them; black for a material the wave does not serve).
+    fn at(m: &Material, uv: Vec2) -> Lobes {
         match m {
-            Material::Diffuse { reflectance, .. } => Some(Lobes {
+            Material::Diffuse { reflectance, .. } => Lobes {
                 r: reflectance.at(uv).to_array(),
                 t: [0.0; 3],
                 pr: 1.0,
-            }),
+            },
             Material::DiffuseTransmission {
                 reflectance,
                 transmittance,
@@ -92,13 +99,17 @@ impl Lobes {
                     reflectance: reflectance.at(uv),
                     transmittance: transmittance.at(uv),
                 };
-                Some(Lobes {
+                Lobes {
                     r: d.reflectance.to_array(),
                     t: d.transmittance.to_array(),
                     pr: d.reflect_probability(),
-                })
+                }
             }
-            _ => None,
+            _ => Lobes {
+                r: [0.0; 3],
+                t: [0.0; 3],
+                pr: 1.0,
+            },
         }
     }
 }
@@ -140,7 +151,10 @@ impl Wave {
         let constant = |c: &ColorInput| matches!(c, ColorInput::Constant(_));
         let mut lobes = Vec::with_capacity(ctx.scene.materials.len());
         for m in &ctx.scene.materials {
-            let here = Lobes::of(m, Vec2::ZERO)?;
+            if !Lobes::serves(m) {
+                return None;
+            }
+            let here = Lobes::at(m, Vec2::ZERO);
             lobes.push(match m {
                 Material::Diffuse { reflectance, .. } if constant(reflectance) => {
                     Served::Constant(here)
@@ -533,8 +547,7 @@ impl Wave {
                 let m = (info.flags & ID_MASK) as usize;
                 let lobes = match self.lobes[m] {
                     Served::Constant(l) => l,
-                    Served::Textured => Lobes::of(&ctx.scene.materials[m], info.uv_at(b))
-                        .expect("a served material"),
+                    Served::Textured => Lobes::at(&ctx.scene.materials[m], info.uv_at(b)),
                 };
                 let ns = shading_normal(&ctx.accel, prim, b, &info, None);
                 let frame = ShadingFrame::new(&info, ns, -get3(&d, k));

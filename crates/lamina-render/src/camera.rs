@@ -167,16 +167,21 @@ mod tests {
         }
     }
 
-    #[test]
-    fn centre_ray_looks_at_target_and_corners_match_fov() {
-        let cam = Camera {
-            position: Vec3::ZERO,
-            look_at: Vec3::new(0.0, 0.0, -1.0),
+    /// A pinhole camera (no aperture) at `position` looking at `look_at`, `y` up.
+    fn pinhole(position: Vec3, look_at: Vec3, fov_deg: f32) -> Camera {
+        Camera {
+            position,
+            look_at,
             up: Vec3::Y,
-            fov_deg: 90.0,
+            fov_deg,
             aperture_radius: 0.0,
             focus_distance: 1.0,
-        };
+        }
+    }
+
+    #[test]
+    fn centre_ray_looks_at_target_and_corners_match_fov() {
+        let cam = pinhole(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), 90.0);
         let film = box_film(200, 100);
         let m = CameraModel::new(&cam, &film).unwrap();
         let (_, d) = m.generate_ray(Vec2::new(100.0, 50.0), Vec2::ZERO);
@@ -193,14 +198,7 @@ mod tests {
 
     #[test]
     fn pinhole_lanes_are_generate_ray() {
-        let cam = Camera {
-            position: Vec3::new(0.35, 1.5, 3.7),
-            look_at: Vec3::new(0.0, 0.95, 0.0),
-            up: Vec3::Y,
-            fov_deg: 50.0,
-            aperture_radius: 0.0,
-            focus_distance: 1.0,
-        };
+        let cam = pinhole(Vec3::new(0.35, 1.5, 3.7), Vec3::new(0.0, 0.95, 0.0), 50.0);
         let film = box_film(640, 360);
         let m = CameraModel::new(&cam, &film).unwrap();
         assert!(!m.uses_lens());

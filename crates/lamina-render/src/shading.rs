@@ -101,6 +101,15 @@ impl ShadingFrame {
         }
     }
 
+    /// The flat-shaded frame `frame` of a surface with unit geometric normal `ng`.
+    pub(crate) fn geometric(frame: Frame, ng: Vec3) -> Self {
+        ShadingFrame {
+            frame,
+            ng,
+            smooth: false,
+        }
+    }
+
     /// Whether the frame is a smooth (vertex or mapped) normal's rather than the
     /// geometric one: only then can [`ShadingFrame::consistent`] be false.
     #[inline]

@@ -17,13 +17,17 @@
 //! queries stay one ray at a time ([`crate::accel::Accel`]'s), and so do the per-lane
 //! parts that read memory (the hit's surface, a light's sample): only their order changes.
 //!
-//! **What it serves** ([`Wave::new`]): RGB renders with the `path` integrator whose
-//! materials are all `diffuse` or `diffuse_transmission` without a normal map, their
-//! colours constant or from textures (looked up per hit): the diffuse leaves of canopy and
-//! comparison scenes. Next-event estimation samples every light (`light_sampling =
+//! **What it serves** ([`Wave::new`]): RGB renders with the `path` integrator. A lane
+//! whose vertex is on a `diffuse` or `diffuse_transmission` material without a normal map
+//! (colours constant or from textures, looked up per hit: the diffuse leaves of canopy and
+//! comparison scenes) has its lobes' arithmetic done in the lane loops; a lane on any
+//! other material (`leaf` with its maps, glTF's `pbr`, a normal map) builds the
+//! material's [`SurfaceBsdf`] at its hit and calls its `eval`, `pdf` and `sample` as
+//! `path.rs` does, lane by lane, in the same wave (its ray queries still back to back
+//! with the other lanes'). Next-event estimation samples every light (`light_sampling =
 //! "all"`, up to [`MAX_LIGHTS`] of them) or one light per lane drawn by power (`"one"`,
 //! any number). Geometry (mattes, instances, vertex normals, periodic domains), lights,
-//! sky, camera and filter are whatever the scene has. Other scenes, renders with
+//! sky, camera and filter are whatever the scene has. Spectral renders, renders with
 //! [`crate::RenderOptions::one_path_at_a_time`], and CPUs without AVX2 + FMA (where the
 //! lane loops compiled for plain x86-64 are slower than one path at a time) take
 //! [`super::path`] one path at a time;
@@ -40,14 +44,17 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::SceneContext;
-use crate::accel::{Hit, HitKind, ID_MASK, PrimRef, Ray};
+use crate::accel::{Hit, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
 use crate::lights::{AnyLight, LightSample, power_heuristic};
+use crate::materials::SurfaceBsdf;
 use crate::sampler::{LaneSampler, PixelStream};
 use crate::shading::{ShadingFrame, shading_normal};
 use glam::{Vec2, Vec3};
 use lamina_accel::wide::{WideTask, run_wide};
 use lamina_core::{ColorInput, Integrator, Material};
-use lamina_leaf::lambert::DiffuseTransmission;
+use lamina_leaf::Bsdf;
+use lamina_leaf::frame::Frame;
+use lamina_leaf::lambert::{DiffuseTransmission, Lambertian};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_4};
 
 /// Paths of a wave: samples of one pass (one pixel's or several pixels'), up to this many
@@ -71,8 +78,8 @@ struct Lobes {
 }
 
 impl Lobes {
-    /// Whether the wave serves material `m`: `diffuse` or `diffuse_transmission` without a
-    /// normal map.
+    /// Whether the lane arithmetic serves material `m`: `diffuse` or
+    /// `diffuse_transmission` without a normal map.
     fn serves(m: &Material) -> bool {
         m.normal_map().is_none()
             && matches!(
@@ -105,20 +112,27 @@ impl Lobes {
                     pr: d.reflect_probability(),
                 }
             }
-            _ => Lobes {
-                r: [0.0; 3],
-                t: [0.0; 3],
-                pr: 1.0,
-            },
+            _ => NO_LOBES,
         }
     }
 }
 
-/// A served material: its lobes, or (colours from textures) looked up at each hit.
+/// Black lobes: what a lane whose material the lane arithmetic does not serve carries.
+const NO_LOBES: Lobes = Lobes {
+    r: [0.0; 3],
+    t: [0.0; 3],
+    pr: 1.0,
+};
+
+/// How the wave shades a material: diffuse lobes in lanes, constant or (colours from
+/// textures) looked up at each hit, or any other material (`leaf`, `pbr`, a normal map)
+/// through its [`SurfaceBsdf`], built at each hit and called lane by lane exactly as
+/// `path.rs` calls it.
 #[derive(Clone, Copy, Debug)]
 enum Served {
     Constant(Lobes),
     Textured,
+    General,
 }
 
 /// The wavefront path tracer for one scene (module docs).
@@ -152,7 +166,8 @@ impl Wave {
         let mut lobes = Vec::with_capacity(ctx.scene.materials.len());
         for m in &ctx.scene.materials {
             if !Lobes::serves(m) {
-                return None;
+                lobes.push(Served::General);
+                continue;
             }
             let here = Lobes::at(m, Vec2::ZERO);
             lobes.push(match m {
@@ -334,6 +349,11 @@ struct Surfaces {
     tr: Lanes3,
     pr: Lanes,
     prim: [PrimRef; LANES],
+    /// Lanes whose material is [`Served::General`]: their BSDF, shading frame and `wo`
+    /// (local) at this vertex (other lanes hold stale values, never read).
+    bsdf: [SurfaceBsdf; LANES],
+    frame: [ShadingFrame; LANES],
+    wo: [Vec3; LANES],
 }
 
 impl Surfaces {
@@ -350,6 +370,11 @@ impl Surfaces {
             tr: z,
             pr: [0.0; LANES],
             prim: [PrimRef::NONE; LANES],
+            bsdf: [SurfaceBsdf::Diffuse(Lambertian {
+                reflectance: Vec3::ZERO,
+            }); LANES],
+            frame: [ShadingFrame::geometric(Frame::from_normal(Vec3::Z), Vec3::Z); LANES],
+            wo: [Vec3::Z; LANES],
         }
     }
 }
@@ -541,16 +566,27 @@ impl Wave {
                 break;
             }
             // The surfaces (per lane: memory reads).
+            let mut general = 0u32;
             for k in lanes_of(alive) {
                 let (prim, b) = (g.prim[k], bary[k]);
                 let (p, info) = ctx.accel.surface(prim, b);
                 let m = (info.flags & ID_MASK) as usize;
+                let material = &ctx.scene.materials[m];
                 let lobes = match self.lobes[m] {
                     Served::Constant(l) => l,
-                    Served::Textured => Lobes::at(&ctx.scene.materials[m], info.uv_at(b)),
+                    Served::Textured => Lobes::at(material, info.uv_at(b)),
+                    Served::General => {
+                        general |= 1 << k;
+                        NO_LOBES
+                    }
                 };
-                let ns = shading_normal(&ctx.accel, prim, b, &info, None);
+                let ns = shading_normal(&ctx.accel, prim, b, &info, material.normal_map());
                 let frame = ShadingFrame::new(&info, ns, -get3(&d, k));
+                if general & (1 << k) != 0 {
+                    g.bsdf[k] = SurfaceBsdf::at(material, info.uv_at(b));
+                    g.frame[k] = frame;
+                    g.wo[k] = frame.to_local(-get3(&d, k));
+                }
                 set3(&mut g.p, k, p);
                 set3(&mut g.s, k, frame.frame.s);
                 set3(&mut g.t, k, frame.frame.t);
@@ -648,6 +684,20 @@ impl Wave {
                     add[2][k] = ((beta[2][k] * fb) * li[2][k]) * scale;
                     shoot[k] = valid[k] && (fr != 0.0 || fg != 0.0 || fb != 0.0);
                 }
+                // Other materials' lanes: `path.rs`'s steps, lane by lane.
+                for k in lanes_of(alive & general & bits(&valid)) {
+                    let Some(s) = ls[k].as_ref() else { continue };
+                    let (bsdf, wo) = (&g.bsdf[k], g.wo[k]);
+                    let wi = g.frame[k].to_local(s.wi);
+                    let f = bsdf.eval(wo, wi);
+                    shoot[k] = f != Vec3::ZERO;
+                    let w = if s.delta {
+                        1.0
+                    } else {
+                        power_heuristic(s.pdf, bsdf.pdf(wo, wi))
+                    };
+                    set3(&mut add, k, get3(&beta, k) * f * s.li * (w / s.pdf));
+                }
                 for k in lanes_of(alive & bits(&shoot)) {
                     let s = ls[k].as_ref().expect("a valid lane has its sample");
                     if ctx.unoccluded(get3(&g.p, k), get3(&g.ng, k), g.prim[k], s, rays) {
@@ -669,6 +719,9 @@ impl Wave {
                 sampler.peek_1d(0, &mut ur);
                 sampler.skip(1);
             }
+            // Other materials' lanes are made after the lane loop below, from the
+            // throughput it overwrites.
+            let beta_in = (general != 0).then_some(beta);
             // The BSDF sample, the throughput, roulette and the next ray, in lanes.
             let mut go = [false; LANES];
             let mut pdfs = [0.0f32; LANES];
@@ -740,6 +793,43 @@ impl Wave {
                 for c in 0..3 {
                     next_o[c][k] = p[c] + g.ng[c][k] * e;
                     next_d[c][k] = w[c];
+                }
+            }
+            // Other materials' lanes: the BSDF sample, throughput, roulette and next ray as
+            // `path.rs` makes them.
+            if let Some(beta_in) = beta_in {
+                for k in lanes_of(alive & general) {
+                    go[k] = false;
+                    let frame = &g.frame[k];
+                    let u = Vec3::new(u1[k], u2[k], u3[k]);
+                    let Some(bs) = g.bsdf[k].sample(g.wo[k], u) else {
+                        continue;
+                    };
+                    if !(bs.pdf > 0.0) {
+                        continue;
+                    }
+                    let dir = frame.to_world_unit(bs.wi);
+                    if !frame.consistent(dir) {
+                        continue;
+                    }
+                    let mut b = get3(&beta_in, k) * (bs.f / bs.pdf);
+                    if !(b.max_element() > 0.0) || !b.is_finite() {
+                        continue;
+                    }
+                    if roulette {
+                        let q = b.max_element().min(1.0);
+                        if q < 1.0 {
+                            if ur[k] >= q {
+                                continue;
+                            }
+                            b /= q;
+                        }
+                    }
+                    go[k] = true;
+                    pdfs[k] = bs.pdf;
+                    set3(&mut beta, k, b);
+                    set3(&mut next_o, k, spawn_origin(get3(&g.p, k), frame.ng, dir));
+                    set3(&mut next_d, k, dir);
                 }
             }
             alive &= bits(&go);

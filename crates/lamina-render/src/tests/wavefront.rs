@@ -12,8 +12,8 @@ use crate::{Crop, RenderOptions, SampleRange, render};
 use glam::{Vec2, Vec3, Vec4};
 use lamina_core::radiometry::{Periodic, Rect};
 use lamina_core::{
-    AlphaMask, ColorInput, Integrator, Light, LightSampling, Material, PixelFilter, Scene, Sky,
-    SkySampling,
+    AlphaMask, ColorInput, Integrator, Light, LightSampling, Material, NormalMap, PbrMaterial,
+    PixelFilter, Scene, Sky, SkySampling,
 };
 use lamina_leaf::{Texture, Wrap};
 
@@ -58,6 +58,36 @@ fn same_both_ways(what: &str, scene: &Scene, o: &RenderOptions) {
         a.iter().any(|s| s.max_element() > 0.0),
         "{what}: a black image proves little"
     );
+}
+
+/// A leaf material with all seven maps varying over the leaf (a bump map included), its
+/// alpha map opaque (the cards' outlines are not what is tested here).
+fn mapped_leaf() -> Material {
+    use lamina_leaf::{LeafMaps, LeafMaterial, LeafParams};
+    let map = |f: &dyn Fn(f32, f32) -> Vec4| {
+        let (w, h) = (12, 10);
+        let texels = (0..w * h)
+            .map(|i| f((i % w) as f32 / w as f32, (i / w) as f32 / h as f32))
+            .collect();
+        Some(Texture::from_texels(w, h, texels, Wrap::Repeat))
+    };
+    let maps = LeafMaps {
+        front: map(&|u, v| Vec4::new(0.05 + 0.1 * u, 0.3 - 0.1 * v, 0.04, 1.0)),
+        back: map(&|u, _| Vec4::new(0.2, 0.3 + 0.1 * u, 0.15, 1.0)),
+        translucency: map(&|u, v| Vec4::new(0.1 * u, 0.4, 0.05 + 0.05 * v, 1.0)),
+        alpha: map(&|_, _| Vec4::ONE),
+        thickness: map(&|u, v| Vec4::splat(0.4 + 0.3 * (9.0 * u).sin() * v)),
+        extinction: map(&|u, v| Vec4::splat(0.5 + 0.3 * (7.0 * v).sin() * u)),
+        bump: map(&|u, v| Vec4::splat(0.5 + 0.4 * (11.0 * u).sin() * (8.0 * v).cos())),
+    };
+    let params = LeafParams {
+        bump_scale: 0.02,
+        ..Default::default()
+    };
+    Material::Leaf {
+        name: "mapped leaf".into(),
+        leaf: std::sync::Arc::new(LeafMaterial::new(maps, params).unwrap()),
+    }
 }
 
 fn path(scene: &mut Scene, max_depth: u32, rr_depth: u32) {
@@ -190,6 +220,42 @@ fn wavefront_is_path_bit_for_bit() {
         alpha: None,
     };
     same_both_ways("textured colours", &s, &opts(12, 2));
+    // Materials the lane arithmetic does not serve, through their BSDFs lane by lane: a
+    // leaf with all seven maps (bump included) beside a diffuse ground (both kinds of lane
+    // in one wave), under "all" and "one", then beside a glTF-style pbr material with a
+    // normal map (its frame's side checks) and diffuse transmission.
+    let mut s = base.clone();
+    s.materials[0] = mapped_leaf();
+    same_both_ways("leaf material with maps", &s, &opts(12, 2));
+    path(&mut s, 7, 1);
+    same_both_ways("leaf material, deep paths", &s, &opts(9, 2));
+    let mut s1 = s.clone();
+    s1.integrator = Integrator::Path {
+        max_depth: 6,
+        rr_depth: 2,
+        light_sampling: LightSampling::One,
+        sky_sampling: SkySampling::Light,
+    };
+    same_both_ways("leaf material, one light drawn", &s1, &opts(9, 2));
+    let tilted = NormalMap {
+        map: Texture::from_texels(
+            2,
+            2,
+            vec![
+                Vec4::new(0.7, 0.5, 0.9, 1.0),
+                Vec4::new(0.3, 0.6, 0.85, 1.0),
+                Vec4::new(0.5, 0.2, 0.9, 1.0),
+                Vec4::new(0.5, 0.5, 1.0, 1.0),
+            ],
+            Wrap::Repeat,
+        ),
+        scale: 1.0,
+    };
+    let mut p = PbrMaterial::uniform("pbr", Vec3::new(0.5, 0.6, 0.3), 0.3, 0.35);
+    p.normal_map = Some(tilted);
+    p.transmission = 0.4;
+    s.materials[1] = Material::Pbr(Box::new(p));
+    same_both_ways("leaf and pbr with a normal map", &s, &opts(9, 2));
     // Instances (rotated, scaled, mirrored).
     let (inst, _) = instanced_and_flat(&test_transforms());
     same_both_ways("instances", &inst, &opts(8, 2));
@@ -234,7 +300,7 @@ fn wavefront_is_path_bit_for_bit() {
 }
 
 #[test]
-fn wavefront_serves_diffuse_materials_only() {
+fn wavefront_serves_rgb_path_renders() {
     let base = small_canopy_scene();
     assert!(served(&base));
     let one_light = |s: &mut Scene| {
@@ -272,10 +338,6 @@ fn wavefront_serves_diffuse_materials_only() {
     };
     assert!(served(&s), "a textured colour");
     let mut s = base;
-    let leaf = lamina_leaf::LeafMaterial::new(Default::default(), Default::default()).unwrap();
-    s.materials[0] = Material::Leaf {
-        name: "leaf".into(),
-        leaf: std::sync::Arc::new(leaf),
-    };
-    assert!(!served(&s), "the leaf material");
+    s.materials[0] = mapped_leaf();
+    assert!(served(&s), "the leaf material (its BSDF lane by lane)");
 }

@@ -90,13 +90,23 @@ fn mapped_leaf() -> Material {
     }
 }
 
-fn path(scene: &mut Scene, max_depth: u32, rr_depth: u32) {
-    scene.integrator = Integrator::Path {
+/// The path integrator with these settings.
+fn path_with(
+    max_depth: u32,
+    rr_depth: u32,
+    light_sampling: LightSampling,
+    sky_sampling: SkySampling,
+) -> Integrator {
+    Integrator::Path {
         max_depth,
         rr_depth,
-        light_sampling: LightSampling::All,
-        sky_sampling: Default::default(),
-    };
+        light_sampling,
+        sky_sampling,
+    }
+}
+
+fn path(scene: &mut Scene, max_depth: u32, rr_depth: u32) {
+    scene.integrator = path_with(max_depth, rr_depth, LightSampling::All, Default::default());
 }
 
 #[test]
@@ -136,12 +146,7 @@ fn wavefront_is_path_bit_for_bit() {
     same_both_ways("lens, box filter, delta sun", &s, &opts(16, 2));
     // The sky sampled by next-event estimation too, and an image sky.
     let mut s = base.clone();
-    s.integrator = Integrator::Path {
-        max_depth: 5,
-        rr_depth: 2,
-        light_sampling: LightSampling::All,
-        sky_sampling: SkySampling::Light,
-    };
+    s.integrator = path_with(5, 2, LightSampling::All, SkySampling::Light);
     same_both_ways("sky sampled", &s, &opts(8, 2));
     let tex = Texture::from_texels(
         8,
@@ -162,12 +167,7 @@ fn wavefront_is_path_bit_for_bit() {
     // the sphere and the point light, and the image sky sampled by next-event estimation
     // too; then with the sky left to BSDF samples.
     for sky_sampling in [SkySampling::Light, SkySampling::default()] {
-        s.integrator = Integrator::Path {
-            max_depth: 6,
-            rr_depth: 2,
-            light_sampling: LightSampling::One,
-            sky_sampling,
-        };
+        s.integrator = path_with(6, 2, LightSampling::One, sky_sampling);
         same_both_ways(
             &format!("one light drawn, {sky_sampling:?}"),
             &s,
@@ -230,12 +230,7 @@ fn wavefront_is_path_bit_for_bit() {
     path(&mut s, 7, 1);
     same_both_ways("leaf material, deep paths", &s, &opts(9, 2));
     let mut s1 = s.clone();
-    s1.integrator = Integrator::Path {
-        max_depth: 6,
-        rr_depth: 2,
-        light_sampling: LightSampling::One,
-        sky_sampling: SkySampling::Light,
-    };
+    s1.integrator = path_with(6, 2, LightSampling::One, SkySampling::Light);
     same_both_ways("leaf material, one light drawn", &s1, &opts(9, 2));
     let tilted = NormalMap {
         map: Texture::from_texels(
@@ -303,14 +298,8 @@ fn wavefront_is_path_bit_for_bit() {
 fn wavefront_serves_rgb_path_renders() {
     let base = small_canopy_scene();
     assert!(served(&base));
-    let one_light = |s: &mut Scene| {
-        s.integrator = Integrator::Path {
-            max_depth: 5,
-            rr_depth: 2,
-            light_sampling: LightSampling::One,
-            sky_sampling: Default::default(),
-        }
-    };
+    let one_light =
+        |s: &mut Scene| s.integrator = path_with(5, 2, LightSampling::One, Default::default());
     let mut s = base.clone();
     one_light(&mut s);
     assert!(served(&s), "one light per vertex");

@@ -21,7 +21,7 @@ pub struct Distribution1D {
     inv_len: Option<f32>,
 }
 
-/// Most buckets of a [`Distribution1D`]'s guide table (32 bytes each).
+/// Most buckets of a [`Distribution1D`]'s guide table (28 bytes each).
 const GUIDE_MAX: usize = 256;
 /// `cdf` entries a bucket holds from its first: a bucket whose entries are no more than one
 /// fewer (about the density over its mean: one to three for a Gaussian filter's bins)

@@ -66,7 +66,7 @@ impl FilterSampler {
     /// one) stays a few instructions that inline into every camera sample.
     #[inline(never)]
     fn tabulated(d: &Distribution1D, u: Vec2) -> Vec2 {
-        Vec2::new(d.sample(u.x).0, d.sample(u.y).0)
+        Vec2::new(d.sample_x(u.x), d.sample_x(u.y))
     }
 }
 

@@ -62,7 +62,7 @@ impl FilterSampler {
         (p * 2.0 - Vec2::ONE) * self.radius
     }
 
-    /// A tabulated filter's two searches, out of line: the box filter's path (the common
+    /// A tabulated filter's two lookups (inlined here, side by side), out of line: the box filter's path (the common
     /// one) stays a few instructions that inline into every camera sample.
     #[inline(never)]
     fn tabulated(d: &Distribution1D, u: Vec2) -> Vec2 {

@@ -80,11 +80,7 @@ impl ShadingFrame {
     /// either side; `None` for flat shading) and unit direction `wo` towards the viewer.
     #[inline]
     pub fn new(info: &PrimInfo, ns: Option<Vec3>, wo: Vec3) -> Self {
-        let geometric = ShadingFrame {
-            frame: info.frame(),
-            ng: info.n,
-            smooth: false,
-        };
+        let geometric = Self::geometric(info.frame(), info.n);
         let Some(ns) = ns else {
             return geometric;
         };
@@ -102,6 +98,7 @@ impl ShadingFrame {
     }
 
     /// The flat-shaded frame `frame` of a surface with unit geometric normal `ng`.
+    #[inline]
     pub(crate) fn geometric(frame: Frame, ng: Vec3) -> Self {
         ShadingFrame {
             frame,

@@ -580,7 +580,11 @@ impl Wave {
                         NO_LOBES
                     }
                 };
-                let ns = shading_normal(&ctx.accel, prim, b, &info, material.normal_map());
+                // Only a material the lane arithmetic does not serve can have a normal map.
+                let map = (general & (1 << k) != 0)
+                    .then(|| material.normal_map())
+                    .flatten();
+                let ns = shading_normal(&ctx.accel, prim, b, &info, map);
                 let frame = ShadingFrame::new(&info, ns, -get3(&d, k));
                 if general & (1 << k) != 0 {
                     g.bsdf[k] = SurfaceBsdf::at(material, info.uv_at(b));

@@ -46,7 +46,7 @@ const _: () = assert!(visible::PATH_BINS == 6 && visible::BINS == 6 * visible::S
 
 /// The channel sets of `scene` for `groups` (three bands each, channel `c` of set `j` =
 /// `groups[j][c]`), built in parallel on `pool`.
-fn build_sets(
+pub(crate) fn build_sets(
     scene: &Scene,
     groups: &[[&Band; 3]],
     illuminant: Illuminant,
@@ -143,11 +143,16 @@ impl Estimator for VisibleEstimator {
         3
     }
 
+    /// The tile loop finds a pixel's camera hits together (`Accel::intersect_many`).
+    fn takes_first_hit(&self) -> bool {
+        true
+    }
+
     fn estimate(
         &self,
         ctx: &SceneContext,
         ray: Ray,
-        _first: Option<Option<crate::accel::Hit>>, // never given: takes_first_hit is false
+        first: Option<Option<crate::accel::Hit>>,
         sampler: &mut PixelSampler,
         rays: &mut u64,
         out: &mut [f32],
@@ -155,7 +160,8 @@ impl Estimator for VisibleEstimator {
         let s = visible::STRIDE;
         let h = ((sampler.next_1d() * s as f32) as usize).min(s - 1);
         let pick = [h, s + h];
-        let l = radiance_sets::<2>(ctx, pick, ray, sampler, self.max_depth, self.rr_depth, rays);
+        let (d, r) = (self.max_depth, self.rr_depth);
+        let l = radiance_sets::<2>(ctx, pick, ray, first, sampler, d, r, rays);
         let mut rgb = Vec3::ZERO;
         for (lk, &j) in l.iter().zip(&pick) {
             for (w, v) in self.weights[j].iter().zip(lk.to_array()) {
@@ -250,28 +256,44 @@ impl Estimator for BandEstimator {
         self.bands
     }
 
+    /// The tile loop finds a pixel's camera hits together (`Accel::intersect_many`).
+    fn takes_first_hit(&self) -> bool {
+        true
+    }
+
     fn estimate(
         &self,
         ctx: &SceneContext,
         ray: Ray,
-        _first: Option<Option<crate::accel::Hit>>, // never given: takes_first_hit is false
+        first: Option<Option<crate::accel::Hit>>,
         sampler: &mut PixelSampler,
         rays: &mut u64,
         out: &mut [f32],
     ) {
         let start = *sampler;
         for chunk in &self.chunks {
-            // Every path of the sample from the same random numbers.
+            // Every path of the sample from the same random numbers and the same camera
+            // hit (found once, by the tile loop, for all of them).
             let mut s = start;
             let (a, d, r) = (chunk.start, self.max_depth, self.rr_depth);
             let mut l = [Vec3::ZERO; MAX_SETS_PER_PATH];
             let mut put = |v: &[Vec3]| l[..v.len()].copy_from_slice(v);
             match chunk.len() {
-                1 => put(&radiance_sets::<1>(ctx, [a], ray, &mut s, d, r, rays)),
+                1 => put(&radiance_sets::<1>(
+                    ctx,
+                    [a],
+                    ray,
+                    first,
+                    &mut s,
+                    d,
+                    r,
+                    rays,
+                )),
                 2 => put(&radiance_sets::<2>(
                     ctx,
                     [a, a + 1],
                     ray,
+                    first,
                     &mut s,
                     d,
                     r,
@@ -281,6 +303,7 @@ impl Estimator for BandEstimator {
                     ctx,
                     [a, a + 1, a + 2],
                     ray,
+                    first,
                     &mut s,
                     d,
                     r,
@@ -290,6 +313,7 @@ impl Estimator for BandEstimator {
                     ctx,
                     [a, a + 1, a + 2, a + 3],
                     ray,
+                    first,
                     &mut s,
                     d,
                     r,

@@ -23,7 +23,7 @@
 //! rule) is [`super::path`]'s.
 
 use super::SceneContext;
-use crate::accel::{FLAG_EMITTER, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
+use crate::accel::{FLAG_EMITTER, Hit, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
 use crate::lights::{LightSet, NO_TEXEL, power_heuristic};
 use crate::materials::SurfaceBsdf;
 use crate::sampler::PixelSampler;
@@ -182,11 +182,15 @@ impl SkySets {
 
 /// The radiance (W m⁻² sr⁻¹ per channel: per nm for spectral channels) arriving along the
 /// camera ray `ray` in each of the `G` sets `sets` (indices into [`SceneContext::sets`]).
-/// Adds the rays it traces to `rays`.
+/// `first`: the camera ray's first hit where the caller found it already (with
+/// `Accel::intersect_many`, a pixel's camera rays together; the same answer as the query
+/// made here otherwise). Adds the rays it traces to `rays`.
+#[allow(clippy::too_many_arguments)]
 pub fn radiance_sets<const G: usize>(
     ctx: &SceneContext,
     set_ids: [usize; G],
     mut ray: Ray,
+    mut first: Option<Option<Hit>>,
     sampler: &mut PixelSampler,
     max_depth: u32,
     rr_depth: u32,
@@ -222,7 +226,11 @@ pub fn radiance_sets<const G: usize>(
     };
     loop {
         *rays += 1;
-        let Some(hit) = ctx.accel.intersect_skip(&ray, skip) else {
+        let hit = match first.take() {
+            Some(hit) => hit,
+            None => ctx.accel.intersect_skip(&ray, skip),
+        };
+        let Some(hit) = hit else {
             for (i, light) in lights.iter().enumerate() {
                 if !light.is_infinite() {
                     continue;

@@ -401,3 +401,63 @@ fn visible_one_light_per_vertex_keeps_the_image() {
         assert!(other.stats.rays < all.stats.rays, "{what}: rays");
     }
 }
+
+/// A spectral path given its camera ray's first hit (the tile loop finds a pixel's camera
+/// hits together, `Accel::intersect_many`, and a band render's chunks share them) is the
+/// path that finds it itself: every set's radiance bit for bit, and the same ray count,
+/// over the colour chart's camera rays (misses, diffuse cards, RGB and pigment leaves).
+#[test]
+fn spectral_paths_given_their_camera_hit_are_the_same() {
+    use crate::accel::{Backend, Hit, Ray};
+    use crate::integrators::SceneContext;
+    use crate::integrators::spectral::radiance_sets;
+    use crate::sampler::PixelSampler;
+    use glam::Vec2;
+    use lamina_leaf::spectrum::bands::Illuminant;
+
+    let scene = colour_chart();
+    let b = bands(6);
+    let groups = [[&b[0], &b[1], &b[2]], [&b[3], &b[4], &b[5]]];
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let sets = crate::spectral::build_sets(&scene, &groups, Illuminant::Solar, &pool).unwrap();
+    let ctx = SceneContext::new(&scene, Backend::default())
+        .unwrap()
+        .with_sets(sets, vec![0, 1])
+        .unwrap();
+    let (w, h) = (scene.film.width, scene.film.height);
+    let (mut hits, mut paths) = (0, 0);
+    for y in (0..h).step_by(7) {
+        for x in (0..w).step_by(5) {
+            let film = Vec2::new(x as f32 + 0.37, y as f32 + 0.61);
+            let (origin, dir) = ctx.camera.generate_ray(film, Vec2::splat(0.5));
+            let ray = Ray {
+                origin,
+                dir,
+                tmax: f32::INFINITY,
+            };
+            let mut found: [Option<Hit>; 1] = [None];
+            ctx.accel.intersect_many(&[ray], &mut found);
+            hits += usize::from(found[0].is_some());
+            for i in 0..4 {
+                let start = PixelSampler::new(11, x, y, i);
+                let (mut s1, mut s2) = (start, start);
+                let (mut r1, mut r2) = (0u64, 0u64);
+                let a = radiance_sets::<2>(&ctx, [0, 1], ray, None, &mut s1, 8, 2, &mut r1);
+                let g =
+                    radiance_sets::<2>(&ctx, [0, 1], ray, Some(found[0]), &mut s2, 8, 2, &mut r2);
+                let bits = |l: &[Vec3; 2]| l.map(|v| v.to_array().map(f32::to_bits));
+                assert_eq!(bits(&a), bits(&g), "pixel ({x}, {y}) sample {i}");
+                assert_eq!(r1, r2, "pixel ({x}, {y}) sample {i}: rays");
+                paths += 1;
+            }
+        }
+    }
+    assert!(
+        hits > 0 && hits < paths / 4,
+        "{hits} of {} camera rays hit",
+        paths / 4
+    );
+}

@@ -278,13 +278,21 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput, Rende
 /// What a render does with one camera sample: `channels()` values from a camera ray
 /// (linear RGB, or one per band).
 pub(crate) trait Estimator: Sync {
+    /// Working memory [`Estimator::estimate`] writes over at every sample: made once per
+    /// tile ([`Estimator::scratch`]), not per sample (a spectral path's BSDFs are hundreds
+    /// of bytes per channel set).
+    type Scratch;
     /// Values per sample.
     fn channels(&self) -> usize;
+    /// A new [`Estimator::Scratch`].
+    fn scratch(&self) -> Self::Scratch;
     /// The sample's values along the camera ray `ray` into `out` (`channels()` long,
     /// zeroed), drawing its random numbers from `sampler` and counting its rays in `rays`.
     /// `first` is the ray's first hit (what [`crate::accel::Accel::intersect`] returns
     /// for it) where the renderer found it beforehand, which it does only for an
     /// estimator that [`Estimator::takes_first_hit`]; the values are the same either way.
+    /// `scratch` is the tile's [`Estimator::Scratch`], holding whatever the last sample left.
+    #[allow(clippy::too_many_arguments)]
     fn estimate(
         &self,
         ctx: &SceneContext,
@@ -293,6 +301,7 @@ pub(crate) trait Estimator: Sync {
         sampler: &mut PixelSampler,
         rays: &mut u64,
         out: &mut [f32],
+        scratch: &mut Self::Scratch,
     );
     /// Whether [`Estimator::estimate`] takes the camera ray's first hit found beforehand.
     fn takes_first_hit(&self) -> bool {
@@ -335,9 +344,13 @@ impl RgbEstimator {
 }
 
 impl Estimator for RgbEstimator {
+    type Scratch = ();
+
     fn channels(&self) -> usize {
         3
     }
+
+    fn scratch(&self) {}
 
     #[inline]
     fn estimate(
@@ -348,6 +361,7 @@ impl Estimator for RgbEstimator {
         sampler: &mut PixelSampler,
         rays: &mut u64,
         out: &mut [f32],
+        _: &mut (),
     ) {
         let l = match self.integrator {
             Integrator::Path {
@@ -595,9 +609,10 @@ fn render_tile<E: Estimator>(
     };
     // Follows a sample's path (from its first hit, if found) and adds it to its pixel's
     // sums (starting at `at`).
+    let mut scratch = est.scratch();
     let mut run = |at: usize, sampler: &mut PixelSampler, ray: Ray, hit: Option<Option<Hit>>| {
         vals.fill(0.0);
-        est.estimate(ctx, ray, hit, sampler, &mut rays, &mut vals);
+        est.estimate(ctx, ray, hit, sampler, &mut rays, &mut vals, &mut scratch);
         // A NaN or infinite sample (a numerical accident) counts as black.
         if vals.iter().all(|v| v.is_finite()) {
             for (s, v) in sums[at..at + c].iter_mut().zip(&vals) {

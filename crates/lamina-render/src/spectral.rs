@@ -27,8 +27,9 @@ use crate::bands::{band_groups, band_leaves, band_values_prebuilt, group_scene};
 use crate::error::RenderError;
 use crate::film::Accumulator;
 use crate::integrators::SceneContext;
-use crate::integrators::spectral::{ChannelSet, radiance_sets};
+use crate::integrators::spectral::{ChannelSet, radiance_sets, vertex_bsdfs};
 use crate::lights::LightSet;
+use crate::materials::SurfaceBsdf;
 use crate::render::{Estimator, Job, RenderOptions, RenderStats};
 use crate::sampler::PixelSampler;
 use glam::Vec3;
@@ -139,8 +140,15 @@ struct VisibleEstimator {
 }
 
 impl Estimator for VisibleEstimator {
+    /// The two sets' BSDFs at a vertex.
+    type Scratch = [SurfaceBsdf; 2];
+
     fn channels(&self) -> usize {
         3
+    }
+
+    fn scratch(&self) -> Self::Scratch {
+        vertex_bsdfs()
     }
 
     /// The tile loop finds a pixel's camera hits together (`Accel::intersect_many`).
@@ -156,12 +164,13 @@ impl Estimator for VisibleEstimator {
         sampler: &mut PixelSampler,
         rays: &mut u64,
         out: &mut [f32],
+        scratch: &mut Self::Scratch,
     ) {
         let s = visible::STRIDE;
         let h = ((sampler.next_1d() * s as f32) as usize).min(s - 1);
         let pick = [h, s + h];
         let (d, r) = (self.max_depth, self.rr_depth);
-        let l = radiance_sets::<2>(ctx, pick, ray, first, sampler, d, r, rays);
+        let l = radiance_sets::<2>(ctx, pick, ray, first, sampler, d, r, rays, scratch);
         let mut rgb = Vec3::ZERO;
         for (lk, &j) in l.iter().zip(&pick) {
             for (w, v) in self.weights[j].iter().zip(lk.to_array()) {
@@ -251,9 +260,28 @@ struct BandEstimator {
     bands: usize,
 }
 
+/// A band path's BSDFs at a vertex, for each number of sets a path can carry.
+pub(crate) struct BandScratch {
+    one: [SurfaceBsdf; 1],
+    two: [SurfaceBsdf; 2],
+    three: [SurfaceBsdf; 3],
+    four: [SurfaceBsdf; 4],
+}
+
 impl Estimator for BandEstimator {
+    type Scratch = BandScratch;
+
     fn channels(&self) -> usize {
         self.bands
+    }
+
+    fn scratch(&self) -> BandScratch {
+        BandScratch {
+            one: vertex_bsdfs(),
+            two: vertex_bsdfs(),
+            three: vertex_bsdfs(),
+            four: vertex_bsdfs(),
+        }
     }
 
     /// The tile loop finds a pixel's camera hits together (`Accel::intersect_many`).
@@ -269,6 +297,7 @@ impl Estimator for BandEstimator {
         sampler: &mut PixelSampler,
         rays: &mut u64,
         out: &mut [f32],
+        scratch: &mut BandScratch,
     ) {
         let start = *sampler;
         for chunk in &self.chunks {
@@ -288,6 +317,7 @@ impl Estimator for BandEstimator {
                     d,
                     r,
                     rays,
+                    &mut scratch.one,
                 )),
                 2 => put(&radiance_sets::<2>(
                     ctx,
@@ -298,6 +328,7 @@ impl Estimator for BandEstimator {
                     d,
                     r,
                     rays,
+                    &mut scratch.two,
                 )),
                 3 => put(&radiance_sets::<3>(
                     ctx,
@@ -308,6 +339,7 @@ impl Estimator for BandEstimator {
                     d,
                     r,
                     rays,
+                    &mut scratch.three,
                 )),
                 _ => put(&radiance_sets::<4>(
                     ctx,
@@ -318,6 +350,7 @@ impl Estimator for BandEstimator {
                     d,
                     r,
                     rays,
+                    &mut scratch.four,
                 )),
             }
             for (k, j) in chunk.clone().enumerate() {

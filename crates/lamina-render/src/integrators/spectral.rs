@@ -180,11 +180,24 @@ impl SkySets {
     }
 }
 
+/// Room for a vertex's BSDFs in `G` sets, for [`radiance_sets`] (its values are written
+/// over at every vertex).
+pub fn vertex_bsdfs<const G: usize>() -> [SurfaceBsdf; G] {
+    [const {
+        SurfaceBsdf::Diffuse(lamina_leaf::Lambertian {
+            reflectance: Vec3::ZERO,
+        })
+    }; G]
+}
+
 /// The radiance (W m⁻² sr⁻¹ per channel: per nm for spectral channels) arriving along the
 /// camera ray `ray` in each of the `G` sets `sets` (indices into [`SceneContext::sets`]).
 /// `first`: the camera ray's first hit where the caller found it already (with
 /// `Accel::intersect_many`, a pixel's camera rays together; the same answer as the query
-/// made here otherwise). Adds the rays it traces to `rays`.
+/// made here otherwise). `bsdfs`: room for each vertex's BSDFs, written over (whatever it
+/// holds; [`vertex_bsdfs`] makes it, once for many paths: made per path it cost a copy of
+/// the largest variant per set, a few per cent of a render). Adds the rays it traces to
+/// `rays`.
 #[allow(clippy::too_many_arguments)]
 pub fn radiance_sets<const G: usize>(
     ctx: &SceneContext,
@@ -195,6 +208,7 @@ pub fn radiance_sets<const G: usize>(
     max_depth: u32,
     rr_depth: u32,
     rays: &mut u64,
+    bsdfs: &mut [SurfaceBsdf; G],
 ) -> [Vec3; G] {
     let mut l = [Vec3::ZERO; G];
     let mut beta = [Vec3::ONE; G];
@@ -202,12 +216,6 @@ pub fn radiance_sets<const G: usize>(
     let mut camera_ray = true;
     let mut skip = PrimRef::NONE;
     let mut bounces = 0u32;
-    // Each vertex's BSDFs, written over the last vertex's in place.
-    let mut bsdfs = [const {
-        SurfaceBsdf::Diffuse(lamina_leaf::Lambertian {
-            reflectance: Vec3::ZERO,
-        })
-    }; G];
     let lights = &ctx.lights.lights;
     let sets: [&ChannelSet; G] = set_ids.map(|j| &ctx.sets[j]);
     // A sky map's texel in set `j` (the interleaved copy), or the light's own value.
@@ -272,7 +280,7 @@ pub fn radiance_sets<const G: usize>(
         let ns = shading_normal(&ctx.accel, prim, bary, &info, normal_map);
         let frame = ShadingFrame::new(&info, ns, -ray.dir);
         let uv = info.uv_at(bary);
-        SurfaceBsdf::at_sets_into(sets.map(|s| &s.materials[m]), uv, &mut bsdfs);
+        SurfaceBsdf::at_sets_into(sets.map(|s| &s.materials[m]), uv, bsdfs);
         let wo = frame.to_local(-ray.dir);
 
         let (first, picked, pick) = ctx.nee_lights(sampler);
@@ -291,7 +299,7 @@ pub fn radiance_sets<const G: usize>(
                 continue;
             }
             let wi = frame.to_local(ls.wi);
-            let f = SurfaceBsdf::eval_sets(&bsdfs, wo, wi);
+            let f = SurfaceBsdf::eval_sets(bsdfs, wo, wi);
             if f.iter().all(|v| *v == Vec3::ZERO) {
                 continue;
             }
@@ -301,7 +309,7 @@ pub fn radiance_sets<const G: usize>(
             let w = if ls.delta {
                 1.0
             } else {
-                power_heuristic(ls.pdf, SurfaceBsdf::pdf_mean(&bsdfs, wo, wi))
+                power_heuristic(ls.pdf, SurfaceBsdf::pdf_mean(bsdfs, wo, wi))
             };
             for k in 0..G {
                 l[k] += beta[k] * f[k] * li[k] * (w / ls.pdf);
@@ -341,8 +349,8 @@ pub fn radiance_sets<const G: usize>(
         let (f, pdf) = match one {
             Some((f, pdf)) => (from_fn(|_| f), pdf),
             None => (
-                SurfaceBsdf::eval_sets(&bsdfs, wo, wi),
-                SurfaceBsdf::pdf_mean(&bsdfs, wo, wi),
+                SurfaceBsdf::eval_sets(bsdfs, wo, wi),
+                SurfaceBsdf::pdf_mean(bsdfs, wo, wi),
             ),
         };
         if !(pdf > 0.0) {

@@ -410,7 +410,7 @@ fn visible_one_light_per_vertex_keeps_the_image() {
 fn spectral_paths_given_their_camera_hit_are_the_same() {
     use crate::accel::{Backend, Hit, Ray};
     use crate::integrators::SceneContext;
-    use crate::integrators::spectral::radiance_sets;
+    use crate::integrators::spectral::{radiance_sets, vertex_bsdfs};
     use crate::sampler::PixelSampler;
     use glam::Vec2;
     use lamina_leaf::spectrum::bands::Illuminant;
@@ -429,6 +429,8 @@ fn spectral_paths_given_their_camera_hit_are_the_same() {
         .unwrap();
     let (w, h) = (scene.film.width, scene.film.height);
     let (mut hits, mut paths) = (0, 0);
+    // Each path's vertex BSDFs written over the last path's (as a tile's samples do).
+    let (mut b1, mut b2) = (vertex_bsdfs::<2>(), vertex_bsdfs::<2>());
     for y in (0..h).step_by(7) {
         for x in (0..w).step_by(5) {
             let film = Vec2::new(x as f32 + 0.37, y as f32 + 0.61);
@@ -445,9 +447,19 @@ fn spectral_paths_given_their_camera_hit_are_the_same() {
                 let start = PixelSampler::new(11, x, y, i);
                 let (mut s1, mut s2) = (start, start);
                 let (mut r1, mut r2) = (0u64, 0u64);
-                let a = radiance_sets::<2>(&ctx, [0, 1], ray, None, &mut s1, 8, 2, &mut r1);
-                let g =
-                    radiance_sets::<2>(&ctx, [0, 1], ray, Some(found[0]), &mut s2, 8, 2, &mut r2);
+                let a =
+                    radiance_sets::<2>(&ctx, [0, 1], ray, None, &mut s1, 8, 2, &mut r1, &mut b1);
+                let g = radiance_sets::<2>(
+                    &ctx,
+                    [0, 1],
+                    ray,
+                    Some(found[0]),
+                    &mut s2,
+                    8,
+                    2,
+                    &mut r2,
+                    &mut b2,
+                );
                 let bits = |l: &[Vec3; 2]| l.map(|v| v.to_array().map(f32::to_bits));
                 assert_eq!(bits(&a), bits(&g), "pixel ({x}, {y}) sample {i}");
                 assert_eq!(r1, r2, "pixel ({x}, {y}) sample {i}: rays");

@@ -32,20 +32,51 @@ impl SurfaceBsdf {
     /// The BSDF of `material` at texture coordinates `uv`.
     #[inline]
     pub fn at(material: &Material, uv: Vec2) -> Self {
+        let mut b = SurfaceBsdf::Diffuse(Lambertian {
+            reflectance: Vec3::ZERO,
+        });
+        b.set_at(material, uv);
+        b
+    }
+
+    /// [`Self::at`] written over `self`, in place: where `self` holds the same variant
+    /// (consecutive vertices on one kind of surface), only that variant's fields are
+    /// written. Returned by value and then stored, or stored as a new variant, the whole
+    /// enum (the size of its largest variant, 280 bytes) is copied through a temporary.
+    #[inline]
+    pub fn set_at(&mut self, material: &Material, uv: Vec2) {
         match material {
-            Material::Diffuse { reflectance, .. } => SurfaceBsdf::Diffuse(Lambertian {
-                reflectance: reflectance.at(uv),
-            }),
+            Material::Diffuse { reflectance, .. } => {
+                let b = Lambertian {
+                    reflectance: reflectance.at(uv),
+                };
+                match self {
+                    SurfaceBsdf::Diffuse(x) => *x = b,
+                    o => *o = SurfaceBsdf::Diffuse(b),
+                }
+            }
             Material::DiffuseTransmission {
                 reflectance,
                 transmittance,
                 ..
-            } => SurfaceBsdf::DiffuseTransmission(DiffuseTransmission {
-                reflectance: reflectance.at(uv),
-                transmittance: transmittance.at(uv),
-            }),
-            Material::Leaf { leaf, .. } => SurfaceBsdf::Leaf(leaf.bsdf(uv)),
-            Material::Pbr(p) => SurfaceBsdf::Pbr(p.bsdf(uv)),
+            } => {
+                let b = DiffuseTransmission {
+                    reflectance: reflectance.at(uv),
+                    transmittance: transmittance.at(uv),
+                };
+                match self {
+                    SurfaceBsdf::DiffuseTransmission(x) => *x = b,
+                    o => *o = SurfaceBsdf::DiffuseTransmission(b),
+                }
+            }
+            Material::Leaf { leaf, .. } => match self {
+                SurfaceBsdf::Leaf(x) => *x = leaf.bsdf(uv),
+                o => *o = SurfaceBsdf::Leaf(leaf.bsdf(uv)),
+            },
+            Material::Pbr(p) => match self {
+                SurfaceBsdf::Pbr(x) => *x = p.bsdf(uv),
+                o => *o = SurfaceBsdf::Pbr(p.bsdf(uv)),
+            },
         }
     }
 
@@ -71,7 +102,7 @@ impl SurfaceBsdf {
             });
         } else {
             for (o, m) in out.iter_mut().zip(materials) {
-                *o = SurfaceBsdf::at(m, uv);
+                o.set_at(m, uv);
             }
         }
     }

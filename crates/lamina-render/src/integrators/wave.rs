@@ -587,7 +587,7 @@ impl Wave {
                 let ns = shading_normal(&ctx.accel, prim, b, &info, map);
                 let frame = ShadingFrame::new(&info, ns, -get3(&d, k));
                 if general & (1 << k) != 0 {
-                    g.bsdf[k] = SurfaceBsdf::at(material, info.uv_at(b));
+                    g.bsdf[k].set_at(material, info.uv_at(b));
                     g.frame[k] = frame;
                     g.wo[k] = frame.to_local(-get3(&d, k));
                 }

@@ -192,3 +192,73 @@ impl Bsdf for SurfaceBsdf {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tests::scenes::{diffuse, diffuse_transmission};
+    use lamina_core::PbrMaterial;
+    use lamina_leaf::{LeafMaps, LeafMaterial, LeafParams};
+    use std::sync::Arc;
+
+    /// `set_at` over a BSDF of every variant (the same variant: fields written in place;
+    /// another: replaced) gives `at`'s BSDF: the same values and densities bit for bit.
+    #[test]
+    fn set_at_over_any_variant_is_at() {
+        // Each kind twice, with other parameters: what is there first differs from what
+        // is written over it even where the variant is the same.
+        let kinds = |k: f32| {
+            let params = LeafParams {
+                roughness_adaxial: 0.2 + 0.3 * k,
+                ..LeafParams::default()
+            };
+            let leaf = LeafMaterial::new(LeafMaps::default(), params).unwrap();
+            [
+                diffuse(0.3 + 0.4 * k),
+                diffuse_transmission(Vec3::new(0.1, 0.4 - 0.2 * k, 0.05), Vec3::new(0.2, 0.3, k)),
+                Material::Leaf {
+                    name: "leaf".into(),
+                    leaf: Arc::new(leaf),
+                },
+                Material::Pbr(Box::new(PbrMaterial::uniform(
+                    "p",
+                    Vec3::splat(0.6 - 0.3 * k),
+                    0.5 * k,
+                    0.4,
+                ))),
+            ]
+        };
+        let (materials, starts) = (kinds(0.0), kinds(1.0));
+        let uv = Vec2::new(0.3, 0.7);
+        let dirs = [
+            (Vec3::new(0.3, 0.2, 0.93), Vec3::new(-0.5, 0.1, 0.86)),
+            (Vec3::new(0.3, 0.2, 0.93), Vec3::new(0.2, -0.4, -0.89)),
+            (Vec3::new(0.0, -0.6, -0.8), Vec3::new(0.6, 0.0, 0.8)),
+        ];
+        let bits = |b: &SurfaceBsdf| -> Vec<u32> {
+            dirs.iter()
+                .flat_map(|&(wo, wi)| {
+                    let (wo, wi) = (wo.normalize(), wi.normalize());
+                    let f = b.eval(wo, wi).to_array().map(f32::to_bits);
+                    f.into_iter().chain([b.pdf(wo, wi).to_bits()])
+                })
+                .collect()
+        };
+        for start in &starts {
+            for m in &materials {
+                // Something else there first, then `m` written over it.
+                let mut b = SurfaceBsdf::at(start, Vec2::new(0.9, 0.1));
+                b.set_at(m, uv);
+                let want = SurfaceBsdf::at(m, uv);
+                assert_eq!(
+                    std::mem::discriminant(&b),
+                    std::mem::discriminant(&want),
+                    "{} over {}",
+                    m.name(),
+                    start.name()
+                );
+                assert_eq!(bits(&b), bits(&want), "{} over {}", m.name(), start.name());
+            }
+        }
+    }
+}

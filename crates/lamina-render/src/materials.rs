@@ -29,12 +29,15 @@ pub enum SurfaceBsdf {
 }
 
 impl SurfaceBsdf {
+    /// A black Lambertian: what room for a BSDF holds before [`Self::set_at`] writes one.
+    pub const BLANK: SurfaceBsdf = SurfaceBsdf::Diffuse(Lambertian {
+        reflectance: Vec3::ZERO,
+    });
+
     /// The BSDF of `material` at texture coordinates `uv`.
     #[inline]
     pub fn at(material: &Material, uv: Vec2) -> Self {
-        let mut b = SurfaceBsdf::Diffuse(Lambertian {
-            reflectance: Vec3::ZERO,
-        });
+        let mut b = SurfaceBsdf::BLANK;
         b.set_at(material, uv);
         b
     }

@@ -183,11 +183,7 @@ impl SkySets {
 /// Room for a vertex's BSDFs in `G` sets, for [`radiance_sets`] (its values are written
 /// over at every vertex).
 pub fn vertex_bsdfs<const G: usize>() -> [SurfaceBsdf; G] {
-    [const {
-        SurfaceBsdf::Diffuse(lamina_leaf::Lambertian {
-            reflectance: Vec3::ZERO,
-        })
-    }; G]
+    [SurfaceBsdf::BLANK; G]
 }
 
 /// The radiance (W m⁻² sr⁻¹ per channel: per nm for spectral channels) arriving along the

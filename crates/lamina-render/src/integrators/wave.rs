@@ -54,7 +54,7 @@ use lamina_accel::wide::{WideTask, run_wide};
 use lamina_core::{ColorInput, Integrator, Material};
 use lamina_leaf::Bsdf;
 use lamina_leaf::frame::Frame;
-use lamina_leaf::lambert::{DiffuseTransmission, Lambertian};
+use lamina_leaf::lambert::DiffuseTransmission;
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_4};
 
 /// Paths of a wave: samples of one pass (one pixel's or several pixels'), up to this many
@@ -370,9 +370,7 @@ impl Surfaces {
             tr: z,
             pr: [0.0; LANES],
             prim: [PrimRef::NONE; LANES],
-            bsdf: [SurfaceBsdf::Diffuse(Lambertian {
-                reflectance: Vec3::ZERO,
-            }); LANES],
+            bsdf: [SurfaceBsdf::BLANK; LANES],
             frame: [ShadingFrame::geometric(Frame::from_normal(Vec3::Z), Vec3::Z); LANES],
             wo: [Vec3::Z; LANES],
         }

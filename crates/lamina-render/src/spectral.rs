@@ -27,7 +27,7 @@ use crate::bands::{band_groups, band_leaves, band_values_prebuilt, group_scene};
 use crate::error::RenderError;
 use crate::film::Accumulator;
 use crate::integrators::SceneContext;
-use crate::integrators::spectral::{ChannelSet, radiance_sets, vertex_bsdfs};
+use crate::integrators::spectral::{ChannelSet, radiance_sets};
 use crate::lights::LightSet;
 use crate::materials::SurfaceBsdf;
 use crate::render::{Estimator, Job, RenderOptions, RenderStats};
@@ -148,7 +148,7 @@ impl Estimator for VisibleEstimator {
     }
 
     fn scratch(&self) -> Self::Scratch {
-        vertex_bsdfs()
+        [SurfaceBsdf::BLANK; 2]
     }
 
     /// The tile loop finds a pixel's camera hits together (`Accel::intersect_many`).
@@ -276,11 +276,12 @@ impl Estimator for BandEstimator {
     }
 
     fn scratch(&self) -> BandScratch {
+        let b = SurfaceBsdf::BLANK;
         BandScratch {
-            one: vertex_bsdfs(),
-            two: vertex_bsdfs(),
-            three: vertex_bsdfs(),
-            four: vertex_bsdfs(),
+            one: [b; 1],
+            two: [b; 2],
+            three: [b; 3],
+            four: [b; 4],
         }
     }
 

@@ -180,18 +180,12 @@ impl SkySets {
     }
 }
 
-/// Room for a vertex's BSDFs in `G` sets, for [`radiance_sets`] (its values are written
-/// over at every vertex).
-pub fn vertex_bsdfs<const G: usize>() -> [SurfaceBsdf; G] {
-    [SurfaceBsdf::BLANK; G]
-}
-
 /// The radiance (W m⁻² sr⁻¹ per channel: per nm for spectral channels) arriving along the
 /// camera ray `ray` in each of the `G` sets `sets` (indices into [`SceneContext::sets`]).
 /// `first`: the camera ray's first hit where the caller found it already (with
 /// `Accel::intersect_many`, a pixel's camera rays together; the same answer as the query
 /// made here otherwise). `bsdfs`: room for each vertex's BSDFs, written over (whatever it
-/// holds; [`vertex_bsdfs`] makes it, once for many paths: made per path it cost a copy of
+/// holds; `[SurfaceBsdf::BLANK; G]` made once for many paths: made per path it cost a copy of
 /// the largest variant per set, a few per cent of a render). Adds the rays it traces to
 /// `rays`.
 #[allow(clippy::too_many_arguments)]

@@ -4,7 +4,7 @@
 //! sort key (a depth), and the pack tests of a query, the traversal's own.
 
 use crate::kernel::Lanes;
-use crate::layout::Pack;
+use crate::layout::Blas;
 use crate::traverse::{Levels, pack_any, pack_closest};
 use crate::{AlphaFilter, Counter, NO_INSTANCE, PrimRef};
 use glam::{Affine3A, Vec3, Vec3A};
@@ -100,23 +100,32 @@ pub(crate) fn placed_corners<const W: usize>(
     o2w: &[Affine3A],
     r: PackRef,
 ) -> Vec<(usize, [Vec3A; 4])> {
-    let (p, m): (&Pack, Option<&Affine3A>) = if r.inst == NO_INSTANCE {
-        (&lv.world.packs[r.pack as usize], None)
+    let (blas, m): (&Blas<W>, Option<&Affine3A>) = if r.inst == NO_INSTANCE {
+        (&lv.world, None)
     } else {
         let rec = &lv.recs[r.inst as usize];
-        (
-            &lv.protos[rec.proto as usize].packs[r.pack as usize],
-            Some(&o2w[r.inst as usize]),
-        )
+        (&lv.protos[rec.proto as usize], Some(&o2w[r.inst as usize]))
     };
+    let p = &blas.packs[r.pack as usize];
     let mut out = Vec::with_capacity(4);
     for l in 0..4 {
         if p.id[l] == u32::MAX {
             continue;
         }
         let g = |a: &[[f32; 4]; 3]| Vec3A::new(a[0][l], a[1][l], a[2][l]);
-        let (v0, e1, e2) = (g(&p.v0), g(&p.e1), g(&p.e2));
+        let (mut v0, mut e1, mut e2) = (g(&p.v0), g(&p.e1), g(&p.e2));
         let quad = p.tri[l] == 0.0;
+        if let (true, Some(live_uv)) = (quad, &lv.live_uv) {
+            // A masked card: the sub-card over its live part (`crate::trim`), widened by a
+            // few units in the last place so that rounding never cuts into it.
+            if let Some(live) = crate::trim::live_lane(blas, live_uv, p, l) {
+                let [a0, a1, b0, b1] = live.rect();
+                let w = 8.0 * f64::from(f32::EPSILON);
+                let (a0, a1) = ((a0 - w).max(0.0) as f32, (a1 + w).min(1.0) as f32);
+                let (b0, b1) = ((b0 - w).max(0.0) as f32, (b1 + w).min(1.0) as f32);
+                (v0, e1, e2) = (v0 + e1 * a0 + e2 * b0, e1 * (a1 - a0), e2 * (b1 - b0));
+            }
+        }
         // Around the outline: a parallelogram's far corner comes between its edge ends.
         let mut c = [v0, v0 + e1, v0 + e1 + e2, v0 + e2];
         if !quad {

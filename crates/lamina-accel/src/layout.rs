@@ -230,10 +230,13 @@ impl<const W: usize> Blas<W> {
     /// The bottom level of `geom`: invalid primitives left out, the binary tree made by
     /// `builder` (an error only from Embree's). The passes over every primitive
     /// (validity, boxes, packs) run in parallel, as does the binary build.
+    /// `live_uv`: the scene's masks' live cells (`crate::trim::live_uvs`) where boxes bound
+    /// only the live part of masked primitives, `None` for whole primitives.
     pub(crate) fn build(
         geom: &Geometry,
         trav_cost: f32,
         builder: crate::Builder,
+        live_uv: Option<&[Option<crate::trim::LiveUv>]>,
     ) -> Result<Self, crate::AccelError> {
         use rayon::prelude::*;
         let valid: Vec<u32> = (0..geom.prims.len() as u32)
@@ -252,7 +255,13 @@ impl<const W: usize> Blas<W> {
         }
         let bounds: Vec<Aabb> = valid
             .par_iter()
-            .map(|&i| prim_bounds(&geom.prims[i as usize]))
+            .map(|&i| {
+                let p = &geom.prims[i as usize];
+                match live_uv {
+                    Some(l) if p.alpha.is_some() => crate::trim::live_bounds(p, l),
+                    _ => prim_bounds(p),
+                }
+            })
             .collect();
         blas.bounds = Some(
             bounds

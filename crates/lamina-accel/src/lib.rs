@@ -56,6 +56,7 @@ mod memory;
 mod tests;
 mod top;
 mod traverse;
+mod trim;
 pub mod view;
 pub mod wide;
 
@@ -317,6 +318,10 @@ pub struct BuildOptions {
     pub trav_cost: f32,
     /// Which builder makes the bottom levels' trees ([`Builder::Lamina`] by default).
     pub builder: Builder,
+    /// Whether boxes and grids bound only the part of a masked primitive its opacity mask
+    /// does not call transparent (default `true`; the same answers either way, see
+    /// `trim.rs`: `false` is there to measure and test that).
+    pub trim_masked: bool,
 }
 
 impl Default for BuildOptions {
@@ -325,6 +330,7 @@ impl Default for BuildOptions {
             kernel: Kernel::best(),
             trav_cost: 1.0,
             builder: Builder::default(),
+            trim_masked: true,
         }
     }
 }
@@ -396,7 +402,10 @@ fn build_levels<const W: usize>(
     desc: &SceneDesc,
     trav_cost: f32,
     builder: Builder,
+    trim: bool,
 ) -> Result<Levels<W>, AccelError> {
+    let live_uv = trim.then(|| trim::live_uvs(&desc.masks));
+    let masks = live_uv.as_deref();
     if desc.instances.len() >= 1 << 30 {
         return Err(AccelError::TooLarge("instances"));
     }
@@ -428,7 +437,7 @@ fn build_levels<const W: usize>(
         });
     }
     let (world, protos) = rayon::join(
-        || Blas::<W>::build(&desc.world, trav_cost, builder),
+        || Blas::<W>::build(&desc.world, trav_cost, builder, masks),
         || {
             use rayon::prelude::*;
             desc.prototypes
@@ -436,9 +445,9 @@ fn build_levels<const W: usize>(
                 .zip(&used)
                 .map(|(g, &u)| {
                     if u {
-                        Blas::<W>::build(g, trav_cost, builder)
+                        Blas::<W>::build(g, trav_cost, builder, masks)
                     } else {
-                        Blas::<W>::build(&Geometry::default(), trav_cost, builder)
+                        Blas::<W>::build(&Geometry::default(), trav_cost, builder, None)
                     }
                 })
                 .collect::<Result<Vec<_>, _>>()
@@ -485,6 +494,7 @@ fn build_levels<const W: usize>(
             })
             .collect(),
         masks: desc.masks.clone(),
+        live_uv,
         dirs: Vec::new(),
         view: None,
     })
@@ -623,8 +633,18 @@ impl Accel {
             return Err(AccelError::Kernel(opts.kernel));
         }
         let engine = match opts.kernel.width() {
-            8 => Engine::W8(build_levels::<8>(desc, opts.trav_cost, opts.builder)?),
-            _ => Engine::W4(build_levels::<4>(desc, opts.trav_cost, opts.builder)?),
+            8 => Engine::W8(build_levels::<8>(
+                desc,
+                opts.trav_cost,
+                opts.builder,
+                opts.trim_masked,
+            )?),
+            _ => Engine::W4(build_levels::<4>(
+                desc,
+                opts.trav_cost,
+                opts.builder,
+                opts.trim_masked,
+            )?),
         };
         Ok(Accel {
             kernel: opts.kernel,

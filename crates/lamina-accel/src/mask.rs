@@ -111,6 +111,41 @@ impl OpacityMask {
         self.cells.get(i as usize).copied().unwrap_or(UNKNOWN)
     }
 
+    /// The matte's size in texels (width, height).
+    pub fn size(&self) -> (u32, u32) {
+        (self.width as u32, self.height as u32)
+    }
+
+    /// Whether texture coordinates outside `[0, 1]` repeat the matte.
+    pub fn wraps(&self) -> bool {
+        self.wrap == MaskWrap::Repeat
+    }
+
+    /// The range of cells (by lower-left texel, as [`OpacityMask::classify`] finds them:
+    /// `-1 ..= width - 1` clamped, `0 ..= width - 1` repeated) across and down that are not
+    /// transparent everywhere: `((x min, x max), (y min, y max))`, `None` when every cell
+    /// is transparent.
+    pub fn live_cells(&self) -> Option<((i64, i64), (i64, i64))> {
+        let (w, first) = match self.wrap {
+            MaskWrap::Repeat => (self.width, 0),
+            MaskWrap::Clamp => (self.width + 1, -1),
+        };
+        let mut r: Option<((i64, i64), (i64, i64))> = None;
+        for (i, _) in self
+            .cells
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| **c != TRANSPARENT)
+        {
+            let (x, y) = ((i as i64 % w) + first, (i as i64 / w) + first);
+            r = Some(match r {
+                None => ((x, x), (y, y)),
+                Some(((x0, x1), (y0, y1))) => ((x0.min(x), x1.max(x)), (y0.min(y), y1.max(y))),
+            });
+        }
+        r
+    }
+
     /// Shares of the cells that are opaque, transparent and unknown.
     pub fn shares(&self) -> [f64; 3] {
         let n = self.cells.len().max(1) as f64;

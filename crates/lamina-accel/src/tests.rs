@@ -930,3 +930,192 @@ fn intersect_many_answers_as_intersect() {
         }
     }
 }
+
+/// A 16 x 16 matte opaque in texels 6..=9 across and 3..=12 down: a narrow leaf with wide
+/// transparent margins, for the trimmed boxes (`trim.rs`).
+fn narrow_texel(x: i64, y: i64) -> f32 {
+    let (x, y) = (x.clamp(0, 15), y.clamp(0, 15));
+    f32::from((6..=9).contains(&x) && (3..=12).contains(&y))
+}
+
+/// Boxes and grids over only the live part of masked primitives (`trim_masked`, the
+/// default) answer every query exactly as boxes over whole primitives do, for every
+/// kernel, with the sun's and the eye's grids: rays aimed at random points of random cards
+/// and triangles (margins, live parts and the edges between), grazing ones nearly in a
+/// card's plane, and rays in any direction; closest hits (distance, primitive, instance,
+/// barycentrics) and occlusion, on the world level and through instances. And the trimmed
+/// tree is smaller: fewer pack tests per ray.
+#[test]
+fn trimmed_boxes_answer_as_whole_ones() {
+    let narrow =
+        OpacityMask::from_texels(16, 16, MaskWrap::Clamp, 0.5, narrow_texel).expect("a mask");
+    let f = |id: u32, uv: Vec2| {
+        if id == 0 {
+            return matte(uv);
+        }
+        let x = uv.x * 16.0 - 0.5;
+        let y = (1.0 - uv.y) * 16.0 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let a = narrow_texel(x0, y0) * (1.0 - fx) + narrow_texel(x0 + 1, y0) * fx;
+        let b = narrow_texel(x0, y0 + 1) * (1.0 - fx) + narrow_texel(x0 + 1, y0 + 1) * fx;
+        a * (1.0 - fy) + b * fy >= 0.5
+    };
+    for (s, instances) in [(21, false), (22, true)] {
+        let mut desc = scene(s, instances);
+        desc.masks.push(Some(narrow.clone()));
+        // Half the mattes narrow, and a few with texture coordinates turned and scaled.
+        let mut k = 0;
+        let mut retag = |g: &mut Geometry| {
+            for p in g.prims.iter_mut() {
+                if let Some(al) = &mut p.alpha {
+                    k += 1;
+                    if k % 2 == 0 {
+                        al.id = 1;
+                    }
+                    if k % 5 == 0 {
+                        al.uv = [
+                            Vec2::new(1.0, 0.2),
+                            Vec2::new(0.1, 0.1),
+                            Vec2::new(0.9, 1.0),
+                        ];
+                    }
+                }
+            }
+        };
+        retag(&mut desc.world);
+        desc.prototypes.iter_mut().for_each(&mut retag);
+        let targets: Vec<(Vec3, Vec3, Vec3)> = desc
+            .world
+            .prims
+            .iter()
+            .filter(|p| p.is_valid())
+            .map(|p| (p.v[0], p.v[1] - p.v[0], p.v[2] - p.v[0]))
+            .collect();
+        for kernel in kernels() {
+            let build = |trim_masked| {
+                let opts = BuildOptions {
+                    kernel,
+                    trim_masked,
+                    ..Default::default()
+                };
+                let mut a = Accel::build_with(&desc, opts).unwrap();
+                a.index_direction(Vec3::new(0.3, 0.8, 0.2));
+                a.index_view(
+                    Vec3::new(2.0, 2.0, 9.0),
+                    Vec3::new(-0.1, -0.1, -1.0),
+                    Vec3::Y,
+                    [-0.6, 0.6, -0.45, 0.45],
+                );
+                a
+            };
+            let (trim, whole) = (build(true), build(false));
+            // Hits name instances in each top level's order: compare scene instances.
+            let (ot, ow) = (trim.scene_instances(&desc), whole.scene_instances(&desc));
+            let named = |h: Option<Hit>, order: &[u32]| {
+                h.map(|mut h| {
+                    if h.prim.inst != NO_INSTANCE && h.prim.inst != SPHERE {
+                        h.prim.inst = order[h.prim.inst as usize];
+                    }
+                    h
+                })
+            };
+            let mut r = rng(s * 7 + 1);
+            let (st_trim, st_whole) = (TraversalStats::default(), TraversalStats::default());
+            let mut hits = 0;
+            for i in 0..6000 {
+                let (v0, e1, e2) = targets[(r() * targets.len() as f32) as usize % targets.len()];
+                let at = v0 + e1 * (1.1 * r() - 0.05) + e2 * (1.1 * r() - 0.05);
+                let n = e1.cross(e2).normalize();
+                let ray = match i % 4 {
+                    // From the sun's side, from the eye, from anywhere, grazing.
+                    0 => {
+                        let d = Vec3::new(-0.3, -0.8, -0.2) + unit(&mut r) * 0.01;
+                        Ray {
+                            origin: at - d * 3.0,
+                            dir: d,
+                            tmax: f32::INFINITY,
+                        }
+                    }
+                    1 => {
+                        let eye = Vec3::new(2.0, 2.0, 9.0);
+                        Ray {
+                            origin: eye,
+                            dir: at - eye,
+                            tmax: f32::INFINITY,
+                        }
+                    }
+                    2 => {
+                        let o = Vec3::new(r(), r(), r()) * 5.0 - 0.5;
+                        Ray {
+                            origin: o,
+                            dir: (at - o) * 0.5,
+                            tmax: if i % 3 == 0 { 1.0 + r() } else { f32::INFINITY },
+                        }
+                    }
+                    _ => {
+                        let along = (e1 * (r() - 0.5) + e2 * (r() - 0.5)).normalize();
+                        let d = along + n * (r() - 0.5) * 1e-3;
+                        Ray {
+                            origin: at - d * 0.3,
+                            dir: d,
+                            tmax: f32::INFINITY,
+                        }
+                    }
+                };
+                let want = named(
+                    whole.intersect_counted(&ray, PrimRef::NONE, &f, &st_whole),
+                    &ow,
+                );
+                let got = named(
+                    trim.intersect_counted(&ray, PrimRef::NONE, &f, &st_trim),
+                    &ot,
+                );
+                assert_eq!(got, want, "{kernel:?} scene {s} ray {i}: {ray:?}");
+                hits += want.is_some() as u32;
+                assert_eq!(
+                    trim.occluded(&ray, PrimRef::NONE, &f),
+                    whole.occluded(&ray, PrimRef::NONE, &f),
+                    "{kernel:?} scene {s} ray {i}: {ray:?}"
+                );
+                let mut many = [None; 1];
+                trim.intersect_many(&[ray], &f, &mut many);
+                assert_eq!(
+                    named(many[0], &ot),
+                    want,
+                    "{kernel:?} scene {s} ray {i} (many)"
+                );
+                // Skipping the hit, from it (each named in its own structure's order).
+                let (ht, hw) = (
+                    trim.intersect(&ray, PrimRef::NONE, &f),
+                    whole.intersect(&ray, PrimRef::NONE, &f),
+                );
+                let off_sphere = |h: &Hit| h.prim.inst != SPHERE;
+                if let (Some(ht), Some(hw)) = (ht.filter(off_sphere), hw.filter(off_sphere)) {
+                    let cont = Ray {
+                        origin: ray.origin + ray.dir * hw.t,
+                        tmax: f32::INFINITY,
+                        ..ray
+                    };
+                    assert_eq!(
+                        named(trim.intersect(&cont, ht.prim, &f), &ot),
+                        named(whole.intersect(&cont, hw.prim, &f), &ow),
+                        "{kernel:?} scene {s} ray {i} (continued)"
+                    );
+                    assert_eq!(
+                        trim.occluded(&cont, ht.prim, &f),
+                        whole.occluded(&cont, hw.prim, &f)
+                    );
+                }
+            }
+            assert!(hits > 1000, "{kernel:?} scene {s}: {hits} hits");
+            assert!(
+                st_trim.packs.get() < st_whole.packs.get(),
+                "{kernel:?} scene {s}: {} pack tests trimmed vs {} whole",
+                st_trim.packs.get(),
+                st_whole.packs.get()
+            );
+        }
+    }
+}

@@ -609,6 +609,9 @@ pub(crate) struct Levels<const W: usize> {
     pub recs: Vec<InstRec>,
     pub spheres: Vec<Sphere>,
     pub masks: Vec<Option<OpacityMask>>,
+    /// Where boxes and grids bound only masked primitives' live parts (`crate::trim`):
+    /// each mask's live cells; `None` for whole primitives.
+    pub live_uv: Option<Vec<Option<crate::trim::LiveUv>>>,
     /// Grids for shadow rays toward distant lights ([`crate::direction`]).
     pub dirs: Vec<crate::direction::DirIndex>,
     /// The grid for rays from a camera's eye ([`crate::view`]).

@@ -94,6 +94,11 @@ struct Args {
     /// builders with the traversal held fixed.
     #[arg(long, default_value = "lamina", value_parser = ["lamina", "embree"])]
     builder: String,
+    /// lamina's boxes and grids over whole masked primitives rather than over the part
+    /// their opacity masks do not call transparent (`BuildOptions::trim_masked`, on by
+    /// default; the same answers): to measure what the trimming gains.
+    #[arg(long)]
+    whole_boxes: bool,
 }
 
 /// Rays of the counters and the cross-check.
@@ -365,6 +370,7 @@ fn build(
     let t = Instant::now();
     let opts = lamina_accel::BuildOptions {
         builder: builder(&args.builder)?,
+        trim_masked: !args.whole_boxes,
         ..Default::default()
     };
     let lamina =

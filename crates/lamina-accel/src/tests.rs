@@ -38,13 +38,18 @@ fn matte_texel(x: i64, y: i64) -> f32 {
     }
 }
 fn matte(uv: Vec2) -> bool {
+    bilinear(matte_texel, uv)
+}
+
+/// Whether the `MW x MW` matte with texels `texel` is opaque at `uv` (bilinear, cutoff 0.5).
+fn bilinear(texel: fn(i64, i64) -> f32, uv: Vec2) -> bool {
     let x = uv.x * MW as f32 - 0.5;
     let y = (1.0 - uv.y) * MW as f32 - 0.5;
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
     let (x0, y0) = (x0 as i64, y0 as i64);
-    let a = matte_texel(x0, y0) * (1.0 - fx) + matte_texel(x0 + 1, y0) * fx;
-    let b = matte_texel(x0, y0 + 1) * (1.0 - fx) + matte_texel(x0 + 1, y0 + 1) * fx;
+    let a = texel(x0, y0) * (1.0 - fx) + texel(x0 + 1, y0) * fx;
+    let b = texel(x0, y0 + 1) * (1.0 - fx) + texel(x0 + 1, y0 + 1) * fx;
     a * (1.0 - fy) + b * fy >= 0.5
 }
 
@@ -931,10 +936,10 @@ fn intersect_many_answers_as_intersect() {
     }
 }
 
-/// A 16 x 16 matte opaque in texels 6..=9 across and 3..=12 down: a narrow leaf with wide
-/// transparent margins, for the trimmed boxes (`trim.rs`).
+/// A `MW x MW` matte opaque in texels 6..=9 across and 3..=12 down: a narrow leaf with
+/// wide transparent margins, for the trimmed boxes (`trim.rs`).
 fn narrow_texel(x: i64, y: i64) -> f32 {
-    let (x, y) = (x.clamp(0, 15), y.clamp(0, 15));
+    let (x, y) = (x.clamp(0, MW - 1), y.clamp(0, MW - 1));
     f32::from((6..=9).contains(&x) && (3..=12).contains(&y))
 }
 
@@ -947,20 +952,14 @@ fn narrow_texel(x: i64, y: i64) -> f32 {
 /// tree is smaller: fewer pack tests per ray.
 #[test]
 fn trimmed_boxes_answer_as_whole_ones() {
-    let narrow =
-        OpacityMask::from_texels(16, 16, MaskWrap::Clamp, 0.5, narrow_texel).expect("a mask");
+    let narrow = OpacityMask::from_texels(MW as u32, MW as u32, MaskWrap::Clamp, 0.5, narrow_texel)
+        .expect("a mask");
     let f = |id: u32, uv: Vec2| {
         if id == 0 {
-            return matte(uv);
+            matte(uv)
+        } else {
+            bilinear(narrow_texel, uv)
         }
-        let x = uv.x * 16.0 - 0.5;
-        let y = (1.0 - uv.y) * 16.0 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let a = narrow_texel(x0, y0) * (1.0 - fx) + narrow_texel(x0 + 1, y0) * fx;
-        let b = narrow_texel(x0, y0 + 1) * (1.0 - fx) + narrow_texel(x0 + 1, y0 + 1) * fx;
-        a * (1.0 - fy) + b * fy >= 0.5
     };
     for (s, instances) in [(21, false), (22, true)] {
         let mut desc = scene(s, instances);
@@ -1029,9 +1028,10 @@ fn trimmed_boxes_answer_as_whole_ones() {
                 let at = v0 + e1 * (1.1 * r() - 0.05) + e2 * (1.1 * r() - 0.05);
                 let n = e1.cross(e2).normalize();
                 let ray = match i % 4 {
-                    // From the sun's side, from the eye, from anywhere, grazing.
+                    // Toward the sun, from the eye, from anywhere, grazing.
                     0 => {
-                        let d = Vec3::new(-0.3, -0.8, -0.2) + unit(&mut r) * 0.01;
+                        // Toward the sun through the target: what its grid answers.
+                        let d = Vec3::new(0.3, 0.8, 0.2) + unit(&mut r) * 0.01;
                         Ray {
                             origin: at - d * 3.0,
                             dir: d,
@@ -1117,5 +1117,103 @@ fn trimmed_boxes_answer_as_whole_ones() {
                 st_whole.packs.get()
             );
         }
+    }
+}
+
+/// The grids' outline of a masked card (`grid::placed_corners` with trimming) is a
+/// sub-card holding every point of the card whose mask cell is not transparent: over a
+/// fine lattice of each card of the world level (identity and turned uv, both mattes), the
+/// points the mask does not reject lie inside; and the outlines are cut (the grids gain).
+#[test]
+fn grid_outlines_of_masked_cards_hold_their_live_points() {
+    fn check<const W: usize>(lv: &crate::traverse::Levels<W>) -> (usize, usize) {
+        let (mut cut, mut checked) = (0, 0);
+        for pack in 0..lv.world.packs.len() as u32 {
+            let r = crate::grid::PackRef {
+                inst: NO_INSTANCE,
+                pack,
+            };
+            let p = &lv.world.packs[pack as usize];
+            let corners = crate::grid::placed_corners(lv, &[], r);
+            let used = (0..4).filter(|&l| p.id[l] != u32::MAX);
+            for (l, (n, c)) in used.zip(corners) {
+                if n != 4 || p.flags[l] & crate::layout::ALPHA == 0 {
+                    continue;
+                }
+                let g =
+                    |a: &[[f32; 4]; 3]| DVec3::new(a[0][l] as f64, a[1][l] as f64, a[2][l] as f64);
+                let (v0, e1, e2) = (g(&p.v0), g(&p.e1), g(&p.e2));
+                // The outline's corners in the card's own (b1, b2), by least squares.
+                let (a, b, d) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+                let coords = |q: DVec3| {
+                    let (x, y) = ((q - v0).dot(e1), (q - v0).dot(e2));
+                    let det = a * d - b * b;
+                    ((x * d - y * b) / det, (y * a - x * b) / det)
+                };
+                let (lo, hi) = (coords(c[0].as_dvec3()), coords(c[2].as_dvec3()));
+                if lo.0 > 1e-3 || lo.1 > 1e-3 || hi.0 < 1.0 - 1e-3 || hi.1 < 1.0 - 1e-3 {
+                    cut += 1;
+                }
+                for i in 0..=64 {
+                    for j in 0..=64 {
+                        let (b1, b2) = (i as f32 / 64.0, j as f32 / 64.0);
+                        let state =
+                            crate::traverse::mask_state(&lv.world, &lv.masks, p.flags[l], b1, b2).2;
+                        if state == crate::mask::TRANSPARENT {
+                            continue;
+                        }
+                        checked += 1;
+                        let (b1, b2) = (b1 as f64, b2 as f64);
+                        assert!(
+                            b1 >= lo.0 - 1e-5
+                                && b1 <= hi.0 + 1e-5
+                                && b2 >= lo.1 - 1e-5
+                                && b2 <= hi.1 + 1e-5,
+                            "pack {pack} lane {l}: live point ({b1}, {b2}) outside {lo:?}-{hi:?}"
+                        );
+                    }
+                }
+            }
+        }
+        (cut, checked)
+    }
+    let narrow = OpacityMask::from_texels(MW as u32, MW as u32, MaskWrap::Clamp, 0.5, narrow_texel);
+    let mut desc = scene(23, false);
+    desc.masks.push(narrow);
+    for (k, p) in desc
+        .world
+        .prims
+        .iter_mut()
+        .filter_map(|p| p.alpha.as_mut())
+        .enumerate()
+    {
+        if k % 2 == 0 {
+            p.id = 1;
+        }
+        if k % 5 == 0 {
+            p.uv = [
+                Vec2::new(1.0, 0.2),
+                Vec2::new(0.1, 0.1),
+                Vec2::new(0.9, 1.0),
+            ];
+        }
+    }
+    for kernel in kernels() {
+        let a = Accel::build_with(
+            &desc,
+            BuildOptions {
+                kernel,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let (cut, checked) = match &a.engine {
+            Engine::W8(l) => check(l),
+            Engine::W4(l) => check(l),
+        };
+        assert!(
+            cut > 50 && checked > 10000,
+            "{kernel:?}: {cut} cut, {checked} points"
+        );
     }
 }

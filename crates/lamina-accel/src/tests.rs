@@ -943,6 +943,32 @@ fn narrow_texel(x: i64, y: i64) -> f32 {
     f32::from((6..=9).contains(&x) && (3..=12).contains(&y))
 }
 
+/// Adds the narrow matte (id 1) to `desc` and gives it to every other masked primitive,
+/// and every fifth masked primitive texture coordinates turned and scaled.
+fn narrow_mattes(desc: &mut SceneDesc) {
+    desc.masks.push(OpacityMask::from_texels(
+        MW as u32,
+        MW as u32,
+        MaskWrap::Clamp,
+        0.5,
+        narrow_texel,
+    ));
+    let geoms = std::iter::once(&mut desc.world).chain(desc.prototypes.iter_mut());
+    let alphas = geoms.flat_map(|g| g.prims.iter_mut().filter_map(|p| p.alpha.as_mut()));
+    for (k, al) in alphas.enumerate() {
+        if k % 2 == 1 {
+            al.id = 1;
+        }
+        if k % 5 == 4 {
+            al.uv = [
+                Vec2::new(1.0, 0.2),
+                Vec2::new(0.1, 0.1),
+                Vec2::new(0.9, 1.0),
+            ];
+        }
+    }
+}
+
 /// Boxes and grids over only the live part of masked primitives (`trim_masked`, the
 /// default) answer every query exactly as boxes over whole primitives do, for every
 /// kernel, with the sun's and the eye's grids: rays aimed at random points of random cards
@@ -952,8 +978,6 @@ fn narrow_texel(x: i64, y: i64) -> f32 {
 /// tree is smaller: fewer pack tests per ray.
 #[test]
 fn trimmed_boxes_answer_as_whole_ones() {
-    let narrow = OpacityMask::from_texels(MW as u32, MW as u32, MaskWrap::Clamp, 0.5, narrow_texel)
-        .expect("a mask");
     let f = |id: u32, uv: Vec2| {
         if id == 0 {
             matte(uv)
@@ -963,28 +987,7 @@ fn trimmed_boxes_answer_as_whole_ones() {
     };
     for (s, instances) in [(21, false), (22, true)] {
         let mut desc = scene(s, instances);
-        desc.masks.push(Some(narrow.clone()));
-        // Half the mattes narrow, and a few with texture coordinates turned and scaled.
-        let mut k = 0;
-        let mut retag = |g: &mut Geometry| {
-            for p in g.prims.iter_mut() {
-                if let Some(al) = &mut p.alpha {
-                    k += 1;
-                    if k % 2 == 0 {
-                        al.id = 1;
-                    }
-                    if k % 5 == 0 {
-                        al.uv = [
-                            Vec2::new(1.0, 0.2),
-                            Vec2::new(0.1, 0.1),
-                            Vec2::new(0.9, 1.0),
-                        ];
-                    }
-                }
-            }
-        };
-        retag(&mut desc.world);
-        desc.prototypes.iter_mut().for_each(&mut retag);
+        narrow_mattes(&mut desc);
         let targets: Vec<(Vec3, Vec3, Vec3)> = desc
             .world
             .prims
@@ -1177,36 +1180,9 @@ fn grid_outlines_of_masked_cards_hold_their_live_points() {
         }
         (cut, checked)
     }
-    let narrow = OpacityMask::from_texels(MW as u32, MW as u32, MaskWrap::Clamp, 0.5, narrow_texel);
     let mut desc = scene(23, false);
-    desc.masks.push(narrow);
-    for (k, p) in desc
-        .world
-        .prims
-        .iter_mut()
-        .filter_map(|p| p.alpha.as_mut())
-        .enumerate()
-    {
-        if k % 2 == 0 {
-            p.id = 1;
-        }
-        if k % 5 == 0 {
-            p.uv = [
-                Vec2::new(1.0, 0.2),
-                Vec2::new(0.1, 0.1),
-                Vec2::new(0.9, 1.0),
-            ];
-        }
-    }
-    for kernel in kernels() {
-        let a = Accel::build_with(
-            &desc,
-            BuildOptions {
-                kernel,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+    narrow_mattes(&mut desc);
+    for (kernel, a) in walks(&desc) {
         let (cut, checked) = match &a.engine {
             Engine::W8(l) => check(l),
             Engine::W4(l) => check(l),
@@ -1216,4 +1192,54 @@ fn grid_outlines_of_masked_cards_hold_their_live_points() {
             "{kernel:?}: {cut} cut, {checked} points"
         );
     }
+}
+
+/// A masked primitive's box in the tree (`trim::live_bounds`) holds every point of it the
+/// mask does not reject: over a fine lattice of each card and triangle of the world level
+/// and the prototypes (identity and turned uv, both mattes); and the boxes are cut.
+#[test]
+fn tree_boxes_of_masked_primitives_hold_their_live_points() {
+    let mut desc = scene(24, true);
+    narrow_mattes(&mut desc);
+    let live = crate::trim::live_uvs(&desc.masks);
+    let f = |id: u32, uv: Vec2| {
+        if id == 0 {
+            matte(uv)
+        } else {
+            bilinear(narrow_texel, uv)
+        }
+    };
+    let (mut cut, mut checked) = (0, 0);
+    let geoms = std::iter::once(&desc.world).chain(&desc.prototypes);
+    for p in geoms.flat_map(|g| &g.prims).filter(|p| p.is_valid()) {
+        let Some(al) = p.alpha else { continue };
+        let mask = desc.masks[al.id as usize].as_ref().unwrap();
+        let b = crate::trim::live_bounds(p, &live);
+        let whole = crate::layout::prim_bounds(p);
+        if b.min != whole.min || b.max != whole.max {
+            cut += 1;
+        }
+        for i in 0..=64 {
+            for j in 0..=64 {
+                let (b1, b2) = (i as f32 / 64.0, j as f32 / 64.0);
+                if !p.quad && b1 + b2 > 1.0 {
+                    continue;
+                }
+                let uv = al.uv[0] * (1.0 - b1 - b2) + al.uv[1] * b1 + al.uv[2] * b2;
+                if mask.classify(uv) == crate::mask::TRANSPARENT {
+                    continue;
+                }
+                // The exact matte agrees with the mask where the mask decides.
+                assert!(mask.classify(uv) != crate::mask::OPAQUE || f(al.id, uv));
+                checked += 1;
+                let q = p.v[0] + (p.v[1] - p.v[0]) * b1 + (p.v[2] - p.v[0]) * b2;
+                let slack = (p.v[1] - p.v[0]).length().max((p.v[2] - p.v[0]).length()) * 1e-5;
+                assert!(
+                    q.cmpge(b.min - slack).all() && q.cmple(b.max + slack).all(),
+                    "live point {q} (b {b1}, {b2}, uv {uv}) outside {b:?}"
+                );
+            }
+        }
+    }
+    assert!(cut > 100 && checked > 50000, "{cut} cut, {checked} points");
 }

@@ -17,6 +17,12 @@ use crate::layout::{ALPHA, ALPHA_IDENTITY_UV, Blas, FLAG_INDEX, Pack, prim_bound
 use crate::mask::OpacityMask;
 use glam::{DVec2, DVec3, Vec2};
 
+/// Largest texture coordinate a primitive is cut for: the traversal interpolates uv in
+/// `f32`, with an error of a few units in the last place of the largest coordinate, which
+/// must stay well inside the one-cell margin (64: 3e-5 of a unit, an eighth of a cell of a
+/// 4096-texel matte). Larger or non-finite ones keep the primitive whole.
+const MAX_UV: f32 = 64.0;
+
 /// Most vertices of a clipped domain: a square cut by four half-planes.
 const MAX_VERTS: usize = 8;
 
@@ -136,10 +142,13 @@ pub(crate) fn live_uvs(masks: &[Option<OpacityMask>]) -> Vec<Option<LiveUv>> {
 
 /// The live part of the primitive with domain `quad` (unit square) or the unit triangle
 /// whose texture coordinates at its three corners are `uv`, under the mask of `lu`:
-/// `None` where nothing is cut away (the whole domain lives, or the mask wraps and `uv`
-/// leaves the unit square).
+/// `None` where nothing is cut away (the whole domain lives, the mask wraps and `uv`
+/// leaves the unit square, or `uv` is not finite or beyond [`MAX_UV`]).
 pub(crate) fn live(quad: bool, uv: [Vec2; 3], lu: &LiveUv) -> Option<Live> {
     let b = lu.b;
+    if !uv.iter().all(|c| c.abs().max_element() <= MAX_UV) {
+        return None;
+    }
     if lu.wraps {
         let corners = [uv[0], uv[1], uv[2], uv[1] + uv[2] - uv[0]];
         let n = if quad { 4 } else { 3 };
@@ -180,7 +189,10 @@ pub(crate) fn live(quad: bool, uv: [Vec2; 3], lu: &LiveUv) -> Option<Live> {
             cut = true;
         }
     }
-    (cut && poly.n >= 3).then_some(poly)
+    // Texture coordinates too large for their differences (a clip at an infinite or NaN
+    // crossing): keep the primitive whole.
+    let finite = poly.verts().iter().all(|p| p.is_finite());
+    (cut && finite && poly.n >= 3).then_some(poly)
 }
 
 /// [`live`] for a primitive of the scene description (`live`: [`live_uvs`] of the
@@ -339,5 +351,14 @@ mod tests {
         // No live cell: kept whole.
         let m = block(8, 8, MaskWrap::Clamp, [20, 21], [20, 21]);
         assert!(live(true, ID, &m).is_none());
+        // Texture coordinates that are not finite, or too large for `f32` interpolation to
+        // place within the margin: kept whole. Tiled a few times: cut.
+        let m = block(8, 8, MaskWrap::Clamp, [2, 5], [2, 5]);
+        for bad in [f32::NAN, f32::INFINITY, -f32::MAX, 65.0] {
+            let uv = [Vec2::new(bad, 0.0), Vec2::X, Vec2::Y];
+            assert!(live(true, uv, &m).is_none(), "{bad}");
+            assert!(live(false, [Vec2::ZERO, Vec2::X, Vec2::new(0.5, bad)], &m).is_none());
+        }
+        assert!(live(true, [Vec2::ZERO, Vec2::X * 4.0, Vec2::Y], &m).is_some());
     }
 }

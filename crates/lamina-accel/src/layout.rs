@@ -258,8 +258,8 @@ impl<const W: usize> Blas<W> {
             .map(|&i| {
                 let p = &geom.prims[i as usize];
                 match live_uv {
-                    Some(l) if p.alpha.is_some() => crate::trim::live_bounds(p, l),
-                    _ => prim_bounds(p),
+                    Some(l) => crate::trim::live_bounds(p, l),
+                    None => prim_bounds(p),
                 }
             })
             .collect();

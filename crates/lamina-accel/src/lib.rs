@@ -400,12 +400,11 @@ pub struct Accel {
 
 fn build_levels<const W: usize>(
     desc: &SceneDesc,
-    trav_cost: f32,
-    builder: Builder,
-    trim: bool,
+    opts: &BuildOptions,
 ) -> Result<Levels<W>, AccelError> {
-    let live_uv = trim.then(|| trim::live_uvs(&desc.masks));
-    let masks = live_uv.as_deref();
+    let (trav_cost, builder) = (opts.trav_cost, opts.builder);
+    let live_uv = opts.trim_masked.then(|| trim::live_uvs(&desc.masks));
+    let live = live_uv.as_deref();
     if desc.instances.len() >= 1 << 30 {
         return Err(AccelError::TooLarge("instances"));
     }
@@ -437,7 +436,7 @@ fn build_levels<const W: usize>(
         });
     }
     let (world, protos) = rayon::join(
-        || Blas::<W>::build(&desc.world, trav_cost, builder, masks),
+        || Blas::<W>::build(&desc.world, trav_cost, builder, live),
         || {
             use rayon::prelude::*;
             desc.prototypes
@@ -445,7 +444,7 @@ fn build_levels<const W: usize>(
                 .zip(&used)
                 .map(|(g, &u)| {
                     if u {
-                        Blas::<W>::build(g, trav_cost, builder, masks)
+                        Blas::<W>::build(g, trav_cost, builder, live)
                     } else {
                         Blas::<W>::build(&Geometry::default(), trav_cost, builder, None)
                     }
@@ -633,18 +632,8 @@ impl Accel {
             return Err(AccelError::Kernel(opts.kernel));
         }
         let engine = match opts.kernel.width() {
-            8 => Engine::W8(build_levels::<8>(
-                desc,
-                opts.trav_cost,
-                opts.builder,
-                opts.trim_masked,
-            )?),
-            _ => Engine::W4(build_levels::<4>(
-                desc,
-                opts.trav_cost,
-                opts.builder,
-                opts.trim_masked,
-            )?),
+            8 => Engine::W8(build_levels::<8>(desc, &opts)?),
+            _ => Engine::W4(build_levels::<4>(desc, &opts)?),
         };
         Ok(Accel {
             kernel: opts.kernel,

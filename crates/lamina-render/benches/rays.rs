@@ -18,6 +18,7 @@ mod canopy;
 
 use glam::{Vec2, Vec3};
 use lamina_leaf::sampling::uniform_sphere;
+use lamina_render::accel::PrimRef;
 use lamina_render::camera::CameraModel;
 use lamina_render::sampler::sobol_2d;
 use lamina_render::{Accel, Ray, RenderOptions, render};
@@ -152,9 +153,9 @@ fn main() {
             let k = 65536.min(rays.len());
             for r in &rays[..k] {
                 if any {
-                    accel.occluded_counted(r, &st);
+                    accel.occluded_counted(r, PrimRef::NONE, &st);
                 } else {
-                    accel.intersect_counted(r, &st);
+                    accel.intersect_counted(r, PrimRef::NONE, &st);
                 }
             }
             let per = |c: &std::cell::Cell<u64>| c.get() as f64 / k as f64;

@@ -2,7 +2,7 @@
 //! time goes, and how it compares with another engine's on the same kinds of rays.
 //!
 //! `cargo run --release -p lamina-bench --bin scene_rays -- SCENE.toml [--spp N]
-//! [--threads 2] [--repeat 3] [--embree] [--json FILE]` (`--embree` needs
+//! [--threads 2] [--repeat 3] [--embree] [--counts] [--json FILE]` (`--embree` needs
 //! `--features embree` and libembree-dev).
 //!
 //! The ray sets, made once (fixed seeds) and traced by each engine, each the best wall
@@ -18,13 +18,17 @@
 //!
 //! Printed per set: rays, hits (or blocked), seconds and M rays/s; with `--embree` the
 //! same on Embree 3 (lamina-render's Embree backend, one ray at a time) and the ratio
-//! (Embree's time / lamina's: above 1 when lamina is faster). `--json` writes the rows.
+//! (Embree's time / lamina's: above 1 when lamina is faster). `--counts` adds what lamina's
+//! engine does per ray of each set, counted in a separate, untimed run: wide nodes and
+//! leaf packs tested, instances entered, alpha candidates the opacity masks decided
+//! (opaque, transparent) and those that asked the exact matte. `--json` writes the rows.
 //! `bench/mitsuba_rays.py` runs this on the Mitsuba comparison's scene and times Mitsuba
 //! 3 (Embree packets inside) on rays made the same way.
 
 use anyhow::{Result, bail};
 use clap::Parser;
 use glam::{Vec2, Vec3};
+use lamina_accel::TraversalStats;
 use lamina_core::{Light, Scene};
 use lamina_leaf::frame::Frame;
 use lamina_leaf::sampling::cosine_hemisphere;
@@ -63,6 +67,9 @@ struct Args {
     /// Replace the `--json` file even when it is not an earlier report of this benchmark.
     #[arg(long)]
     force: bool,
+    /// Also count what lamina's engine does per ray of each set (an extra, untimed run).
+    #[arg(long)]
+    counts: bool,
 }
 
 /// One set on one engine.
@@ -75,6 +82,58 @@ struct Row {
     hits: usize,
     seconds: f64,
     mrays_per_s: f64,
+    /// Per ray, with `--counts` (lamina's rows).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    counts: Option<Counts>,
+}
+
+/// What lamina's engine did per ray of a set, on average.
+#[derive(Serialize, Debug, Clone, Copy)]
+struct Counts {
+    /// Wide nodes tested.
+    nodes: f64,
+    /// Leaf packs (four primitives) tested.
+    packs: f64,
+    /// Instances entered.
+    instances: f64,
+    /// Alpha candidates the opacity masks decided opaque.
+    mask_opaque: f64,
+    /// Alpha candidates the opacity masks decided transparent.
+    mask_transparent: f64,
+    /// Alpha candidates that asked the exact matte.
+    alpha_lookups: f64,
+}
+
+impl Counts {
+    /// The counts of `stats` per ray of `rays`.
+    fn per_ray(stats: [u64; 6], rays: usize) -> Counts {
+        let per = |k: usize| stats[k] as f64 / rays.max(1) as f64;
+        Counts {
+            nodes: per(0),
+            packs: per(1),
+            instances: per(2),
+            mask_opaque: per(3),
+            mask_transparent: per(4),
+            alpha_lookups: per(5),
+        }
+    }
+}
+
+/// `stats` as an array, in [`Counts`]' order.
+fn stats_array(stats: &TraversalStats) -> [u64; 6] {
+    [
+        stats.nodes.get(),
+        stats.packs.get(),
+        stats.instances.get(),
+        stats.mask_opaque.get(),
+        stats.mask_transparent.get(),
+        stats.alpha_lookups.get(),
+    ]
+}
+
+/// Element-wise sum of two counter arrays.
+fn add_stats(a: [u64; 6], b: [u64; 6]) -> [u64; 6] {
+    std::array::from_fn(|k| a[k] + b[k])
 }
 
 #[derive(Serialize)]
@@ -226,6 +285,10 @@ fn main() -> Result<()> {
                 continue;
             }
             let (seconds, hits) = time(f.as_ref());
+            let counts = (args.counts && *engine == "lamina").then(|| {
+                let stats = pool.install(|| count_set(set, accel, spp, &camera, &secondary));
+                Counts::per_ray(stats, *rays)
+            });
             rows.push(Row {
                 set,
                 engine,
@@ -233,6 +296,7 @@ fn main() -> Result<()> {
                 hits,
                 seconds,
                 mrays_per_s: *rays as f64 / seconds * 1e-6,
+                counts,
             });
         }
     }
@@ -255,6 +319,26 @@ fn main() -> Result<()> {
             r.set, r.rays, r.hits, r.seconds, r.mrays_per_s, es, em, ratio
         );
     }
+    if args.counts {
+        println!(
+            "\nper ray (lamina): {:<16} {:>7} {:>7} {:>9} {:>11} {:>13} {:>8}",
+            "set", "nodes", "packs", "instances", "mask opaque", "mask transp.", "lookups"
+        );
+        for r in &rows {
+            if let Some(c) = &r.counts {
+                println!(
+                    "                  {:<16} {:>7.2} {:>7.2} {:>9.2} {:>11.3} {:>13.3} {:>8.4}",
+                    r.set,
+                    c.nodes,
+                    c.packs,
+                    c.instances,
+                    c.mask_opaque,
+                    c.mask_transparent,
+                    c.alpha_lookups
+                );
+            }
+        }
+    }
     if let Some(json) = &args.json {
         let report = Report {
             generator: GENERATOR,
@@ -270,6 +354,59 @@ fn main() -> Result<()> {
         println!("wrote {}", json.display());
     }
     Ok(())
+}
+
+/// Set `set`'s rays traced again on `accel` with the engine's counters on (in parallel
+/// chunks, summed): nodes, packs, instances, mask decisions and exact lookups, in
+/// [`Counts`]' order. The shuffled bounce rays are the bounce rays: the same counts.
+fn count_set(
+    set: &str,
+    accel: &Accel,
+    spp: u32,
+    camera: &[Ray],
+    secondary: &[Secondary],
+) -> [u64; 6] {
+    let sum = |a, b| add_stats(a, b);
+    match set {
+        "camera" => camera
+            .par_chunks(spp as usize * 16)
+            .map(|ch| {
+                let st = TraversalStats::default();
+                for g in ch.chunks(Accel::MANY) {
+                    accel.intersect_many_counted(g, &st);
+                }
+                stats_array(&st)
+            })
+            .reduce(|| [0; 6], sum),
+        "camera_one" => camera
+            .par_chunks(1024)
+            .map(|ch| {
+                let st = TraversalStats::default();
+                for r in ch {
+                    accel.intersect_counted(r, PrimRef::NONE, &st);
+                }
+                stats_array(&st)
+            })
+            .reduce(|| [0; 6], sum),
+        _ => secondary
+            .par_chunks(1024)
+            .map(|ch| {
+                let st = TraversalStats::default();
+                for s in ch {
+                    match (set, s.sun) {
+                        ("sun", Some(r)) => {
+                            accel.occluded_counted(&r, s.skip, &st);
+                        }
+                        ("sun", None) => {}
+                        _ => {
+                            accel.intersect_counted(&s.bounce, s.skip, &st);
+                        }
+                    }
+                }
+                stats_array(&st)
+            })
+            .reduce(|| [0; 6], sum),
+    }
 }
 
 /// The camera rays (pixel after pixel, `spp` each) and, for each that hits a surface, its
@@ -401,5 +538,47 @@ edge_v = [0, 0, -20]
         assert!((mean - 2.0 / 3.0).abs() < 0.08, "mean cosine {mean}");
         let (again, _) = make_sets(&scene, &accel, 4).unwrap();
         assert_eq!(again, camera);
+
+        // The counts: the parallel chunks add up to one sequential run, every camera ray
+        // tests at least the quad's pack, and a scene without mattes or instances has no
+        // mask decisions and enters no instance.
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let counted = |set| pool.install(|| count_set(set, &accel, 4, &camera, &secondary));
+        let one = TraversalStats::default();
+        for r in &camera {
+            accel.intersect_counted(r, PrimRef::NONE, &one);
+        }
+        assert_eq!(counted("camera_one"), stats_array(&one));
+        let many = TraversalStats::default();
+        for pixel in camera.chunks(4) {
+            assert_eq!(accel.intersect_many_counted(pixel, &many), 4);
+        }
+        assert_eq!(counted("camera"), stats_array(&many));
+        let bounce = TraversalStats::default();
+        let sun = TraversalStats::default();
+        for s in &secondary {
+            accel.intersect_counted(&s.bounce, s.skip, &bounce);
+            accel.occluded_counted(&s.sun.unwrap(), s.skip, &sun);
+        }
+        assert_eq!(counted("bounce"), stats_array(&bounce));
+        assert_eq!(counted("bounce_shuffled"), stats_array(&bounce));
+        assert_eq!(counted("sun"), stats_array(&sun));
+        for set in ["camera", "camera_one"] {
+            let c = Counts::per_ray(counted(set), camera.len());
+            assert!(c.packs >= 1.0, "{set}: {c:?}");
+            assert_eq!(
+                (
+                    c.instances,
+                    c.mask_opaque,
+                    c.mask_transparent,
+                    c.alpha_lookups
+                ),
+                (0.0, 0.0, 0.0, 0.0),
+                "{set}"
+            );
+        }
     }
 }

@@ -766,24 +766,56 @@ impl Accel {
         Hit { t: h.t, kind }
     }
 
-    /// [`Accel::intersect`], counting lamina-accel's traversal steps into `stats` (for
+    /// [`Accel::intersect_skip`], counting lamina-accel's traversal steps into `stats` (for
     /// benchmarks: nodes and packs per ray, alpha lookups the masks saved; Embree counts
-    /// nothing).
-    pub fn intersect_counted(&self, ray: &Ray, stats: &lamina_accel::TraversalStats) -> bool {
+    /// nothing). Whether the ray hits; a periodic domain's wrapping is not followed.
+    pub fn intersect_counted(
+        &self,
+        ray: &Ray,
+        skip: PrimRef,
+        stats: &lamina_accel::TraversalStats,
+    ) -> bool {
         let f = self.filter();
         match self.core.lamina() {
-            Some(a) => a.intersect_counted(ray, PrimRef::NONE, &f, stats).is_some(),
-            None => self.core.intersect(ray, PrimRef::NONE, &f).is_some(),
+            Some(a) => a.intersect_counted(ray, skip, &f, stats).is_some(),
+            None => self.core.intersect(ray, skip, &f).is_some(),
         }
     }
 
-    /// [`Accel::occluded`], counting lamina-accel's traversal steps into `stats`.
-    pub fn occluded_counted(&self, ray: &Ray, stats: &lamina_accel::TraversalStats) -> bool {
+    /// [`Accel::occluded_skip`], counting lamina-accel's traversal steps into `stats`
+    /// (as [`Accel::intersect_counted`]).
+    pub fn occluded_counted(
+        &self,
+        ray: &Ray,
+        skip: PrimRef,
+        stats: &lamina_accel::TraversalStats,
+    ) -> bool {
         let f = self.filter();
         match self.core.lamina() {
-            Some(a) => a.occluded_counted(ray, PrimRef::NONE, &f, stats),
-            None => self.core.occluded(ray, PrimRef::NONE, &f),
+            Some(a) => a.occluded_counted(ray, skip, &f, stats),
+            None => self.core.occluded(ray, skip, &f),
         }
+    }
+
+    /// [`Accel::intersect_many`], counting lamina-accel's traversal steps into `stats`
+    /// (as [`Accel::intersect_counted`]): how many of `rays` hit.
+    ///
+    /// # Panics
+    /// When `rays` are more than [`Accel::MANY`].
+    pub fn intersect_many_counted(
+        &self,
+        rays: &[Ray],
+        stats: &lamina_accel::TraversalStats,
+    ) -> usize {
+        assert!(rays.len() <= Self::MANY);
+        let f = self.filter();
+        let mut hits = [None; Self::MANY];
+        let out = &mut hits[..rays.len()];
+        match self.core.lamina() {
+            Some(a) => a.intersect_many_counted(rays, &f, stats, out),
+            None => self.core.intersect_many(rays, &f, out),
+        }
+        out.iter().filter(|h| h.is_some()).count()
     }
 
     /// The SAH cost, wide nodes and leaf packs of the world level's tree (zeros on Embree,

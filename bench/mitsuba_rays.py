@@ -167,12 +167,12 @@ def main():
         return next((r for r in lam if r["engine"] == engine and r["set"] == s), None)
 
     rows = []
-    for s in ("camera", "camera_one", "bounce", "bounce_shuffled", "sun"):
+    for s in ("camera", "camera_one", "bounce", "bounce_shuffled", "sun", "sun_one"):
         lr = row("lamina", s)
         if lr is None:
             continue
         er = row("embree", s)
-        m = mit.get("camera" if s == "camera_one" else s)
+        m = mit.get({"camera_one": "camera", "sun_one": "sun"}.get(s, s))
         rows.append([
             s, str(lr["rays"]), "%.3f" % lr["seconds"],
             "-" if er is None else "%.3f" % er["seconds"],

@@ -33,7 +33,13 @@ use crate::grid::{
     sort_entries,
 };
 use crate::kernel::Lanes;
+#[cfg(target_arch = "x86_64")]
+use crate::kernel::avx2::{Rays8, leaf_rays};
+#[cfg(target_arch = "x86_64")]
+use crate::layout::ALPHA;
 use crate::traverse::Levels;
+#[cfg(target_arch = "x86_64")]
+use crate::traverse::alpha_opaque;
 use crate::{AlphaFilter, Counter, Ray};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
@@ -55,6 +61,9 @@ pub(crate) struct DirIndex {
     /// The cells, and apart from them the packs larger than the grid is sized for (a
     /// ground): what a ray that leaves the grid's area may meet there; deepest reach first.
     grid: Listing,
+    /// Whether every pack listed is the world level's (no instance's): what
+    /// [`DirIndex::occluded_rays`] serves.
+    world_only: bool,
 }
 
 impl DirIndex {
@@ -163,6 +172,7 @@ impl DirIndex {
             })
             .collect();
         sort_entries(&mut bigs, true);
+        let world_only = refs.iter().all(|r| r.inst == crate::NO_INSTANCE);
         Some(DirIndex {
             axis: a,
             u,
@@ -174,6 +184,7 @@ impl DirIndex {
                 cells,
                 apart: bigs,
             },
+            world_only,
         })
     }
 
@@ -185,6 +196,53 @@ impl DirIndex {
     /// Bytes held.
     pub(crate) fn bytes(&self) -> usize {
         self.grid.bytes()
+    }
+
+    /// Where `ray` stands with the grid: not served, answered without a pack test, or the
+    /// cells (and the packs apart) whose lists it runs. One function for the one-ray and
+    /// the eight-ray queries, so that both run the same lists for every ray.
+    #[inline(always)]
+    fn plan(&self, ray: &Ray) -> Plan {
+        let o = Vec3A::from(ray.origin);
+        let d = Vec3A::from(ray.dir);
+        let da = d.dot(self.axis);
+        if !(da > 0.0) {
+            return Plan::Walk;
+        }
+        let d0 = o.dot(self.axis);
+        if !(d0 < self.top) {
+            // Past every primitive toward the light (or a NaN origin: the walk decides).
+            return if d0 >= self.top {
+                Plan::Answer(false)
+            } else {
+                Plan::Walk
+            };
+        }
+        // Where the ray is when it climbs past the top of the scene (or ends).
+        let t_end = ((self.top - d0) / da).min(ray.tmax);
+        let (s0, q0) = (o.dot(self.u), o.dot(self.v));
+        let (s1, q1) = (s0 + t_end * d.dot(self.u), q0 + t_end * d.dot(self.v));
+        let s = [s0.min(s1) - self.pad, s0.max(s1) + self.pad];
+        let q = [q0.min(q1) - self.pad, q0.max(q1) + self.pad];
+        if !(s[0] <= s[1] && q[0] <= q[1]) {
+            return Plan::Walk; // NaN: the walk decides
+        }
+        let (lo, hi) = (self.grid.cells.lo, self.grid.cells.hi());
+        let on_grid = s[1] >= lo[0] && s[0] <= hi[0] && q[1] >= lo[1] && q[0] <= hi[1];
+        let off_grid = s[0] < lo[0] || s[1] > hi[0] || q[0] < lo[1] || q[1] > hi[1];
+        let cover = if on_grid {
+            match self.grid.cells.cover(s, q) {
+                Some(c) => Some(c),
+                None => return Plan::Walk,
+            }
+        } else {
+            None
+        };
+        Plan::Lists {
+            cover,
+            off_grid,
+            behind: d0 - self.pad,
+        }
     }
 
     /// Whether `ray` meets an accepted primitive within `(0, tmax)` (by `tests`, of the
@@ -199,35 +257,15 @@ impl DirIndex {
         ray: &Ray,
         tests: &mut PackTests<'a, K, W, F, C>,
     ) -> Option<bool> {
-        let o = Vec3A::from(ray.origin);
-        let d = Vec3A::from(ray.dir);
-        let da = d.dot(self.axis);
-        if !(da > 0.0) {
-            return None;
-        }
-        let d0 = o.dot(self.axis);
-        if !(d0 < self.top) {
-            // Past every primitive toward the light (or a NaN origin: the walk decides).
-            return (d0 >= self.top).then_some(false);
-        }
-        // Where the ray is when it climbs past the top of the scene (or ends).
-        let t_end = ((self.top - d0) / da).min(ray.tmax);
-        let (s0, q0) = (o.dot(self.u), o.dot(self.v));
-        let (s1, q1) = (s0 + t_end * d.dot(self.u), q0 + t_end * d.dot(self.v));
-        let s = [s0.min(s1) - self.pad, s0.max(s1) + self.pad];
-        let q = [q0.min(q1) - self.pad, q0.max(q1) + self.pad];
-        if !(s[0] <= s[1] && q[0] <= q[1]) {
-            return None; // NaN: the walk decides
-        }
-        let (lo, hi) = (self.grid.cells.lo, self.grid.cells.hi());
-        let on_grid = s[1] >= lo[0] && s[0] <= hi[0] && q[1] >= lo[1] && q[0] <= hi[1];
-        let off_grid = s[0] < lo[0] || s[1] > hi[0] || q[0] < lo[1] || q[1] > hi[1];
-        let cover = if on_grid {
-            Some(self.grid.cells.cover(s, q)?)
-        } else {
-            None
+        let (cover, off_grid, behind) = match self.plan(ray) {
+            Plan::Walk => return None,
+            Plan::Answer(a) => return Some(a),
+            Plan::Lists {
+                cover,
+                off_grid,
+                behind,
+            } => (cover, off_grid, behind),
         };
-        let behind = d0 - self.pad;
         tests.refs = &self.grid.refs;
         if let Some((x, y)) = cover {
             for y in y[0]..=y[1] {
@@ -258,4 +296,362 @@ impl DirIndex {
         }
         Some(false)
     }
+
+    /// [`DirIndex::plan`] of the rays of `todo` among `r`'s eight (`tmax` theirs) in SIMD
+    /// lanes, the same operations in the same order, so the same numbers (no FMA; where
+    /// `plan`'s `min` and `max` would drop a NaN, the operands stand so that these do too):
+    /// each ray's plan (`Walk` outside `todo`), and in lanes the depths `behind` (`∞` for
+    /// rays without lists).
+    ///
+    /// # Safety
+    /// AVX2 must be available.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn plans8(
+        &self,
+        r: &Rays8,
+        tmax: std::arch::x86_64::__m256,
+        todo: u32,
+    ) -> ([Plan; 8], std::arch::x86_64::__m256) {
+        use std::arch::x86_64::*;
+        let mut plans = [Plan::Walk; 8];
+        let mut behind = [f32::INFINITY; 8];
+        // SAFETY: AVX2 is available (caller); the stores write whole `[f32; 8]` /
+        // `[i32; 8]` arrays.
+        unsafe {
+            let da = dot8(&r.d, self.axis);
+            let d0 = dot8(&r.o, self.axis);
+            let top = _mm256_set1_ps(self.top);
+            // `((top - d0) / da).min(tmax)`: a NaN `tmax` yields the quotient.
+            let t_end = _mm256_min_ps(tmax, _mm256_div_ps(_mm256_sub_ps(top, d0), da));
+            let (s0, q0) = (dot8(&r.o, self.u), dot8(&r.o, self.v));
+            let s1 = _mm256_add_ps(s0, _mm256_mul_ps(t_end, dot8(&r.d, self.u)));
+            let q1 = _mm256_add_ps(q0, _mm256_mul_ps(t_end, dot8(&r.d, self.v)));
+            // `s0.min(s1)` and `s0.max(s1)`: a NaN `s1` yields `s0`.
+            let pad = _mm256_set1_ps(self.pad);
+            let ends = [
+                _mm256_sub_ps(_mm256_min_ps(s1, s0), pad),
+                _mm256_add_ps(_mm256_max_ps(s1, s0), pad),
+                _mm256_sub_ps(_mm256_min_ps(q1, q0), pad),
+                _mm256_add_ps(_mm256_max_ps(q1, q0), pad),
+            ];
+            // `Cells::span` of each end: a NaN lands in cell 0 as `as usize` puts it.
+            let cells = &self.grid.cells;
+            let inv = _mm256_set1_ps(cells.inv_cell());
+            let mut at = [[0i32; 8]; 4];
+            let mut e = [[0.0f32; 8]; 4];
+            for (i, end) in ends.iter().enumerate() {
+                let k = i / 2;
+                let last = _mm256_set1_ps(cells.n[k] as f32 - 1.0);
+                let x = _mm256_mul_ps(_mm256_sub_ps(*end, _mm256_set1_ps(cells.lo[k])), inv);
+                let x = _mm256_min_ps(_mm256_max_ps(_mm256_floor_ps(x), _mm256_setzero_ps()), last);
+                _mm256_storeu_si256(at[i].as_mut_ptr() as *mut __m256i, _mm256_cvttps_epi32(x));
+                _mm256_storeu_ps(e[i].as_mut_ptr(), *end);
+            }
+            let (mut dal, mut d0l) = ([0.0f32; 8], [0.0f32; 8]);
+            _mm256_storeu_ps(dal.as_mut_ptr(), da);
+            _mm256_storeu_ps(d0l.as_mut_ptr(), d0);
+            let (lo, hi) = (cells.lo, cells.hi());
+            let mut m = todo;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                if !(dal[k] > 0.0) {
+                    continue;
+                }
+                if !(d0l[k] < self.top) {
+                    if d0l[k] >= self.top {
+                        plans[k] = Plan::Answer(false);
+                    }
+                    continue;
+                }
+                let (s, q) = ([e[0][k], e[1][k]], [e[2][k], e[3][k]]);
+                if !(s[0] <= s[1] && q[0] <= q[1]) {
+                    continue;
+                }
+                let on_grid = s[1] >= lo[0] && s[0] <= hi[0] && q[1] >= lo[1] && q[0] <= hi[1];
+                let off_grid = s[0] < lo[0] || s[1] > hi[0] || q[0] < lo[1] || q[1] > hi[1];
+                let cover = if on_grid {
+                    let x = [at[0][k] as usize, at[1][k] as usize];
+                    let y = [at[2][k] as usize, at[3][k] as usize];
+                    if !cells.listed(x, y) {
+                        continue;
+                    }
+                    Some((x, y))
+                } else {
+                    None
+                };
+                behind[k] = d0l[k] - self.pad;
+                plans[k] = Plan::Lists {
+                    cover,
+                    off_grid,
+                    behind: behind[k],
+                };
+            }
+            (plans, _mm256_loadu_ps(behind.as_ptr()))
+        }
+    }
+
+    /// [`DirIndex::occluded`] for the rays of `todo` (bit `k`: `rays[k]`, at most eight,
+    /// leaving world primitive `skips[k]`, `u32::MAX` for none) at once, for a grid over
+    /// the world level alone: rays that run the same lists are tested together, each pack
+    /// against all of them with the rays in SIMD lanes ([`leaf_rays`], `leaf4`'s arithmetic
+    /// turned around, so that every ray's hits are `occluded`'s bit for bit), each ray
+    /// against the packs `occluded` tests it against (those reaching above its origin)
+    /// until it is blocked. Returns the rays served (none for a grid listing instanced
+    /// packs); for them, bit `k` of `occ` is set when `rays[k]` is blocked, cleared
+    /// otherwise.
+    ///
+    /// # Safety
+    /// AVX2 must be available.
+    #[cfg(target_arch = "x86_64")]
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(crate) unsafe fn occluded_rays<F: AlphaFilter, C: Counter>(
+        &self,
+        lv: &Levels<8>,
+        rays: &[Ray],
+        skips: &[u32; 8],
+        todo: u32,
+        f: &F,
+        c: &C,
+        occ: &mut u32,
+    ) -> u32 {
+        use std::arch::x86_64::*;
+        if !self.world_only {
+            return 0;
+        }
+        let n = rays.len().min(8);
+        let todo = todo & ((1u32 << n) - 1);
+        let mut tmax = [0.0f32; 8];
+        let mut os = [[0.0f32; 3]; 8];
+        let mut ds = [[0.0f32; 3]; 8];
+        for k in 0..n {
+            os[k] = rays[k].origin.to_array();
+            ds[k] = rays[k].dir.to_array();
+            tmax[k] = rays[k].tmax;
+        }
+        // SAFETY: AVX2 is available (caller); the load reads all of `tmax`.
+        let (r, tmaxv) = unsafe {
+            (
+                Rays8::new(&os[..n], &ds[..n]),
+                _mm256_loadu_ps(tmax.as_ptr()),
+            )
+        };
+        // SAFETY: AVX2 is available (caller).
+        let (plans, behind) = unsafe { self.plans8(&r, tmaxv, todo) };
+        let (mut served, mut lists) = (0u32, 0u32);
+        for k in 0..n {
+            match plans[k] {
+                Plan::Walk => {}
+                Plan::Answer(a) => {
+                    served |= 1 << k;
+                    *occ = (*occ & !(1 << k)) | (u32::from(a) << k);
+                }
+                Plan::Lists { .. } => {
+                    served |= 1 << k;
+                    lists |= 1 << k;
+                    *occ &= !(1 << k);
+                }
+            }
+        }
+        if lists == 0 {
+            return served;
+        }
+        // SAFETY: AVX2 is available (caller); the load reads all of `skips`.
+        let rs = unsafe {
+            SunRays {
+                lv,
+                refs: &self.grid.refs,
+                r,
+                tmax: tmaxv,
+                behind,
+                skip: _mm256_loadu_si256(skips.as_ptr() as *const __m256i),
+                f,
+                c,
+            }
+        };
+        // SAFETY: AVX2 is available (caller).
+        unsafe {
+            let mut left = lists;
+            while left != 0 {
+                // The rays running the same lists as the first one left.
+                let k0 = left.trailing_zeros() as usize;
+                let Plan::Lists {
+                    cover, off_grid, ..
+                } = plans[k0]
+                else {
+                    unreachable!("`lists` holds rays with lists only")
+                };
+                let mut group = 0u32;
+                for k in k0..n {
+                    if let Plan::Lists {
+                        cover: ck,
+                        off_grid: ok,
+                        ..
+                    } = plans[k]
+                        && left & (1 << k) != 0
+                        && ck == cover
+                        && ok == off_grid
+                    {
+                        group |= 1 << k;
+                    }
+                }
+                left &= !group;
+                if group & (group - 1) == 0 {
+                    // Alone in its cells: the one-ray query tests a pack against it in
+                    // fewer operations than eight lanes of which one is used.
+                    served &= !group;
+                    continue;
+                }
+                let mut open = group;
+                if let Some((x, y)) = cover {
+                    'cells: for y in y[0]..=y[1] {
+                        for x in x[0]..=x[1] {
+                            open &= !rs.run(self.grid.cells.list(x, y), open);
+                            if open == 0 {
+                                break 'cells;
+                            }
+                        }
+                    }
+                }
+                if off_grid && open != 0 {
+                    // Beyond the grid only the big packs reach.
+                    open &= !rs.run(&self.grid.apart, open);
+                }
+                *occ |= group & !open;
+            }
+        }
+        served
+    }
+}
+
+/// Up to eight shadow rays in SIMD lanes, for [`DirIndex::occluded_rays`] (methods, not
+/// closures: a closure is compiled without its caller's AVX2 target feature, and its
+/// intrinsics became calls).
+#[cfg(target_arch = "x86_64")]
+struct SunRays<'a, F, C> {
+    lv: &'a Levels<8>,
+    refs: &'a [PackRef],
+    r: Rays8,
+    /// Per ray: `tmax`, the depth no pack reaching at most that can block it, and the
+    /// world primitive it leaves.
+    tmax: std::arch::x86_64::__m256,
+    behind: std::arch::x86_64::__m256,
+    skip: std::arch::x86_64::__m256i,
+    f: &'a F,
+    c: &'a C,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<F: AlphaFilter, C: Counter> SunRays<'_, F, C> {
+    /// The rays of `live` (bit `k`: ray `k`) that entry `e`'s pack blocks: `pack_any`'s
+    /// answer for each.
+    ///
+    /// # Safety
+    /// AVX2 must be available.
+    #[inline(always)]
+    unsafe fn test(&self, e: &Entry, live: u32) -> u32 {
+        use std::arch::x86_64::*;
+        for _ in 0..live.count_ones() {
+            self.c.count(crate::Event::Pack);
+        }
+        let world = &self.lv.world;
+        let p = &world.packs[self.refs[e.r as usize].pack as usize];
+        // SAFETY: AVX2 is available (caller).
+        unsafe {
+            // Every lane tested, each ray's own primitive dropped from its hits below
+            // (`leaf_rays` passes over the empty lanes, whose id is `u32::MAX`).
+            let h = leaf_rays(p, &self.r, self.tmax, u32::MAX);
+            let mut blocked = 0u32;
+            let mut l = None;
+            for j in 0..4 {
+                let own = _mm256_cmpeq_epi32(self.skip, _mm256_set1_epi32(p.id[j] as i32));
+                let own = _mm256_movemask_ps(_mm256_castsi256_ps(own)) as u32;
+                let hits = h.mask[j] & live & !own & !blocked;
+                if hits == 0 {
+                    continue;
+                }
+                let fl = p.flags[j];
+                if fl & ALPHA == 0 {
+                    blocked |= hits;
+                    continue;
+                }
+                let l = l.get_or_insert_with(|| h.lanes());
+                let mut m = hits;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let (b1, b2) = (l.b1[j][k], l.b2[j][k]);
+                    if alpha_opaque(world, &self.lv.masks, fl, b1, b2, self.f, self.c) {
+                        blocked |= 1 << k;
+                    }
+                }
+            }
+            blocked
+        }
+    }
+
+    /// The packs of `list` reaching above each ray's origin (deepest first, as
+    /// `occluded` runs them), against the rays of `open`: the rays blocked.
+    ///
+    /// # Safety
+    /// AVX2 must be available.
+    #[inline(always)]
+    unsafe fn run(&self, list: &[Entry], open: u32) -> u32 {
+        use std::arch::x86_64::*;
+        let mut live = open;
+        let mut blocked = 0u32;
+        for e in list {
+            // SAFETY: AVX2 is available (caller).
+            unsafe {
+                let above = _mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_set1_ps(e.key), self.behind);
+                live &= _mm256_movemask_ps(above) as u32;
+                if live == 0 {
+                    break;
+                }
+                let b = self.test(e, live);
+                blocked |= b;
+                live &= !b;
+            }
+        }
+        blocked
+    }
+}
+
+/// `v · a` in eight lanes, as glam's `Vec3A::dot`: `(x x' + y y') + z z'`.
+///
+/// # Safety
+/// AVX must be available.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn dot8(v: &[std::arch::x86_64::__m256; 3], a: Vec3A) -> std::arch::x86_64::__m256 {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX is available (caller).
+    unsafe {
+        _mm256_add_ps(
+            _mm256_add_ps(
+                _mm256_mul_ps(v[0], _mm256_set1_ps(a.x)),
+                _mm256_mul_ps(v[1], _mm256_set1_ps(a.y)),
+            ),
+            _mm256_mul_ps(v[2], _mm256_set1_ps(a.z)),
+        )
+    }
+}
+
+/// What [`DirIndex::plan`] finds for a ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Plan {
+    /// Not served: the tree walk answers.
+    Walk,
+    /// Answered without a pack test (blocked or not).
+    Answer(bool),
+    /// The lists of the cells `cover` (`x` range, `y` range; none when the ray stays off
+    /// the grid's area) and, when it leaves that area (`off_grid`), the big packs apart;
+    /// packs reaching no higher than `behind` cannot block it.
+    Lists {
+        cover: Option<([usize; 2], [usize; 2])>,
+        off_grid: bool,
+        behind: f32,
+    },
 }

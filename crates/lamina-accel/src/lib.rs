@@ -770,6 +770,66 @@ impl Accel {
         }
     }
 
+    /// [`Accel::occluded`] of each of `rays`, leaving `skips[k]`, into `out`: the same
+    /// answers, bit for bit. Shadow rays toward a distant light indexed with
+    /// [`Accel::index_direction`] (a pixel's samples' sun rays) are tested eight at a time,
+    /// each pack against all of them at once, where they run the same cells of a grid over
+    /// the world level alone; the others, and every ray without the AVX2 kernel, one by
+    /// one.
+    ///
+    /// # Panics
+    /// When `skips` or `out` is not as long as `rays`.
+    pub fn occluded_many<F: AlphaFilter>(
+        &self,
+        rays: &[Ray],
+        skips: &[PrimRef],
+        f: &F,
+        out: &mut [bool],
+    ) {
+        self.occluded_many_counted(rays, skips, f, &(), out);
+    }
+
+    /// [`Accel::occluded_many`], counting what the traversal does into `c`.
+    ///
+    /// # Panics
+    /// When `skips` or `out` is not as long as `rays`.
+    pub fn occluded_many_counted<F: AlphaFilter, C: Counter>(
+        &self,
+        rays: &[Ray],
+        skips: &[PrimRef],
+        f: &F,
+        c: &C,
+        out: &mut [bool],
+    ) {
+        assert_eq!(rays.len(), out.len(), "one answer per ray");
+        assert_eq!(rays.len(), skips.len(), "one primitive to skip per ray");
+        match (&self.engine, self.kernel) {
+            #[cfg(target_arch = "x86_64")]
+            (Engine::W8(l), Kernel::Avx2) => {
+                #[target_feature(enable = "avx2,fma")]
+                unsafe fn go<F: AlphaFilter, C: Counter>(
+                    l: &Levels<8>,
+                    rays: &[Ray],
+                    skips: &[PrimRef],
+                    f: &F,
+                    c: &C,
+                    out: &mut [bool],
+                ) {
+                    // SAFETY: this function's own target features are AVX2 + FMA.
+                    unsafe { l.occluded_rays(rays, skips, f, c, out) }
+                }
+                // SAFETY: an `Accel` holds `Kernel::Avx2` only after `Kernel::available`
+                // confirmed AVX2 and FMA on this CPU (`Accel::build_with`).
+                unsafe { go(l, rays, skips, f, c, out) }
+            }
+            _ => {
+                for ((ray, skip), out) in rays.iter().zip(skips).zip(out.iter_mut()) {
+                    *out = dispatch!(self, occluded, ray, *skip, f, c);
+                }
+            }
+        }
+    }
+
     /// Whether any accepted hit lies along `ray` within `(0, tmax)`, not counting `skip`.
     #[inline]
     pub fn occluded<F: AlphaFilter>(&self, ray: &Ray, skip: PrimRef, f: &F) -> bool {

@@ -752,6 +752,122 @@ fn direction_grid_answers_as_the_walk() {
     }
 }
 
+/// [`Accel::occluded_many`] answers each ray exactly as [`Accel::occluded`] and the tree
+/// walk do, for every kernel: bundles of shadow rays along a sun's axis (and in a 0.5°
+/// cone around it) from points a pixel apart on one surface (tested together where they
+/// run the same cells), from points spread over the scene (several groups), from free
+/// space, some in any direction or with a `tmax`, each leaving its own primitive, in slices
+/// of 1 to 13 rays; on the world level with and without a ground (listed apart) and a
+/// crowded column (its cells keep the walk), and through instances (one by one).
+#[test]
+fn occluded_many_answers_as_occluded() {
+    let f = |_: u32, uv: Vec2| matte(uv);
+    // Spheres leave every ray to the one-ray query: the third scene keeps its sphere.
+    for (s, instances, ground, sphere) in [
+        (21, false, false, false),
+        (22, false, true, false),
+        (23, true, true, true),
+    ] {
+        let mut desc = grid_scene(s, instances, ground, Vec3::Y);
+        if !sphere {
+            desc.spheres.clear();
+        }
+        for (kernel, walk) in walks(&desc) {
+            let mut r = rng(s * 7 + 3);
+            let axis = Vec3::new(0.35, 0.85, 0.25).normalize();
+            let (u, v) = axis.any_orthonormal_pair();
+            let mut grid = walk.clone();
+            grid.index_direction(axis).expect("a grid");
+            let stats = TraversalStats::default();
+            let (mut blocked, mut total, mut from_surfaces) = (0, 0, 0);
+            for bundle in 0..300 {
+                let n = 1 + bundle % 13;
+                // A pixel's points on one surface, or points spread over the scene: where
+                // probes from one point in nearly the same or in any direction land.
+                let spread = if bundle % 4 == 3 { 1.0 } else { 2e-3 };
+                let mut aim = || (Vec3::new(r(), r(), r()) * 5.0 - 0.5, unit(&mut r));
+                let (mut eye, mut look) = aim();
+                for _ in 0..100 {
+                    let probe = Ray {
+                        origin: eye,
+                        dir: look,
+                        tmax: f32::INFINITY,
+                    };
+                    if walk.intersect(&probe, PrimRef::NONE, &f).is_some() {
+                        break;
+                    }
+                    (eye, look) = aim();
+                }
+                let mut rays = Vec::with_capacity(n);
+                let mut skips = Vec::with_capacity(n);
+                for i in 0..n {
+                    let jitter = Vec3::new(r() - 0.5, r() - 0.5, r() - 0.5) * spread;
+                    let probe = Ray {
+                        origin: eye,
+                        dir: (look + jitter).normalize(),
+                        tmax: f32::INFINITY,
+                    };
+                    let (mut origin, mut skip) = (eye + jitter, PrimRef::NONE);
+                    if (bundle + i) % 11 != 7
+                        && let Some(h) = walk
+                            .intersect(&probe, PrimRef::NONE, &f)
+                            .filter(|h| h.prim.inst != SPHERE)
+                    {
+                        origin = probe.origin + probe.dir * h.t;
+                        skip = h.prim;
+                        from_surfaces += 1;
+                    }
+                    let dir = match (bundle + 3 * i) % 9 {
+                        0 => unit(&mut r),
+                        1 | 2 => {
+                            let phi = std::f32::consts::TAU * r();
+                            let rad = 0.0046 * r().sqrt();
+                            (axis + (u * phi.cos() + v * phi.sin()) * rad).normalize()
+                        }
+                        _ => axis,
+                    };
+                    let tmax = if (bundle + i) % 5 == 0 {
+                        0.3 + 3.0 * r()
+                    } else {
+                        f32::INFINITY
+                    };
+                    rays.push(Ray { origin, dir, tmax });
+                    skips.push(skip);
+                }
+                let mut got = vec![false; n];
+                grid.occluded_many(&rays, &skips, &f, &mut got);
+                let mut counted = vec![false; n];
+                grid.occluded_many_counted(&rays, &skips, &f, &stats, &mut counted);
+                assert_eq!(counted, got);
+                for (i, ((ray, skip), got)) in rays.iter().zip(&skips).zip(&got).enumerate() {
+                    let want = walk.occluded(ray, *skip, &f);
+                    assert_eq!(
+                        *got, want,
+                        "{kernel:?} bundle {bundle} ray {i}: {ray:?} skip {skip:?}"
+                    );
+                    assert_eq!(*got, grid.occluded(ray, *skip, &f));
+                    blocked += u32::from(want);
+                    total += 1;
+                }
+            }
+            assert!(
+                blocked * 20 > total && blocked * 5 < total * 4 && from_surfaces * 2 > total,
+                "{kernel:?}: {blocked} blocked of {total}, {from_surfaces} from surfaces"
+            );
+            // The masks decided hits both ways and left some to the exact matte.
+            let (o, t, a) = (
+                stats.mask_opaque.get(),
+                stats.mask_transparent.get(),
+                stats.alpha_lookups.get(),
+            );
+            assert!(
+                o > 0 && t > 0 && a > 0,
+                "{kernel:?}: {o} opaque, {t} transparent, {a} exact"
+            );
+        }
+    }
+}
+
 #[test]
 fn direction_grid_is_refused_without_a_direction_or_geometry() {
     let mut a = Accel::build(&scene(5, true)).unwrap();

@@ -908,4 +908,58 @@ impl Levels<8> {
             }
         }
     }
+
+    /// [`Levels::occluded`] of each of `rays`, leaving primitive `skips[k]`, into `out`
+    /// (all as long): rays toward a distant light eight at a time through
+    /// [`crate::direction::DirIndex::occluded_rays`] where it serves them, the others one
+    /// by one. The same answers, bit for bit.
+    ///
+    /// # Safety
+    /// AVX2 and FMA must be available.
+    #[inline(always)]
+    pub(crate) unsafe fn occluded_rays<F: AlphaFilter, C: Counter>(
+        &self,
+        rays: &[Ray],
+        skips: &[PrimRef],
+        f: &F,
+        c: &C,
+        out: &mut [bool],
+    ) {
+        use crate::kernel::avx2::Avx2;
+        for ((rays, skips), out) in rays.chunks(8).zip(skips.chunks(8)).zip(out.chunks_mut(8)) {
+            let n = rays.len();
+            // Unserved rays, one bit each; spheres (tested first by `occluded`) leave every
+            // ray to the one-ray query.
+            let mut left = if self.spheres.is_empty() {
+                (1u32 << n) - 1
+            } else {
+                0
+            };
+            let mut world_skip = [u32::MAX; 8];
+            for (w, s) in world_skip.iter_mut().zip(skips) {
+                if s.inst == NO_INSTANCE {
+                    *w = s.prim;
+                }
+            }
+            let mut occ = 0u32;
+            let mut served = 0u32;
+            for ix in &self.dirs {
+                if left == 0 {
+                    break;
+                }
+                // SAFETY: AVX2 is available (caller).
+                let s = unsafe { ix.occluded_rays(self, rays, &world_skip, left, f, c, &mut occ) };
+                served |= s;
+                left &= !s;
+            }
+            for (k, ((ray, skip), out)) in rays.iter().zip(skips).zip(out.iter_mut()).enumerate() {
+                *out = if served & (1 << k) != 0 {
+                    occ & (1 << k) != 0
+                } else {
+                    // SAFETY: AVX2 and FMA are available (caller).
+                    unsafe { self.occluded::<Avx2, F, C>(ray, *skip, f, c) }
+                };
+            }
+        }
+    }
 }

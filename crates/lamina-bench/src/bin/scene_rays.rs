@@ -14,7 +14,8 @@
 //! | `camera_one` | the same | closest hit, one at a time |
 //! | `bounce` | from each camera ray's hit on a surface: a cosine-weighted direction about the geometric normal, on either side by a coin toss (what a diffuse leaf's BSDF samples), leaving that primitive; pixel after pixel | closest hit |
 //! | `bounce_shuffled` | the same rays in a random order (no two neighbours from one pixel) | closest hit |
-//! | `sun` | from each such hit toward the first `sun` light (its centre), leaving that primitive | any hit |
+//! | `sun` | from each such hit toward the first `sun` light (its centre), leaving that primitive | any hit, eight at a time (`Accel::occluded_many`, as the renderer) |
+//! | `sun_one` | the same | any hit, one at a time |
 //!
 //! Printed per set: rays, hits (or blocked), seconds and M rays/s; with `--embree` the
 //! same on Embree 3 (lamina-render's Embree backend, one ray at a time) and the ratio
@@ -218,7 +219,8 @@ fn main() -> Result<()> {
             }
             (best, n)
         };
-        let sets: [(&'static str, usize, Tracer); 5] = [
+        let suns = secondary.iter().filter(|s| s.sun.is_some()).count();
+        let sets: [(&'static str, usize, Tracer); 6] = [
             (
                 "camera",
                 camera.len(),
@@ -269,7 +271,17 @@ fn main() -> Result<()> {
             ),
             (
                 "sun",
-                secondary.iter().filter(|s| s.sun.is_some()).count(),
+                suns,
+                Box::new(|| {
+                    secondary
+                        .par_chunks(1024)
+                        .map(|ch| sun_many(accel, ch, None))
+                        .sum()
+                }),
+            ),
+            (
+                "sun_one",
+                suns,
                 Box::new(|| {
                     let blocked =
                         |s: &Secondary| s.sun.is_some_and(|r| accel.occluded_skip(&r, s.skip));
@@ -356,6 +368,41 @@ fn main() -> Result<()> {
     Ok(())
 }
 
+/// The sun rays of `ch` (of the hits that have one), eight at a time through
+/// [`Accel::occluded_many`], as the renderer traces a pixel's samples' shadow rays: how
+/// many are blocked; counted into `stats` when given.
+fn sun_many(accel: &Accel, ch: &[Secondary], stats: Option<&TraversalStats>) -> usize {
+    let mut rays = Vec::with_capacity(Accel::MANY);
+    let mut skips = Vec::with_capacity(Accel::MANY);
+    let mut out = [false; Accel::MANY];
+    let mut blocked = 0;
+    let mut flush = |rays: &mut Vec<Ray>, skips: &mut Vec<PrimRef>| {
+        let n = rays.len();
+        blocked += match stats {
+            Some(st) => accel.occluded_many_counted(rays, skips, st),
+            None => {
+                accel.occluded_many(rays, skips, &mut out[..n]);
+                out[..n].iter().filter(|&&b| b).count()
+            }
+        };
+        rays.clear();
+        skips.clear();
+    };
+    for s in ch {
+        if let Some(r) = s.sun {
+            rays.push(r);
+            skips.push(s.skip);
+            if rays.len() == Accel::MANY {
+                flush(&mut rays, &mut skips);
+            }
+        }
+    }
+    if !rays.is_empty() {
+        flush(&mut rays, &mut skips);
+    }
+    blocked
+}
+
 /// Set `set`'s rays traced again on `accel` with the engine's counters on (in parallel
 /// chunks, summed): nodes, packs, instances, mask decisions and exact lookups, in
 /// [`Counts`]' order. The shuffled bounce rays are the bounce rays: the same counts.
@@ -388,16 +435,24 @@ fn count_set(
                 stats_array(&st)
             })
             .reduce(|| [0; 6], sum),
+        "sun" => secondary
+            .par_chunks(1024)
+            .map(|ch| {
+                let st = TraversalStats::default();
+                sun_many(accel, ch, Some(&st));
+                stats_array(&st)
+            })
+            .reduce(|| [0; 6], sum),
         _ => secondary
             .par_chunks(1024)
             .map(|ch| {
                 let st = TraversalStats::default();
                 for s in ch {
                     match (set, s.sun) {
-                        ("sun", Some(r)) => {
+                        ("sun_one", Some(r)) => {
                             accel.occluded_counted(&r, s.skip, &st);
                         }
-                        ("sun", None) => {}
+                        ("sun_one", None) => {}
                         _ => {
                             accel.intersect_counted(&s.bounce, s.skip, &st);
                         }
@@ -565,7 +620,16 @@ edge_v = [0, 0, -20]
         }
         assert_eq!(counted("bounce"), stats_array(&bounce));
         assert_eq!(counted("bounce_shuffled"), stats_array(&bounce));
-        assert_eq!(counted("sun"), stats_array(&sun));
+        assert_eq!(counted("sun_one"), stats_array(&sun));
+        let many = TraversalStats::default();
+        for ch in secondary.chunks(1024) {
+            assert_eq!(
+                sun_many(&accel, ch, Some(&many)),
+                0,
+                "nothing above the quad"
+            );
+        }
+        assert_eq!(counted("sun"), stats_array(&many));
         for set in ["camera", "camera_one"] {
             let c = Counts::per_ray(counted(set), camera.len());
             assert!(c.packs >= 1.0, "{set}: {c:?}");

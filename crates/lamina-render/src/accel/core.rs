@@ -174,6 +174,27 @@ impl Core {
         }
     }
 
+    /// Whether each of `rays`, leaving `skips[k]`, is blocked (see
+    /// `lamina_accel::Accel::occluded_many`).
+    #[inline(always)]
+    pub fn occluded_many<F: AlphaFilter>(
+        &self,
+        rays: &[Ray],
+        skips: &[PrimRef],
+        f: &F,
+        out: &mut [bool],
+    ) {
+        match self {
+            Core::Lamina(a) => a.occluded_many(rays, skips, f, out),
+            #[cfg(feature = "embree")]
+            Core::Embree(e) => {
+                for ((ray, skip), out) in rays.iter().zip(skips).zip(out.iter_mut()) {
+                    *out = e.accel.occluded(ray, *skip, f);
+                }
+            }
+        }
+    }
+
     /// The world-to-object transform of instance `inst` (an id as hits report it).
     #[inline(always)]
     pub fn world_to_object(&self, inst: u32) -> Option<Affine3A> {

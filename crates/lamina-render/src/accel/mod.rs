@@ -839,6 +839,41 @@ impl Accel {
         }
         self.core.occluded(ray, skip, &self.filter())
     }
+
+    /// [`Accel::occluded_skip`] of each of `rays`, leaving `skips[k]`, into `out` (all as
+    /// long): the same answers, bit for bit. lamina-accel tests sun shadow rays that run
+    /// the same cells of its grid along the sun together (a pixel's samples' first
+    /// vertices), eight at a time; other rays, periodic scenes and Embree one by one.
+    ///
+    /// # Panics
+    /// When `skips` or `out` is not as long as `rays`.
+    pub fn occluded_many(&self, rays: &[Ray], skips: &[PrimRef], out: &mut [bool]) {
+        assert!(rays.len() == skips.len() && rays.len() == out.len());
+        if self.wrap.is_some() {
+            for ((ray, skip), out) in rays.iter().zip(skips).zip(out.iter_mut()) {
+                *out = self.occluded_skip(ray, *skip);
+            }
+            return;
+        }
+        self.core.occluded_many(rays, skips, &self.filter(), out);
+    }
+
+    /// [`Accel::occluded_many`], counting lamina-accel's traversal steps into `stats`
+    /// (as [`Accel::intersect_counted`]): how many of `rays` are blocked.
+    pub fn occluded_many_counted(
+        &self,
+        rays: &[Ray],
+        skips: &[PrimRef],
+        stats: &lamina_accel::TraversalStats,
+    ) -> usize {
+        let f = self.filter();
+        let mut out = vec![false; rays.len()];
+        match self.core.lamina() {
+            Some(a) => a.occluded_many_counted(rays, skips, &f, stats, &mut out),
+            None => self.core.occluded_many(rays, skips, &f, &mut out),
+        }
+        out.iter().filter(|&&b| b).count()
+    }
 }
 
 /// A periodic-domain error as the renderer reports it.

@@ -102,18 +102,24 @@ impl<'a> SceneContext<'a> {
         ls: &LightSample,
         rays: &mut u64,
     ) -> bool {
+        *rays += 1;
+        !self.accel.occluded_skip(&Self::shadow_ray(p, n, ls), prim)
+    }
+
+    /// The shadow ray [`SceneContext::unoccluded`] traces from `p` (geometric normal `n`)
+    /// toward light sample `ls`.
+    #[inline]
+    pub(crate) fn shadow_ray(p: Vec3, n: Vec3, ls: &LightSample) -> Ray {
         let tmax = if ls.dist.is_finite() {
             ls.dist * (1.0 - 1e-3)
         } else {
             f32::INFINITY
         };
-        let shadow = Ray {
+        Ray {
             origin: spawn_origin(p, n, ls.wi),
             dir: ls.wi,
             tmax,
-        };
-        *rays += 1;
-        !self.accel.occluded_skip(&shadow, prim)
+        }
     }
 
     /// If `kind` is an emitter (quad or sphere light) the ray hit at distance `t`, its

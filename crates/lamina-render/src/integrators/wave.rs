@@ -67,6 +67,13 @@ const MAX_LIGHTS: usize = 8;
 type Lanes = [f32; LANES];
 type Lanes3 = [[f32; LANES]; 3];
 
+/// What the unused slots of a wave's ray arrays hold (never traced).
+const EMPTY_RAY: Ray = Ray {
+    origin: Vec3::ZERO,
+    dir: Vec3::Z,
+    tmax: 0.0,
+};
+
 /// A served material's lobes at a point: `R / π` on the side of `wo`, `T / π` across, the
 /// reflection lobe sampled with probability `pr` (`diffuse`: `T = 0`, `pr = 1`, which is
 /// `Lambertian`'s arithmetic exactly).
@@ -700,10 +707,37 @@ impl Wave {
                     };
                     set3(&mut add, k, get3(&beta, k) * f * s.li * (w / s.pdf));
                 }
+                // The shadow rays of the lanes that shoot. At the first vertex the lanes are
+                // one pixel's samples (or neighbouring pixels'), on the same few surfaces:
+                // their sun rays run the same cells of the sun's grid and are tested
+                // together (`Accel::occluded_many`: the sun ray set 22 % faster on the
+                // Mitsuba scene, 35 % on the bush). Deeper vertices are scattered; there
+                // the grouping costs more than it saves (a 4000-card frame 3 % slower with
+                // it at every vertex), and the rays go one by one.
+                let mut shadow = [EMPTY_RAY; LANES];
+                let mut skip = [PrimRef::NONE; LANES];
+                let mut which = [0usize; LANES];
+                let mut m = 0;
                 for k in lanes_of(alive & bits(&shoot)) {
                     let s = ls[k].as_ref().expect("a valid lane has its sample");
-                    if ctx.unoccluded(get3(&g.p, k), get3(&g.ng, k), g.prim[k], s, rays) {
-                        add3(&mut l, k, get3(&add, k));
+                    shadow[m] = SceneContext::shadow_ray(get3(&g.p, k), get3(&g.ng, k), s);
+                    skip[m] = g.prim[k];
+                    which[m] = k;
+                    m += 1;
+                }
+                let mut blocked = [false; LANES];
+                if bounces == 0 {
+                    ctx.accel
+                        .occluded_many(&shadow[..m], &skip[..m], &mut blocked[..m]);
+                } else {
+                    for i in 0..m {
+                        blocked[i] = ctx.accel.occluded_skip(&shadow[i], skip[i]);
+                    }
+                }
+                *rays += m as u64;
+                for i in 0..m {
+                    if !blocked[i] {
+                        add3(&mut l, which[i], get3(&add, which[i]));
                     }
                 }
             }

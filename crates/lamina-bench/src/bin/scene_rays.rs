@@ -14,7 +14,7 @@
 //! | `camera_one` | the same | closest hit, one at a time |
 //! | `bounce` | from each camera ray's hit on a surface: a cosine-weighted direction about the geometric normal, on either side by a coin toss (what a diffuse leaf's BSDF samples), leaving that primitive; pixel after pixel | closest hit |
 //! | `bounce_shuffled` | the same rays in a random order (no two neighbours from one pixel) | closest hit |
-//! | `sun` | from each such hit toward the first `sun` light (its centre), leaving that primitive | any hit, eight at a time (`Accel::occluded_many`, as the renderer) |
+//! | `sun` | from each such hit toward the first `sun` light (a direction in its disc, drawn as the renderer draws it), leaving that primitive | any hit, eight at a time (`Accel::occluded_many`, as the renderer) |
 //! | `sun_one` | the same | any hit, one at a time |
 //!
 //! Printed per set: rays, hits (or blocked), seconds and M rays/s; with `--embree` the
@@ -35,6 +35,7 @@ use lamina_leaf::frame::Frame;
 use lamina_leaf::sampling::cosine_hemisphere;
 use lamina_render::accel::{Accel, Backend, HitKind, PrimRef, Ray, spawn_origin};
 use lamina_render::camera::CameraModel;
+use lamina_render::lights::SunLight;
 use lamina_render::sampler::hash_combine;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -484,8 +485,13 @@ fn make_sets(scene: &Scene, accel: &Accel, spp: u32) -> Result<(Vec<Ray>, Vec<Se
             }
         })
         .collect();
+    // The first sun, its disc sampled as the renderer samples it (a delta sun: its axis).
     let sun = scene.lights.iter().find_map(|l| match l {
-        Light::Sun { direction, .. } => Some(direction.normalize()),
+        Light::Sun {
+            direction,
+            angular_diameter_deg,
+            ..
+        } => SunLight::new(*direction, Vec3::ONE, *angular_diameter_deg),
         _ => None,
     });
     let secondary = rays
@@ -510,10 +516,13 @@ fn make_sets(scene: &Scene, accel: &Accel, spp: u32) -> Result<(Vec<Ray>, Vec<Se
                 dir,
                 tmax: f32::INFINITY,
             };
-            let sun = sun.map(|s: Vec3| Ray {
-                origin: spawn_origin(p, n, s),
-                dir: s,
-                tmax: f32::INFINITY,
+            let sun = sun.as_ref().map(|sun| {
+                let s = sun.sample(Vec2::new(unit(i, 5), unit(i, 6))).wi;
+                Ray {
+                    origin: spawn_origin(p, n, s),
+                    dir: s,
+                    tmax: f32::INFINITY,
+                }
             });
             Some(Secondary {
                 bounce,

@@ -709,11 +709,13 @@ impl Wave {
                 }
                 // The shadow rays of the lanes that shoot. At the first vertex the lanes are
                 // one pixel's samples (or neighbouring pixels'), on the same few surfaces:
-                // their sun rays run the same cells of the sun's grid and are tested
-                // together (`Accel::occluded_many`: the sun ray set 22 % faster on the
-                // Mitsuba scene, 35 % on the bush). Deeper vertices are scattered; there
-                // the grouping costs more than it saves (a 4000-card frame 3 % slower with
-                // it at every vertex), and the rays go one by one.
+                // their rays toward a sun run the same cells of the sun's grid and are
+                // tested together (`Accel::occluded_many`: `scene_rays`' sun set 24 % faster
+                // on the Mitsuba scene, 35 % on the bush). Deeper vertices are scattered, and
+                // so are rays toward a sky or an area light, or toward a light drawn per
+                // lane: there the grouping costs more than it saves (a 4000-card frame 3 %
+                // slower with it at every vertex, a sunsky scene 3 % slower with its sky's
+                // rays in it), and the rays go one by one.
                 let mut shadow = [EMPTY_RAY; LANES];
                 let mut skip = [PrimRef::NONE; LANES];
                 let mut which = [0usize; LANES];
@@ -726,7 +728,8 @@ impl Wave {
                     m += 1;
                 }
                 let mut blocked = [false; LANES];
-                if bounces == 0 {
+                let sun = picked.is_none() && matches!(nee[j as usize], AnyLight::Sun(_));
+                if bounces == 0 && sun {
                     ctx.accel
                         .occluded_many(&shadow[..m], &skip[..m], &mut blocked[..m]);
                 } else {

@@ -193,6 +193,18 @@ fn wavefront_is_path_bit_for_bit() {
         }),
     };
     same_both_ways("alpha mattes", &s, &opts(12, 2));
+    // The mattes under two suns (a delta one and a 2° disc) and no sphere: the first
+    // vertex's sun rays take lamina-accel's eight-ray grid queries (a sphere leaves every
+    // ray to the one-ray query).
+    s.lights = vec![
+        sun(Vec3::new(0.3, 1.0, 0.5), 400.0),
+        Light::Sun {
+            direction: Vec3::new(-0.4, 0.8, 0.3),
+            irradiance: Vec3::splat(200.0),
+            angular_diameter_deg: 2.0,
+        },
+    ];
+    same_both_ways("alpha mattes, two suns", &s, &opts(13, 2));
     // Colours from textures, looked up per hit: a textured reflectance and transmittance
     // (their luminance ratio, the lobe choice, varying over the card) and a textured
     // diffuse.

@@ -541,3 +541,95 @@ fn camera_rays_found_together_hit_as_alone() {
     }
     assert!(hits * 10 > total, "{hits} of {total} camera rays hit");
 }
+
+/// A pixel's shadow rays toward a sun tested together ([`Accel::occluded_many`],
+/// lamina-accel's eight-ray queries over the sun's grid) are blocked exactly when each is
+/// alone, each leaving the surface its camera ray hit: on world cards with a matte under a
+/// delta sun and a sun's disc, for groups of 1 to 16 rays per pixel across the film.
+#[test]
+fn sun_rays_tested_together_are_blocked_as_alone() {
+    let mut scene = small_canopy_scene();
+    scene.lights = vec![
+        sun(Vec3::new(0.3, 1.0, 0.5), 400.0),
+        lamina_core::Light::Sun {
+            direction: Vec3::new(-0.4, 0.8, 0.3),
+            irradiance: Vec3::splat(200.0),
+            angular_diameter_deg: 2.0,
+        },
+    ];
+    // Half of each card's matte cut away: blocked and unblocked rays through the cards.
+    if let Material::DiffuseTransmission { alpha, .. } = &mut scene.materials[0] {
+        *alpha = Some(AlphaMask {
+            map: Texture::from_texels(
+                2,
+                2,
+                vec![Vec4::ZERO, Vec4::ONE, Vec4::ONE, Vec4::ONE],
+                Wrap::Clamp,
+            ),
+            use_alpha_channel: false,
+            cutoff: 0.5,
+        });
+    }
+    let accel = Accel::build(&scene).unwrap();
+    assert!(accel.memory().grids > 0, "grids along the suns");
+    let cam = crate::camera::CameraModel::new(&scene.camera, &scene.film).unwrap();
+    let suns: Vec<crate::lights::SunLight> = scene
+        .lights
+        .iter()
+        .filter_map(|l| match l {
+            lamina_core::Light::Sun {
+                direction,
+                angular_diameter_deg,
+                ..
+            } => crate::lights::SunLight::new(*direction, Vec3::ONE, *angular_diameter_deg),
+            _ => None,
+        })
+        .collect();
+    let (w, h) = (scene.film.width, scene.film.height);
+    let (mut blocked, mut total) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let n = 1 + ((x * 7 + y) as usize % 16);
+            let (mut rays, mut skips) = (Vec::new(), Vec::new());
+            for i in 0..n as u32 {
+                let s = crate::sampler::sobol_2d(i, x * 977 + y);
+                let (origin, dir) =
+                    cam.generate_ray(glam::Vec2::new(x as f32, y as f32) + s, glam::Vec2::ZERO);
+                let camera_ray = Ray {
+                    origin,
+                    dir,
+                    tmax: f32::INFINITY,
+                };
+                let Some(Hit {
+                    kind: HitKind::Triangle { prim, bary },
+                    ..
+                }) = accel.intersect(&camera_ray)
+                else {
+                    continue;
+                };
+                let (p, info) = accel.surface(prim, bary);
+                let sun = &suns[(i as usize + x as usize) % suns.len()];
+                let u = crate::sampler::sobol_2d(i, x * 31 + y * 7 + 1);
+                let wi = sun.sample(u).wi;
+                rays.push(Ray {
+                    origin: crate::accel::spawn_origin(p, info.n, wi),
+                    dir: wi,
+                    tmax: f32::INFINITY,
+                });
+                skips.push(prim);
+            }
+            let mut got = vec![false; rays.len()];
+            accel.occluded_many(&rays, &skips, &mut got);
+            for ((ray, skip), got) in rays.iter().zip(&skips).zip(&got) {
+                let want = accel.occluded_skip(ray, *skip);
+                assert_eq!(*got, want, "pixel ({x}, {y}): {ray:?} leaving {skip:?}");
+                blocked += u32::from(want);
+                total += 1;
+            }
+        }
+    }
+    assert!(
+        blocked * 20 > total && blocked * 20 < total * 19,
+        "{blocked} of {total} sun rays blocked"
+    );
+}

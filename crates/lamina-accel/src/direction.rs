@@ -33,8 +33,9 @@
 //! primitive tilted to the light (a ground) puts the top of the scene far above the others,
 //! its cells end at the top of the small packs, and above that it tests the big ones (on
 //! `examples/forest.toml`, 44 % less time per sun ray: 3.4 instead of 6.1 packs and 0.27
-//! instead of 0.57 tree nodes). Scenes of more than [`MAX_PACKS`](crate::grid::MAX_PACKS) placed packs, or
-//! whose grid would exceed [`MAX_ENTRIES`](crate::grid::MAX_ENTRIES), get none.
+//! instead of 0.57 tree nodes). Scenes of more than [`MAX_PACKS`](crate::grid::MAX_PACKS)
+//! placed packs, or whose grid would exceed [`MAX_ENTRIES`](crate::grid::MAX_ENTRIES), get
+//! none.
 
 #[cfg(target_arch = "x86_64")]
 use crate::PrimRef;
@@ -61,8 +62,8 @@ const BIG: f32 = 64.0;
 /// Most cells the shadow rays tested together run ([`DirIndex::occluded_rays`]), unless
 /// one ray's own cells are more.
 const GROUP_CELLS: usize = 4;
-/// Fewest shadow rays [`DirIndex::occluded_rays`] tests together; smaller groups are left
-/// to the one-ray query.
+/// Fewest shadow rays [`DirIndex::occluded_rays`] tests together; the rays of a smaller
+/// group run their own lists one by one, as the one-ray query does.
 const MIN_GROUP: usize = 3;
 
 /// The grid of one axis (module docs). Entry keys are the largest depth along the axis

@@ -24,6 +24,18 @@ pub enum MaskWrap {
     Clamp,
 }
 
+/// `v` wrapped into `0..n` (`n > 0`), as `rem_euclid`: without its two divisions where `v`
+/// is already inside (a card's uv in `[0, 1]` is, but at its edge texels), for the divisions'
+/// latency sat on the leaf test's path (about 4 % of the bush's closest-hit walks).
+#[inline(always)]
+fn wrapped(v: i64, n: i64) -> i64 {
+    if (v as u64) < (n as u64) {
+        v
+    } else {
+        v.rem_euclid(n)
+    }
+}
+
 /// A 3-state opacity mask over a `width x height` matte sampled bilinearly at texel centres
 /// (texel `(x, y)` at `u = (x + 0.5) / width`, `v = 1 - (y + 0.5) / height`: row 0 is the
 /// top of the image, `v` grows upward), as [`OpacityMask::classify`] documents.
@@ -101,7 +113,7 @@ impl OpacityMask {
         }
         let (x0, y0) = (x.floor() as i64, y.floor() as i64);
         let i = match self.wrap {
-            MaskWrap::Repeat => y0.rem_euclid(self.height) * self.width + x0.rem_euclid(self.width),
+            MaskWrap::Repeat => wrapped(y0, self.height) * self.width + wrapped(x0, self.width),
             MaskWrap::Clamp => {
                 (y0.clamp(-1, self.height - 1) + 1) * (self.width + 1)
                     + x0.clamp(-1, self.width - 1)
@@ -156,5 +168,42 @@ impl OpacityMask {
     /// Heap bytes.
     pub fn bytes(&self) -> usize {
         self.cells.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The wrap's fast path answers as `rem_euclid` inside, outside, at the edges and at
+    /// the extremes a saturated `floor` gives.
+    #[test]
+    fn wrapped_is_rem_euclid() {
+        for n in [1i64, 2, 3, 7, 64, 1000] {
+            for v in (-3 * n - 2..=3 * n + 2).chain([i64::MIN, i64::MIN + 1, i64::MAX]) {
+                assert_eq!(wrapped(v, n), v.rem_euclid(n), "{v} mod {n}");
+            }
+        }
+    }
+
+    /// A repeating mask classifies a point as the same point a whole number of tiles away.
+    #[test]
+    fn repeat_classifies_tiles_alike() {
+        let (w, h) = (7u32, 5u32);
+        let m = OpacityMask::from_texels(w, h, MaskWrap::Repeat, 0.5, |x, y| {
+            let (x, y) = (x.rem_euclid(7), y.rem_euclid(5));
+            ((x * 37 + y * 11) % 10) as f32 / 9.0
+        })
+        .unwrap();
+        for i in 0..2000 {
+            let uv = Vec2::new(
+                (i % 50) as f32 / 50.0 + 0.003,
+                (i / 50) as f32 / 40.0 + 0.002,
+            );
+            let here = m.classify(uv);
+            for (du, dv) in [(-3.0, 0.0), (1.0, -2.0), (0.0, 5.0), (-1.0, -1.0)] {
+                assert_eq!(m.classify(uv + Vec2::new(du, dv)), here, "{uv}");
+            }
+        }
     }
 }

@@ -210,6 +210,15 @@ impl Distribution2D {
         (Vec2::new(x, y), pdf_x * pdf_y, (ix, iy))
     }
 
+    /// [`Distribution2D::sample`]'s point and cell, without reading the densities (a caller
+    /// that keeps [`Distribution2D::pdf_cell`] per cell beside its own data).
+    #[inline]
+    pub fn sample_cell(&self, u: Vec2) -> (Vec2, (usize, usize)) {
+        let (y, iy) = self.marginal.locate(u.y);
+        let (x, ix) = self.rows[iy].locate(u.x);
+        (Vec2::new(x, y), (ix, iy))
+    }
+
     /// Density in cell `(column, row)`.
     #[inline]
     pub fn pdf_cell(&self, ix: usize, iy: usize) -> f32 {
@@ -313,5 +322,38 @@ mod tests {
         let d = Distribution1D::new(&[0.0, 0.0]);
         let (x, pdf, _) = d.sample(0.75);
         assert!((x - 0.75).abs() < 1e-6 && (pdf - 1.0).abs() < 1e-6);
+    }
+
+    /// `sample_cell` gives `sample`'s point and cell, bit for bit, and the cell's density is
+    /// the one `sample` reports (what a sky keeps per texel), including rows that are all
+    /// zero.
+    #[test]
+    fn sample_cell_is_sample() {
+        let (w, h) = (37, 9);
+        let func: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                if y == 4 {
+                    0.0
+                } else {
+                    ((x * 13 + y * 7) % 17) as f32 + 0.01 * x as f32
+                }
+            })
+            .collect();
+        let d = Distribution2D::new(&func, w, h);
+        for k in 0..5000 {
+            let u = Vec2::new(
+                (k as f32 + 0.5) / 5000.0,
+                ((k * 7919) % 5000) as f32 / 5000.0,
+            );
+            let (p, pdf, cell) = d.sample(u);
+            let (q, at) = d.sample_cell(u);
+            assert_eq!(
+                (p.x.to_bits(), p.y.to_bits(), cell),
+                (q.x.to_bits(), q.y.to_bits(), at)
+            );
+            assert_eq!(pdf.to_bits(), d.pdf_cell(at.0, at.1).to_bits(), "u = {u}");
+            assert_ne!(at.1, 4, "a row of zeros is never drawn");
+        }
     }
 }

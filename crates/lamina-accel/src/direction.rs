@@ -335,13 +335,51 @@ impl DirIndex {
         tmax: f32,
         tests: &mut PackTests<'a, K, W, F, C>,
     ) -> bool {
+        // A pack reaching into several of the ray's cells (a leaf wider than a cell, under
+        // a sun's disc), or listed in its cells and apart (a ground), is tested once
+        // ([`Seen`]). One cell and nothing apart list each pack once: no bookkeeping there
+        // (a walk of its own, so that the common case runs as it did without it).
+        // SAFETY (both): forwarded.
+        if several(cover, off_grid) {
+            unsafe { self.walk_lists::<W, K, F, C, true>(cover, off_grid, behind, tmax, tests) }
+        } else {
+            unsafe { self.walk_lists::<W, K, F, C, false>(cover, off_grid, behind, tmax, tests) }
+        }
+    }
+
+    /// [`DirIndex::run_lists`], packs met again skipped when `DEDUP`.
+    ///
+    /// # Safety
+    /// `K`'s instruction set must be available.
+    #[inline(always)]
+    unsafe fn walk_lists<
+        'a,
+        const W: usize,
+        K: Lanes<W>,
+        F: AlphaFilter,
+        C: Counter,
+        const DEDUP: bool,
+    >(
+        &'a self,
+        cover: Option<([usize; 2], [usize; 2])>,
+        off_grid: bool,
+        behind: f32,
+        tmax: f32,
+        tests: &mut PackTests<'a, K, W, F, C>,
+    ) -> bool {
         tests.refs = &self.grid.refs;
+        // (No closure for the test: it would be compiled without the caller's target
+        // features.)
+        let mut seen = Seen::new();
         if let Some((x, y)) = cover {
             for y in y[0]..=y[1] {
                 for x in x[0]..=x[1] {
                     for e in self.grid.cells.list(x, y) {
                         if e.key <= behind {
                             break;
+                        }
+                        if DEDUP && seen.untested(e.r, 1) == 0 {
+                            continue;
                         }
                         // SAFETY: forwarded.
                         if unsafe { tests.any(e, tmax) } {
@@ -356,6 +394,9 @@ impl DirIndex {
             for e in &self.grid.apart {
                 if e.key <= behind {
                     break;
+                }
+                if DEDUP && seen.untested(e.r, 1) == 0 {
+                    continue;
                 }
                 // SAFETY: forwarded.
                 if unsafe { tests.any(e, tmax) } {
@@ -651,10 +692,15 @@ impl DirIndex {
                     continue;
                 }
                 let mut open = group;
+                // Packs met in several of the group's lists are tested once per ray, as
+                // in `run_lists`.
+                let several = several(cover, off_grid);
+                let mut seen = Seen::new();
                 if let Some((x, y)) = cover {
                     'cells: for y in y[0]..=y[1] {
                         for x in x[0]..=x[1] {
-                            open &= !rs.run(self.grid.cells.list(x, y), open);
+                            let list = self.grid.cells.list(x, y);
+                            open &= !rs.run(list, open, several.then_some(&mut seen));
                             if open == 0 {
                                 break 'cells;
                             }
@@ -663,12 +709,63 @@ impl DirIndex {
                 }
                 if off_grid && open != 0 {
                     // Beyond the grid only the big packs reach.
-                    open &= !rs.run(&self.grid.apart, open);
+                    open &= !rs.run(&self.grid.apart, open, several.then_some(&mut seen));
                 }
                 *occ |= group & !open;
             }
         }
         served
+    }
+}
+
+/// Whether a walk over the cells `cover` and, when `off_grid`, the packs apart may meet a
+/// pack twice: several cells, or cells and the packs apart (listed in their cells too).
+#[inline(always)]
+fn several(cover: Option<([usize; 2], [usize; 2])>, off_grid: bool) -> bool {
+    match cover {
+        Some((x, y)) => off_grid || x[0] != x[1] || y[0] != y[1],
+        None => false,
+    }
+}
+
+/// The packs a walk over several lists has tested, and against which rays (bit `k`: ray
+/// `k` of a group; bit 0 alone for one ray), the last [`Seen::SLOTS`] packs: a pack met
+/// again among those is tested only against rays it was not tested against (an older one
+/// may be tested again). A pack's test is the whole pack against the ray, so a second one
+/// would answer as the first.
+struct Seen {
+    refs: [u32; Seen::SLOTS],
+    rays: [u32; Seen::SLOTS],
+    next: usize,
+}
+
+impl Seen {
+    const SLOTS: usize = 4;
+
+    #[inline(always)]
+    fn new() -> Seen {
+        Seen {
+            refs: [u32::MAX; Seen::SLOTS],
+            rays: [0; Seen::SLOTS],
+            next: 0,
+        }
+    }
+
+    /// The rays of `live` that pack reference `r` has not been tested against (among the
+    /// last few packs), noted as tested now.
+    #[inline(always)]
+    fn untested(&mut self, r: u32, live: u32) -> u32 {
+        for (s, m) in self.refs.iter().zip(self.rays.iter_mut()) {
+            if *s == r {
+                let new = live & !*m;
+                *m |= live;
+                return new;
+            }
+        }
+        self.refs[self.next] = r;
+        self.rays[self.next] = live;
+        self.next = (self.next + 1) % Seen::SLOTS;
+        live
     }
 }
 
@@ -744,10 +841,11 @@ impl<F: AlphaFilter, C: Counter> SunRays<'_, F, C> {
     /// # Safety
     /// AVX2 must be available.
     #[inline(always)]
-    unsafe fn run(&self, list: &[Entry], open: u32) -> u32 {
+    unsafe fn run(&self, list: &[Entry], open: u32, seen: Option<&mut Seen>) -> u32 {
         use std::arch::x86_64::*;
         let mut live = open;
         let mut blocked = 0u32;
+        let mut seen = seen;
         for e in list {
             // SAFETY: AVX2 is available (caller).
             unsafe {
@@ -756,7 +854,14 @@ impl<F: AlphaFilter, C: Counter> SunRays<'_, F, C> {
                 if live == 0 {
                     break;
                 }
-                let b = self.test(e, live);
+                let rays = match seen.as_deref_mut() {
+                    Some(s) => s.untested(e.r, live),
+                    None => live,
+                };
+                if rays == 0 {
+                    continue;
+                }
+                let b = self.test(e, rays);
                 blocked |= b;
                 live &= !b;
             }

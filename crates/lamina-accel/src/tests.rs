@@ -752,6 +752,83 @@ fn direction_grid_answers_as_the_walk() {
     }
 }
 
+/// A close-up under a sun's disc (a few cards a hand wide over a ground to the horizon,
+/// as `examples/pigment_leaves.toml`): a shadow ray from the ground drifts across several
+/// cells that list the same packs, and the ground is listed in its cells and apart; each
+/// pack is tested at most once per ray, alone and eight at a time, and the answers stay
+/// the tree walk's.
+#[test]
+fn sun_grid_tests_each_pack_once_per_ray() {
+    let f = |_: u32, uv: Vec2| matte(uv);
+    let mut desc = SceneDesc::default();
+    desc.world.prims.push(Prim::parallelogram(
+        Vec3::new(-500.0, 0.0, 500.0),
+        Vec3::new(1000.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -1000.0),
+    ));
+    for k in 0..3 {
+        desc.world.prims.push(Prim::parallelogram(
+            Vec3::new(-0.17 + 0.12 * k as f32, 0.02, 0.0),
+            Vec3::new(0.1, 0.0, 0.0),
+            Vec3::new(0.0, 0.1, -0.03),
+        ));
+    }
+    let ground = PrimRef {
+        inst: NO_INSTANCE,
+        prim: 0,
+    };
+    let axis = Vec3::new(0.3, 0.8, 0.45).normalize();
+    let (u, v) = axis.any_orthonormal_pair();
+    for (kernel, walk) in walks(&desc) {
+        let mut grid = walk.clone();
+        let packs = grid.index_direction(axis).expect("a grid").packs as u64;
+        let mut r = rng(77);
+        let (mut blocked, mut total) = (0, 0);
+        for bundle in 0..400 {
+            // A pixel's ground points under and around the cards, toward a 0.53° disc.
+            let at = Vec3::new(r() * 0.6 - 0.35, 0.0, r() * 0.3 - 0.25);
+            let mut rays = Vec::new();
+            for _ in 0..8 {
+                let phi = std::f32::consts::TAU * r();
+                let rad = 0.0046 * r().sqrt();
+                rays.push(Ray {
+                    origin: at + Vec3::new(r(), 0.0, r()) * 2e-3,
+                    dir: (axis + (u * phi.cos() + v * phi.sin()) * rad).normalize(),
+                    tmax: f32::INFINITY,
+                });
+            }
+            let skips = vec![ground; rays.len()];
+            let many = TraversalStats::default();
+            let mut got = vec![false; rays.len()];
+            grid.occluded_many_counted(&rays, &skips, &f, &many, &mut got);
+            assert!(
+                many.packs.get() <= packs * rays.len() as u64,
+                "{kernel:?} bundle {bundle}: {} pack tests for {} rays, {packs} packs",
+                many.packs.get(),
+                rays.len()
+            );
+            for (i, (ray, got)) in rays.iter().zip(&got).enumerate() {
+                let one = TraversalStats::default();
+                let want = walk.occluded(ray, ground, &f);
+                assert_eq!(grid.occluded_counted(ray, ground, &f, &one), want);
+                assert_eq!(*got, want, "{kernel:?} bundle {bundle} ray {i}: {ray:?}");
+                assert!(
+                    one.packs.get() <= packs && one.nodes.get() == 0,
+                    "{kernel:?} bundle {bundle} ray {i}: {} packs, {} nodes of {packs}",
+                    one.packs.get(),
+                    one.nodes.get()
+                );
+                blocked += u32::from(want);
+                total += 1;
+            }
+        }
+        assert!(
+            blocked * 20 > total && blocked * 2 < total,
+            "{kernel:?}: {blocked} blocked of {total}"
+        );
+    }
+}
+
 /// [`Accel::occluded_many`] answers each ray exactly as [`Accel::occluded`] and the tree
 /// walk do, for every kernel: bundles of shadow rays along a sun's axis (and in a 0.5°
 /// cone around it) from points a pixel apart on one surface (tested together where they

@@ -331,15 +331,22 @@ impl ViewIndex {
         let pack = |e: &Entry| &packs[self.grid.refs[e.r as usize].pack as usize];
         // SAFETY: AVX2 is available (caller).
         let mut b = unsafe { Bests::new(&os[..n], &ds[..n], &tmax) };
+        // SAFETY: AVX2 is available (caller); each load reads one whole `[i32; 8]` row.
+        let rows = unsafe { cell.map(|row| _mm256_loadu_si256(row.as_ptr() as *const __m256i)) };
         while todo != 0 {
-            // The rays crossing the same cells as the first one left.
+            // The rays crossing the same cells as the first one left: all four of a lane's
+            // cell bounds equal to the first's, compared in lanes.
             let k0 = todo.trailing_zeros() as usize;
-            let mut group = 0u32;
-            for k in k0..n {
-                if todo & (1 << k) != 0 && (0..4).all(|i| cell[i][k] == cell[i][k0]) {
-                    group |= 1 << k;
-                }
-            }
+            // SAFETY: AVX2 is available (caller).
+            let same = unsafe {
+                let eq = |i: usize| _mm256_cmpeq_epi32(rows[i], _mm256_set1_epi32(cell[i][k0]));
+                let all = _mm256_and_si256(
+                    _mm256_and_si256(eq(0), eq(1)),
+                    _mm256_and_si256(eq(2), eq(3)),
+                );
+                _mm256_movemask_ps(_mm256_castsi256_ps(all)) as u32
+            };
+            let group = same & todo;
             todo &= !group;
             let x = [cell[0][k0] as usize, cell[1][k0] as usize];
             let y = [cell[2][k0] as usize, cell[3][k0] as usize];

@@ -144,6 +144,18 @@ fn wavefront_is_path_bit_for_bit() {
     s.film.filter = PixelFilter::Box;
     s.lights = vec![sun(Vec3::new(0.3, 1.0, 0.5), 400.0)];
     same_both_ways("lens, box filter, delta sun", &s, &opts(16, 2));
+    // A sun wide enough for escaping BSDF rays to see its disc often (the wave adds
+    // only the lights an escaping ray can see), beside a delta sun that no ray sees.
+    let mut s = base.clone();
+    s.lights = vec![
+        Light::Sun {
+            direction: Vec3::new(-0.2, 1.0, 0.4),
+            irradiance: Vec3::splat(3.0),
+            angular_diameter_deg: 40.0,
+        },
+        sun(Vec3::new(0.3, 1.0, 0.5), 2.0),
+    ];
+    same_both_ways("a wide sun and a delta sun", &s, &opts(12, 2));
     // The sky sampled by next-event estimation too, and an image sky.
     let mut s = base.clone();
     s.integrator = path_with(5, 2, LightSampling::All, SkySampling::Light);

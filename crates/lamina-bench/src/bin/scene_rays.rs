@@ -16,6 +16,8 @@
 //! | `bounce_shuffled` | the same rays in a random order (no two neighbours from one pixel) | closest hit |
 //! | `sun` | from each such hit toward the first `sun` light (a direction in its disc, drawn as the renderer draws it), leaving that primitive | any hit, eight at a time (`Accel::occluded_many`, as the renderer) |
 //! | `sun_one` | the same | any hit, one at a time |
+//! | `bounce2` | from each bounce ray's hit (a path's second vertex), a bounce ray made as at the first | closest hit, one at a time (as the renderer at deeper vertices) |
+//! | `sun2_one` | from each such hit toward the sun, made as at the first | any hit, one at a time (as the renderer at deeper vertices) |
 //!
 //! Printed per set: rays, hits (or blocked), seconds and M rays/s; with `--embree` the
 //! same on Embree 3 (lamina-render's Embree backend, one ray at a time) and the ratio
@@ -158,6 +160,10 @@ fn unit(i: u64, dim: u32) -> f32 {
 /// A set's tracing: the hits (or blocked rays) it counts.
 type Tracer<'a> = Box<dyn Fn() -> usize + Sync + 'a>;
 
+/// The camera rays, the vertices at their hits, and the vertices at those vertices'
+/// bounce rays' hits.
+type Sets = (Vec<Ray>, Vec<Secondary>, Vec<Secondary>);
+
 /// Rays made at one camera ray's hit: the bounce ray and, with a sun, the shadow ray,
 /// each leaving the primitive hit.
 struct Secondary {
@@ -186,7 +192,7 @@ fn main() -> Result<()> {
         .num_threads(args.threads)
         .build()?;
     let lamina = Accel::build_on(&scene, Backend::Lamina)?;
-    let (camera, secondary) = pool.install(|| make_sets(&scene, &lamina, spp))?;
+    let (camera, secondary, deeper) = pool.install(|| make_sets(&scene, &lamina, spp))?;
     // The bounce rays in a random order, moved (not indexed: reading them at random would
     // time the memory, not the engine).
     let mut shuffled: Vec<(Ray, PrimRef)> = secondary.iter().map(|s| (s.bounce, s.skip)).collect();
@@ -197,12 +203,13 @@ fn main() -> Result<()> {
     let (w, h) = (scene.film.width, scene.film.height);
     println!(
         "{}: {w}x{h}, {spp} camera rays per pixel: {} camera rays, {} hit a surface \
-         ({} threads, best of {})",
+         ({} threads, best of {}); {} of their bounce rays hit a surface",
         args.scene.display(),
         camera.len(),
         secondary.len(),
         args.threads,
-        args.repeat
+        args.repeat,
+        deeper.len()
     );
     let mut engines = vec![("lamina", lamina)];
     if args.embree {
@@ -221,7 +228,8 @@ fn main() -> Result<()> {
             (best, n)
         };
         let suns = secondary.iter().filter(|s| s.sun.is_some()).count();
-        let sets: [(&'static str, usize, Tracer); 6] = [
+        let suns2 = deeper.iter().filter(|s| s.sun.is_some()).count();
+        let sets: [(&'static str, usize, Tracer); 8] = [
             (
                 "camera",
                 camera.len(),
@@ -292,6 +300,29 @@ fn main() -> Result<()> {
                         .sum()
                 }),
             ),
+            (
+                "bounce2",
+                deeper.len(),
+                Box::new(|| {
+                    let hit = |s: &Secondary| accel.intersect_skip(&s.bounce, s.skip).is_some();
+                    deeper
+                        .par_chunks(1024)
+                        .map(|ch| ch.iter().filter(|s| hit(s)).count())
+                        .sum()
+                }),
+            ),
+            (
+                "sun2_one",
+                suns2,
+                Box::new(|| {
+                    let blocked =
+                        |s: &Secondary| s.sun.is_some_and(|r| accel.occluded_skip(&r, s.skip));
+                    deeper
+                        .par_chunks(1024)
+                        .map(|ch| ch.iter().filter(|s| blocked(s)).count())
+                        .sum()
+                }),
+            ),
         ];
         for (set, rays, f) in &sets {
             if *rays == 0 {
@@ -299,7 +330,11 @@ fn main() -> Result<()> {
             }
             let (seconds, hits) = time(f.as_ref());
             let counts = (args.counts && *engine == "lamina").then(|| {
-                let stats = pool.install(|| count_set(set, accel, spp, &camera, &secondary));
+                let stats = pool.install(|| match *set {
+                    "bounce2" => count_set("bounce", accel, spp, &camera, &deeper),
+                    "sun2_one" => count_set("sun_one", accel, spp, &camera, &deeper),
+                    _ => count_set(set, accel, spp, &camera, &secondary),
+                });
                 Counts::per_ray(stats, *rays)
             });
             rows.push(Row {
@@ -467,7 +502,7 @@ fn count_set(
 
 /// The camera rays (pixel after pixel, `spp` each) and, for each that hits a surface, its
 /// bounce and sun rays.
-fn make_sets(scene: &Scene, accel: &Accel, spp: u32) -> Result<(Vec<Ray>, Vec<Secondary>)> {
+fn make_sets(scene: &Scene, accel: &Accel, spp: u32) -> Result<Sets> {
     let camera = CameraModel::new(&scene.camera, &scene.film)?;
     let (w, h) = (scene.film.width, scene.film.height);
     let n = u64::from(w) * u64::from(h) * u64::from(spp);
@@ -494,17 +529,33 @@ fn make_sets(scene: &Scene, accel: &Accel, spp: u32) -> Result<(Vec<Ray>, Vec<Se
         } => SunLight::new(*direction, Vec3::ONE, *angular_diameter_deg),
         _ => None,
     });
-    let secondary = rays
-        .par_iter()
+    let from_camera: Vec<(Ray, PrimRef)> = rays.iter().map(|r| (*r, PrimRef::NONE)).collect();
+    let secondary = vertices(accel, sun.as_ref(), &from_camera, 0);
+    let bounces: Vec<(Ray, PrimRef)> = secondary.iter().map(|s| (s.bounce, s.skip)).collect();
+    let deeper = vertices(accel, sun.as_ref(), &bounces, 1);
+    Ok((rays, secondary, deeper))
+}
+
+/// The vertices where `rays` (each leaving its primitive) hit a surface, in order, each
+/// with its bounce ray and its sun ray toward `sun` (where there is one). `salt` picks the
+/// numbers (0 at the camera's hits, 1 at the next vertices').
+fn vertices(
+    accel: &Accel,
+    sun: Option<&SunLight>,
+    rays: &[(Ray, PrimRef)],
+    salt: u64,
+) -> Vec<Secondary> {
+    rays.par_iter()
         .enumerate()
-        .filter_map(|(i, ray)| {
-            let hit = accel.intersect(ray)?;
+        .filter_map(|(i, (ray, skip))| {
+            let hit = accel.intersect_skip(ray, *skip)?;
             let HitKind::Triangle { prim, bary } = hit.kind else {
                 return None;
             };
             let (p, info) = accel.surface(prim, bary);
             let n = info.n;
-            let i = i as u64;
+            // Salt 0 keeps the indices the first vertices always had.
+            let i = i as u64 + (salt << 40);
             // What a diffuse leaf's BSDF samples: cosine-weighted, either side.
             let mut local = cosine_hemisphere(Vec2::new(unit(i, 2), unit(i, 3)));
             if unit(i, 4) >= 0.5 {
@@ -516,7 +567,7 @@ fn make_sets(scene: &Scene, accel: &Accel, spp: u32) -> Result<(Vec<Ray>, Vec<Se
                 dir,
                 tmax: f32::INFINITY,
             };
-            let sun = sun.as_ref().map(|sun| {
+            let sun = sun.map(|sun| {
                 let s = sun.sample(Vec2::new(unit(i, 5), unit(i, 6))).wi;
                 Ray {
                     origin: spawn_origin(p, n, s),
@@ -530,8 +581,7 @@ fn make_sets(scene: &Scene, accel: &Accel, spp: u32) -> Result<(Vec<Ray>, Vec<Se
                 skip: prim,
             })
         })
-        .collect();
-    Ok((rays, secondary))
+        .collect()
 }
 
 #[cfg(test)]
@@ -574,7 +624,11 @@ edge_v = [0, 0, -20]
 "#;
         let scene = lamina_scene::parse_scene(toml, std::path::Path::new("quad.toml")).unwrap();
         let accel = Accel::build_on(&scene, Backend::Lamina).unwrap();
-        let (camera, secondary) = make_sets(&scene, &accel, 4).unwrap();
+        let (camera, secondary, deeper) = make_sets(&scene, &accel, 4).unwrap();
+        assert!(
+            deeper.is_empty(),
+            "nothing above the quad for a bounce ray to hit"
+        );
         assert_eq!(camera.len(), 8 * 6 * 4);
         assert_eq!(
             secondary.len(),
@@ -600,7 +654,7 @@ edge_v = [0, 0, -20]
         // Cosine-weighted: the mean |cos| is 2/3.
         let mean = cos / n as f32;
         assert!((mean - 2.0 / 3.0).abs() < 0.08, "mean cosine {mean}");
-        let (again, _) = make_sets(&scene, &accel, 4).unwrap();
+        let (again, _, _) = make_sets(&scene, &accel, 4).unwrap();
         assert_eq!(again, camera);
 
         // The counts: the parallel chunks add up to one sequential run, every camera ray

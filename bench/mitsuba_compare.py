@@ -6,7 +6,8 @@ canopy-shaped volume above a diffuse ground, a delta sun and a constant sky, pat
 lamina max_depth 8 (= Mitsuba max_depth 9). It is written as a lamina TOML + CSV card file and
 built as a Mitsuba scene dict from the same card list (the cards as an OBJ, uv as in lamina).
 
-Both renderers run at the same spp with the same thread count, each twice with different seeds:
+Both renderers run at the same spp with the same thread count, each twice with different seeds
+(`--repeat N`: N times, alternating, and the time ratio is of the medians):
 the second Mitsuba run shows the warm (kernel already compiled) render time, and the two seeds
 of each renderer give the noise floor: if lamina and Mitsuba render the same image, lamina vs
 Mitsuba differs no more than Mitsuba vs Mitsuba (or lamina vs lamina).
@@ -15,6 +16,7 @@ Mitsuba differs no more than Mitsuba vs Mitsuba (or lamina vs lamina).
     python3 bench/mitsuba_compare.py --spp 256 --lamina target/release/lamina
     python3 bench/mitsuba_compare.py --depth-check     # max_depth convention (one bounce)
     python3 bench/mitsuba_compare.py --stages          # where the time goes, depth by depth
+    python3 bench/mitsuba_compare.py --repeat 5        # five runs each, alternating: medians
 
 Outputs go to out/mitsuba_compare/ (git-ignored); the side-by-side PNG is
 out/mitsuba_compare/side_by_side.png (lamina | Mitsuba | |difference| x 10).
@@ -22,6 +24,7 @@ out/mitsuba_compare/side_by_side.png (lamina | Mitsuba | |difference| x 10).
 
 import argparse
 import math
+import statistics
 import random
 import sys
 import tempfile
@@ -211,6 +214,9 @@ def main():
                     help="Mitsuba sampler (independent, stratified, multijitter, orthogonal, ldsampler)")
     ap.add_argument("--depth-check", action="store_true",
                     help="instead: lamina max_depth 1 against Mitsuba max_depth 1, 2, 3")
+    ap.add_argument("--repeat", type=int, default=2,
+                    help="timed runs per renderer, lamina and Mitsuba alternating (seeds 0, 1, ...; at "
+                         "least 2: Mitsuba's first run compiles); the ratio is of the medians")
     ap.add_argument("--stages", action="store_true",
                     help="instead: times by depth, lamina at max_depth 1 and --max-depth against "
                          "Mitsuba at max_depth 1 (camera rays only), 2 and --max-depth + 1")
@@ -219,6 +225,8 @@ def main():
     ap.add_argument("--exposure", type=float, default=None,
                     help="PNG exposure in stops (default: lamina image mean -> 0.2)")
     args = ap.parse_args()
+    if args.repeat < 2:
+        ap.error("--repeat must be at least 2 (Mitsuba's first run compiles its kernels)")
     modes = common.light_sampling_modes(args.light_sampling)
 
     out = Path(args.out).resolve()
@@ -273,7 +281,7 @@ def main():
     # Each mode's two seeds; `lam` is the first mode's (the images compared with Mitsuba).
     runs = {m: [] for m in modes}
     mit = []
-    for seed in (0, 1):
+    for seed in range(args.repeat):
         for m in modes:
             runs[m].append(lamina_run(seed, m))
         busy = busy or common.compile_running()
@@ -334,26 +342,31 @@ def main():
 
     npix = args.size * args.size * args.spp
     rows = []
-    for m, seed in [(m, seed) for m in modes for seed in (0, 1)]:
+    for m, seed in [(m, seed) for m in modes for seed in range(args.repeat)]:
         img, wall, summ = runs[m][seed]
         r = summ["secs"] if summ else float("nan")
         rows.append([f"lamina light_sampling={m} seed {seed}", "%.2f" % wall, "%.2f" % r, "%.3f" % (npix / wall / 1e6),
                      ("%.3f" % summ["msamples"]) if summ else "-"])
-    for seed in (0, 1):
+    for seed in range(args.repeat):
         img, secs, st = mit[seed]
-        label = "Mitsuba seed 0 (incl. JIT compile)" if seed == 0 else "Mitsuba seed 1 (warm)"
+        label = "Mitsuba seed 0 (incl. JIT compile)" if seed == 0 else f"Mitsuba seed {seed} (warm)"
         wall = secs + (load_s if seed == 0 else 0.0)
         rows.append([label, "%.2f" % wall + (" (load %.2f)" % load_s if seed == 0 else ""),
                      "%.2f" % secs, "%.3f" % (npix / wall / 1e6), "%.3f" % (npix / secs / 1e6)])
     print()
     print(f"Times ({args.threads} threads; a compile was {'RUNNING' if busy else 'not running'} on this machine)")
     print(fmt_table(rows, ["run", "wall s", "render s", "M samples/s (wall)", "M samples/s (render)"]))
-    warm = mit[1][1]
-    print("lamina / Mitsuba warm at equal spp (render s, mean of the two seeds): " + ", ".join(
-        f"light_sampling={m} %.2fx" % (sum(r[2]["secs"] if r[2] else r[1] for r in runs[m]) / 2 / warm)
-        for m in modes))
+    # With two runs each: lamina's mean and Mitsuba's one warm run (as always); with more
+    # (`--repeat`), medians: lamina's runs and Mitsuba's warm ones (seeds 1, 2, ...), which
+    # alternated with lamina's.
+    warm = statistics.median(m[1] for m in mit[1:])
+    lam_secs = {m: statistics.median(r[2]["secs"] if r[2] else r[1] for r in runs[m]) for m in modes}
+    what = "mean of the two seeds" if args.repeat == 2 else (
+        f"medians of {args.repeat} lamina runs and {args.repeat - 1} warm Mitsuba runs, alternating")
+    print(f"lamina / Mitsuba warm at equal spp (render s, {what}): " + ", ".join(
+        f"light_sampling={m} %.2fx" % (lam_secs[m] / warm) for m in modes))
     for m in modes:
-        lt = sum(r[2]["secs"] if r[2] else r[1] for r in runs[m]) / 2
+        lt = lam_secs[m]
         ratio, el, em = common.equal_error_ratio(lt, [runs[m][0][0], runs[m][1][0]],
                                                  warm, [mit[0][0], mit[1][0]])
         print(f"lamina light_sampling={m} / Mitsuba ({args.mitsuba_sampler} sampler) at equal error: "

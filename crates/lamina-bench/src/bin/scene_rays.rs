@@ -258,13 +258,7 @@ fn main() -> Result<()> {
             (
                 "bounce",
                 secondary.len(),
-                Box::new(|| {
-                    let hit = |s: &Secondary| accel.intersect_skip(&s.bounce, s.skip).is_some();
-                    secondary
-                        .par_chunks(1024)
-                        .map(|ch| ch.iter().filter(|s| hit(s)).count())
-                        .sum()
-                }),
+                Box::new(|| bounce_hits(accel, &secondary)),
             ),
             (
                 "bounce_shuffled",
@@ -291,38 +285,14 @@ fn main() -> Result<()> {
             (
                 "sun_one",
                 suns,
-                Box::new(|| {
-                    let blocked =
-                        |s: &Secondary| s.sun.is_some_and(|r| accel.occluded_skip(&r, s.skip));
-                    secondary
-                        .par_chunks(1024)
-                        .map(|ch| ch.iter().filter(|s| blocked(s)).count())
-                        .sum()
-                }),
+                Box::new(|| suns_blocked(accel, &secondary)),
             ),
             (
                 "bounce2",
                 deeper.len(),
-                Box::new(|| {
-                    let hit = |s: &Secondary| accel.intersect_skip(&s.bounce, s.skip).is_some();
-                    deeper
-                        .par_chunks(1024)
-                        .map(|ch| ch.iter().filter(|s| hit(s)).count())
-                        .sum()
-                }),
+                Box::new(|| bounce_hits(accel, &deeper)),
             ),
-            (
-                "sun2_one",
-                suns2,
-                Box::new(|| {
-                    let blocked =
-                        |s: &Secondary| s.sun.is_some_and(|r| accel.occluded_skip(&r, s.skip));
-                    deeper
-                        .par_chunks(1024)
-                        .map(|ch| ch.iter().filter(|s| blocked(s)).count())
-                        .sum()
-                }),
-            ),
+            ("sun2_one", suns2, Box::new(|| suns_blocked(accel, &deeper))),
         ];
         for (set, rays, f) in &sets {
             if *rays == 0 {
@@ -330,11 +300,8 @@ fn main() -> Result<()> {
             }
             let (seconds, hits) = time(f.as_ref());
             let counts = (args.counts && *engine == "lamina").then(|| {
-                let stats = pool.install(|| match *set {
-                    "bounce2" => count_set("bounce", accel, spp, &camera, &deeper),
-                    "sun2_one" => count_set("sun_one", accel, spp, &camera, &deeper),
-                    _ => count_set(set, accel, spp, &camera, &secondary),
-                });
+                let stats =
+                    pool.install(|| count_set(set, accel, spp, &camera, &secondary, &deeper));
                 Counts::per_ray(stats, *rays)
             });
             rows.push(Row {
@@ -404,6 +371,23 @@ fn main() -> Result<()> {
     Ok(())
 }
 
+/// How many of `set`'s bounce rays hit a surface, traced one at a time (in parallel
+/// chunks).
+fn bounce_hits(accel: &Accel, set: &[Secondary]) -> usize {
+    let hit = |s: &Secondary| accel.intersect_skip(&s.bounce, s.skip).is_some();
+    set.par_chunks(1024)
+        .map(|ch| ch.iter().filter(|s| hit(s)).count())
+        .sum()
+}
+
+/// How many of `set`'s sun rays are blocked, traced one at a time (in parallel chunks).
+fn suns_blocked(accel: &Accel, set: &[Secondary]) -> usize {
+    let blocked = |s: &Secondary| s.sun.is_some_and(|r| accel.occluded_skip(&r, s.skip));
+    set.par_chunks(1024)
+        .map(|ch| ch.iter().filter(|s| blocked(s)).count())
+        .sum()
+}
+
 /// The sun rays of `ch` (of the hits that have one), eight at a time through
 /// [`Accel::occluded_many`], as the renderer traces a pixel's samples' shadow rays: how
 /// many are blocked; counted into `stats` when given.
@@ -442,14 +426,21 @@ fn sun_many(accel: &Accel, ch: &[Secondary], stats: Option<&TraversalStats>) -> 
 /// Set `set`'s rays traced again on `accel` with the engine's counters on (in parallel
 /// chunks, summed): nodes, packs, instances, mask decisions and exact lookups, in
 /// [`Counts`]' order. The shuffled bounce rays are the bounce rays: the same counts.
+/// `deeper`: the second vertices, whose rays `bounce2` and `sun2_one` are.
 fn count_set(
     set: &str,
     accel: &Accel,
     spp: u32,
     camera: &[Ray],
     secondary: &[Secondary],
+    deeper: &[Secondary],
 ) -> [u64; 6] {
     let sum = |a, b| add_stats(a, b);
+    let (set, secondary) = match set {
+        "bounce2" => ("bounce", deeper),
+        "sun2_one" => ("sun_one", deeper),
+        _ => (set, secondary),
+    };
     match set {
         "camera" => camera
             .par_chunks(spp as usize * 16)
@@ -664,7 +655,8 @@ edge_v = [0, 0, -20]
             .num_threads(2)
             .build()
             .unwrap();
-        let counted = |set| pool.install(|| count_set(set, &accel, 4, &camera, &secondary));
+        let counted =
+            |set| pool.install(|| count_set(set, &accel, 4, &camera, &secondary, &deeper));
         let one = TraversalStats::default();
         for r in &camera {
             accel.intersect_counted(r, PrimRef::NONE, &one);
@@ -707,5 +699,99 @@ edge_v = [0, 0, -20]
                 "{set}"
             );
         }
+    }
+
+    /// Between a floor and a ceiling under a sun: the bounce rays that leave the floor
+    /// upward hit the ceiling, whose vertices make the second-vertex sets (a bounce ray
+    /// from the ceiling's underside, a sun ray through it); their counts are the sets'
+    /// sequential ones.
+    #[test]
+    fn second_vertices_between_a_floor_and_a_ceiling() {
+        let toml = r#"
+[camera]
+position = [0, 0.5, 0]
+look_at = [0, 0, 0]
+up = [0, 0, -1]
+fov = 40.0
+
+[film]
+width = 8
+height = 6
+spp = 4
+
+[[light]]
+type = "sun"
+direction = [0.3, 1, 0.2]
+irradiance = [1, 1, 1]
+
+[[material]]
+name = "m"
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+
+[[object]]
+type = "quad"
+material = "m"
+corner = [-50, 0, 50]
+edge_u = [100, 0, 0]
+edge_v = [0, 0, -100]
+
+[[object]]
+type = "quad"
+material = "m"
+corner = [-50, 1, 50]
+edge_u = [100, 0, 0]
+edge_v = [0, 0, -100]
+"#;
+        let scene = lamina_scene::parse_scene(toml, std::path::Path::new("two.toml")).unwrap();
+        let accel = Accel::build_on(&scene, Backend::Lamina).unwrap();
+        let (camera, secondary, deeper) = make_sets(&scene, &accel, 4).unwrap();
+        assert_eq!(
+            secondary.len(),
+            camera.len(),
+            "every camera ray hits the floor"
+        );
+        let up = secondary.iter().filter(|s| s.bounce.dir.y > 0.0).count();
+        assert_eq!(
+            deeper.len(),
+            up,
+            "the upward bounce rays, and only they, hit the ceiling"
+        );
+        assert!(up > camera.len() / 4 && up < 3 * camera.len() / 4, "{up}");
+        for s in &deeper {
+            assert!((s.bounce.origin.y - 1.0).abs() < 1e-3, "{:?}", s.bounce);
+            let sun = s.sun.expect("a sun ray");
+            assert!(
+                !accel.occluded_skip(&sun, s.skip),
+                "nothing above the ceiling"
+            );
+        }
+        // The floor's sun rays are blocked by the ceiling.
+        assert!(
+            secondary
+                .iter()
+                .all(|s| accel.occluded_skip(&s.sun.unwrap(), s.skip))
+        );
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let counted =
+            |set| pool.install(|| count_set(set, &accel, 4, &camera, &secondary, &deeper));
+        let (bounce, sun) = (TraversalStats::default(), TraversalStats::default());
+        for s in &deeper {
+            accel.intersect_counted(&s.bounce, s.skip, &bounce);
+            accel.occluded_counted(&s.sun.unwrap(), s.skip, &sun);
+        }
+        assert_eq!(counted("bounce2"), stats_array(&bounce));
+        assert_eq!(counted("sun2_one"), stats_array(&sun));
+        assert!(Counts::per_ray(counted("bounce2"), deeper.len()).packs >= 1.0);
+        let pool_hits = pool.install(|| bounce_hits(&accel, &deeper));
+        let hits = deeper
+            .iter()
+            .filter(|s| accel.intersect_skip(&s.bounce, s.skip).is_some())
+            .count();
+        assert_eq!(pool_hits, hits);
+        assert_eq!(pool.install(|| suns_blocked(&accel, &deeper)), 0);
     }
 }

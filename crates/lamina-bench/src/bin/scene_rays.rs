@@ -579,12 +579,8 @@ fn vertices(
 mod tests {
     use super::*;
 
-    /// A camera above a quad that fills its view, under a sun: every camera ray makes a
-    /// bounce ray from the quad (on both sides, about half each, cosine-weighted) and an
-    /// unblocked sun ray; the sets are the same from run to run.
-    #[test]
-    fn sets_of_a_quad_under_the_sun() {
-        let toml = r#"
+    /// A camera above a quad (the floor, facing up) that fills its view, under a sun.
+    const QUAD_UNDER_SUN: &str = r#"
 [camera]
 position = [0, 2, 0]
 look_at = [0, 0, 0]
@@ -613,6 +609,13 @@ corner = [-10, 0, 10]
 edge_u = [20, 0, 0]
 edge_v = [0, 0, -20]
 "#;
+
+    /// A camera above a quad that fills its view, under a sun: every camera ray makes a
+    /// bounce ray from the quad (on both sides, about half each, cosine-weighted) and an
+    /// unblocked sun ray; the sets are the same from run to run.
+    #[test]
+    fn sets_of_a_quad_under_the_sun() {
+        let toml = QUAD_UNDER_SUN;
         let scene = lamina_scene::parse_scene(toml, std::path::Path::new("quad.toml")).unwrap();
         let accel = Accel::build_on(&scene, Backend::Lamina).unwrap();
         let (camera, secondary, deeper) = make_sets(&scene, &accel, 4).unwrap();
@@ -707,35 +710,10 @@ edge_v = [0, 0, -20]
     /// sequential ones.
     #[test]
     fn second_vertices_between_a_floor_and_a_ceiling() {
-        let toml = r#"
-[camera]
-position = [0, 0.5, 0]
-look_at = [0, 0, 0]
-up = [0, 0, -1]
-fov = 40.0
-
-[film]
-width = 8
-height = 6
-spp = 4
-
-[[light]]
-type = "sun"
-direction = [0.3, 1, 0.2]
-irradiance = [1, 1, 1]
-
-[[material]]
-name = "m"
-type = "diffuse"
-reflectance = [0.5, 0.5, 0.5]
-
-[[object]]
-type = "quad"
-material = "m"
-corner = [-50, 0, 50]
-edge_u = [100, 0, 0]
-edge_v = [0, 0, -100]
-
+        // The floor's camera brought down under a ceiling wider than the floor (no upward
+        // bounce ray passes its edge).
+        let toml = QUAD_UNDER_SUN.replace("position = [0, 2, 0]", "position = [0, 0.5, 0]")
+            + r#"
 [[object]]
 type = "quad"
 material = "m"
@@ -743,7 +721,7 @@ corner = [-50, 1, 50]
 edge_u = [100, 0, 0]
 edge_v = [0, 0, -100]
 "#;
-        let scene = lamina_scene::parse_scene(toml, std::path::Path::new("two.toml")).unwrap();
+        let scene = lamina_scene::parse_scene(&toml, std::path::Path::new("two.toml")).unwrap();
         let accel = Accel::build_on(&scene, Backend::Lamina).unwrap();
         let (camera, secondary, deeper) = make_sets(&scene, &accel, 4).unwrap();
         assert_eq!(

@@ -30,10 +30,8 @@ pub fn radiance(
     *rays += 1;
     let lights = &ctx.lights.lights;
     let Some(hit) = ctx.accel.intersect(&ray) else {
-        return lights
-            .iter()
-            .filter(|l| l.is_infinite())
-            .map(|l| l.escaped(ray.dir).0)
+        return (ctx.lights.escaping.iter())
+            .map(|&i| lights[i].escaped(ray.dir).0)
             .sum();
     };
     if let Some((le, _)) = ctx.emitter(hit.kind, &ray, hit.t) {

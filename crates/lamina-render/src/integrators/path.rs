@@ -111,8 +111,8 @@ fn trace(
             None => ctx.accel.intersect_skip(&ray, skip),
         };
         let Some(hit) = hit else {
-            for (i, light) in lights.iter().enumerate().filter(|(_, l)| l.is_infinite()) {
-                let (le, pdf) = light.escaped(ray.dir);
+            for &i in &ctx.lights.escaping {
+                let (le, pdf) = lights[i].escaped(ray.dir);
                 if le != Vec3::ZERO {
                     let w = if camera_ray {
                         1.0

@@ -394,6 +394,7 @@ mod tests {
             sky_mean: Vec3::ONE,
             pick: None,
             nee_count: 1,
+            escaping: vec![0],
         }
     }
 

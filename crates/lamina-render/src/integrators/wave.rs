@@ -147,9 +147,6 @@ enum Served {
 pub(crate) struct Wave {
     /// Per material index.
     lobes: Vec<Served>,
-    /// The lights a ray that escapes the scene can see, by index into the scene's lights:
-    /// skies and suns of finite size (a delta sun is never hit).
-    seen: Vec<usize>,
     max_depth: u32,
     rr_depth: u32,
     /// Whether any primitive or shape emits (quad and sphere lights): only then can a hit
@@ -197,16 +194,8 @@ impl Wave {
             .lights
             .iter()
             .any(|l| matches!(l, AnyLight::Quad(_) | AnyLight::Sphere(_)));
-        let seen = (ctx.lights.lights.iter().enumerate())
-            .filter(|(_, l)| match l {
-                AnyLight::Sun(s) => !s.is_delta(),
-                l => l.is_infinite(),
-            })
-            .map(|(i, _)| i)
-            .collect();
         Some(Wave {
             lobes,
-            seen,
             max_depth,
             rr_depth,
             emitters,
@@ -541,7 +530,7 @@ impl Wave {
             for k in lanes_of(alive) {
                 let Some(h) = hit[k] else {
                     let (dir, b) = (get3(&d, k), get3(&beta, k));
-                    for &i in &self.seen {
+                    for &i in &ctx.lights.escaping {
                         let (le, pdf) = lights[i].escaped(dir);
                         if le != Vec3::ZERO {
                             let w = if bounces == 0 {

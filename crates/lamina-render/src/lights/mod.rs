@@ -169,6 +169,9 @@ pub struct LightSet {
     /// ([`lamina_core::SkySampling`]); a BSDF sample that escapes to a light past this
     /// count is counted in full (MIS weight 1).
     pub nee_count: usize,
+    /// The lights a ray that leaves the scene can see, as indices into `lights`: the sky
+    /// and suns with a disc (a delta sun is never hit). Made with `lights`.
+    pub escaping: Vec<usize>,
 }
 
 impl LightSet {
@@ -281,11 +284,19 @@ impl LightSet {
             sky_mean = s.mean();
             lights.push(AnyLight::Sky(s));
         }
+        let escaping = (lights.iter().enumerate())
+            .filter(|(_, l)| match l {
+                AnyLight::Sun(s) => !s.is_delta(),
+                l => l.is_infinite(),
+            })
+            .map(|(i, _)| i)
+            .collect();
         Ok(LightSet {
             nee_count: lights.len(),
             lights,
             sky_mean,
             pick: None,
+            escaping,
         })
     }
 }
@@ -310,4 +321,55 @@ pub(crate) fn sample_cone(u: Vec2, h: f32) -> Vec3 {
     let sin_t = (uh * (2.0 - uh)).max(0.0).sqrt();
     let phi = 2.0 * std::f32::consts::PI * u.y;
     Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ray that leaves the scene sees the sky and the suns with a disc, and nothing
+    /// else: the lights `escaping` lists are the ones whose `escaped` can be non-zero.
+    #[test]
+    fn escaping_rays_see_skies_and_suns_with_a_disc() {
+        let up = Vec3::Y;
+        let lights = [
+            Light::Sun {
+                direction: up,
+                irradiance: Vec3::ONE,
+                angular_diameter_deg: 0.0,
+            },
+            Light::Point {
+                position: up,
+                intensity: Vec3::ONE,
+            },
+            Light::Sun {
+                direction: up,
+                irradiance: Vec3::ONE,
+                angular_diameter_deg: 10.0,
+            },
+            Light::Quad {
+                corner: Vec3::ZERO,
+                edge_u: Vec3::X,
+                edge_v: Vec3::Z,
+                radiance: Vec3::ONE,
+                two_sided: true,
+            },
+            Light::Sphere {
+                center: up,
+                radius: 0.5,
+                radiance: Vec3::ONE,
+            },
+        ];
+        let sky = Sky::Constant(Vec3::splat(0.5));
+        let set = LightSet::from_parts(&lights, Some(&sky)).unwrap();
+        assert_eq!(set.lights.len(), 6, "the sky comes last");
+        assert_eq!(set.escaping, vec![2, 5]);
+        // Straight up: the disc sun and the sky show something, every other light nothing.
+        for (i, l) in set.lights.iter().enumerate() {
+            let seen = l.escaped(up).0 != Vec3::ZERO;
+            assert_eq!(seen, set.escaping.contains(&i), "light {i}");
+        }
+        let none = LightSet::from_parts(&lights[..2], None).unwrap();
+        assert!(none.escaping.is_empty());
+    }
 }

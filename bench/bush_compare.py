@@ -26,6 +26,7 @@ side_by_side.png (lamina | Mitsuba volpath | |difference| x 10).
 
 import argparse
 import math
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -218,13 +219,13 @@ def main():
                            "M rays/s"]))
     for integ, secs in mit_secs.items():
         if len(secs) > 1:  # the warm runs (the first includes the JIT compile)
-            warm = sorted(secs[1:])[len(secs[1:]) // 2]
+            warm = statistics.median(secs[1:])
             print(f"lamina / Mitsuba {integ} warm at equal spp (render s, median): " + ", ".join(
-                f"light_sampling={m} %.2fx" % (sorted(lam_secs[m])[len(lam_secs[m]) // 2] / warm)
+                f"light_sampling={m} %.2fx" % (statistics.median(lam_secs[m]) / warm)
                 for m in modes))
             for m in modes:
                 if len(lam_imgs[m]) > 1:
-                    lt = sorted(lam_secs[m])[len(lam_secs[m]) // 2]
+                    lt = statistics.median(lam_secs[m])
                     ratio, el, em = common.equal_error_ratio(lt, lam_imgs[m][:2], warm, mit_imgs[integ][:2])
                     print(f"lamina light_sampling={m} / Mitsuba {integ} ({args.mitsuba_sampler} sampler) "
                           f"at equal error: {ratio:.2f}x (seed-to-seed RMSE lamina {el:.5f}, "

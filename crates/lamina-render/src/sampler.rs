@@ -314,24 +314,42 @@ impl<const N: usize> LaneSampler<N> {
         }
     }
 
-    /// Per lane, the seed of the dimension `ahead` draws on, and `f` of it (the point's
-    /// seeds): once for all lanes where they are one pixel's.
+    /// Per lane, the seed of the dimension `ahead` draws on, and per lane `f` of it (the
+    /// point's scrambling seeds, `M` of them), as `M` lane arrays: hashed once for all
+    /// lanes where they are one pixel's, else lane by lane in plain loops over the lane
+    /// arrays (which the compiler turns into vector code; a wave of the first passes draws
+    /// every number with its own seeds).
     #[inline(always)]
-    fn seeds<T: Copy>(&self, ahead: u32, f: impl Fn(u32) -> T) -> ([u32; N], [T; N]) {
+    fn seeds<const M: usize>(
+        &self,
+        ahead: u32,
+        f: impl Fn(u32) -> [u32; M],
+    ) -> ([u32; N], [[u32; N]; M]) {
         let h = dim_hash(self.dim + ahead);
         if self.one_pixel {
             let s = dim_seed(self.pixel_seed[0], h);
-            ([s; N], [f(s); N])
+            let p = f(s);
+            ([s; N], std::array::from_fn(|m| [p[m]; N]))
         } else {
-            let s: [u32; N] = std::array::from_fn(|k| dim_seed(self.pixel_seed[k], h));
-            (s, std::array::from_fn(|k| f(s[k])))
+            let mut s = [0u32; N];
+            for k in 0..N {
+                s[k] = dim_seed(self.pixel_seed[k], h);
+            }
+            let mut p = [[0u32; N]; M];
+            for k in 0..N {
+                let q = f(s[k]);
+                for m in 0..M {
+                    p[m][k] = q[m];
+                }
+            }
+            (s, p)
         }
     }
 
     /// Every lane's [`PixelSampler::peek_1d`]`(ahead)`.
     #[inline(always)]
     pub fn peek_1d(&self, ahead: u32, out: &mut [f32; N]) {
-        let (seed, ps) = self.seeds(ahead, |s| hash_u32(s ^ 0x5bd1_e995));
+        let (seed, [ps]) = self.seeds(ahead, |s| [hash_u32(s ^ 0x5bd1_e995)]);
         for k in 0..N {
             out[k] = to_unit(laine_karras(shuffled(self.rindex[k], seed[k]), ps[k]).reverse_bits());
         }
@@ -340,11 +358,11 @@ impl<const N: usize> LaneSampler<N> {
     /// Every lane's [`PixelSampler::peek_2d`]`(ahead)`, as `(x, y)`.
     #[inline(always)]
     pub fn peek_2d(&self, ahead: u32, x: &mut [f32; N], y: &mut [f32; N]) {
-        let (seed, ps) = self.seeds(ahead, point_seeds);
+        let (seed, [sx, sy]) = self.seeds(ahead, point_seeds);
         for k in 0..N {
             let i = shuffled(self.rindex[k], seed[k]);
-            x[k] = to_unit(laine_karras(i, ps[k][0]).reverse_bits());
-            y[k] = to_unit(laine_karras(sobol1_reversed(i), ps[k][1]).reverse_bits());
+            x[k] = to_unit(laine_karras(i, sx[k]).reverse_bits());
+            y[k] = to_unit(laine_karras(sobol1_reversed(i), sy[k]).reverse_bits());
         }
     }
 

@@ -45,7 +45,7 @@
 
 use super::SceneContext;
 use crate::accel::{Hit, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
-use crate::lights::{AnyLight, LightSample, power_heuristic};
+use crate::lights::{AnyLight, LightSample, SkyLight, power_heuristic};
 use crate::materials::SurfaceBsdf;
 use crate::sampler::{LaneSampler, PixelStream};
 use crate::shading::{ShadingFrame, shading_normal};
@@ -152,6 +152,11 @@ pub(crate) struct Wave {
     /// Whether any primitive or shape emits (quad and sphere lights): only then can a hit
     /// be an emitter's.
     emitters: bool,
+    /// Where the only light an escaping ray can see is a constant sky of non-zero radiance:
+    /// that radiance (W m⁻² sr⁻¹, linear Rec.709) and the density MIS weighs it with (the
+    /// sky's sampling density times its pick probability), so that the lanes that escape
+    /// are added in lanes, with no per-lane branch on which lanes escaped.
+    sky: Option<(Vec3, f32)>,
 }
 
 impl Wave {
@@ -194,11 +199,23 @@ impl Wave {
             .lights
             .iter()
             .any(|l| matches!(l, AnyLight::Quad(_) | AnyLight::Sphere(_)));
+        let sky = match *ctx.lights.escaping.as_slice() {
+            [i] => match &ctx.lights.lights[i] {
+                AnyLight::Sky(SkyLight::Constant(c)) if *c != Vec3::ZERO => {
+                    // The sky's `escaped` is the same along every direction.
+                    let (le, pdf) = ctx.lights.lights[i].escaped(Vec3::Z);
+                    Some((le, pdf * ctx.lights.pick_prob(i)))
+                }
+                _ => None,
+            },
+            _ => None,
+        };
         Some(Wave {
             lobes,
             max_depth,
             rr_depth,
             emitters,
+            sky,
         })
     }
 
@@ -527,23 +544,48 @@ impl Wave {
             *rays += u64::from(alive.count_ones());
             // Misses see the infinite lights, emitters end their paths, and so do other
             // shapes and the depth limit.
-            for k in lanes_of(alive) {
-                let Some(h) = hit[k] else {
-                    let (dir, b) = (get3(&d, k), get3(&beta, k));
-                    for &i in &ctx.lights.escaping {
-                        let (le, pdf) = lights[i].escaped(dir);
-                        if le != Vec3::ZERO {
-                            let w = if bounces == 0 {
-                                1.0
-                            } else {
-                                power_heuristic(prev_pdf[k], pdf * ctx.lights.pick_prob(i))
-                            };
-                            add3(&mut l, k, b * le * w);
+            let mut missed = 0u32;
+            for k in 0..LANES {
+                missed |= u32::from(hit[k].is_none()) << k;
+            }
+            missed &= alive;
+            match self.sky {
+                // A constant sky: every lane in turn, those that escaped adding it (as the
+                // loop below adds it, `b * le * w`), the others nothing.
+                Some((le, pdf)) => {
+                    for k in 0..LANES {
+                        let w = if bounces == 0 {
+                            1.0
+                        } else {
+                            power_heuristic(prev_pdf[k], pdf)
+                        };
+                        let on = missed & (1 << k) != 0;
+                        for c in 0..3 {
+                            let v = (beta[c][k] * le[c]) * w;
+                            l[c][k] += if on { v } else { 0.0 };
                         }
                     }
-                    alive &= !(1 << k);
-                    continue;
-                };
+                }
+                None => {
+                    for k in lanes_of(missed) {
+                        let (dir, b) = (get3(&d, k), get3(&beta, k));
+                        for &i in &ctx.lights.escaping {
+                            let (le, pdf) = lights[i].escaped(dir);
+                            if le != Vec3::ZERO {
+                                let w = if bounces == 0 {
+                                    1.0
+                                } else {
+                                    power_heuristic(prev_pdf[k], pdf * ctx.lights.pick_prob(i))
+                                };
+                                add3(&mut l, k, b * le * w);
+                            }
+                        }
+                    }
+                }
+            }
+            alive &= !missed;
+            for k in lanes_of(alive) {
+                let h = hit[k].expect("a lane that did not escape has a hit");
                 if let Some((le, pdf)) = self
                     .emitters
                     .then(|| ctx.emitter(h.kind, &ray_of(&o, &d, k), h.t))

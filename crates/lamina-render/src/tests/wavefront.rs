@@ -160,6 +160,11 @@ fn wavefront_is_path_bit_for_bit() {
     let mut s = base.clone();
     s.integrator = path_with(5, 2, LightSampling::All, SkySampling::Light);
     same_both_ways("sky sampled", &s, &opts(8, 2));
+    // The constant sky drawn among the lights, one per vertex: what an escaping ray adds
+    // is weighed with the sky's pick probability (the wave adds a constant sky in lanes).
+    let mut one = s.clone();
+    one.integrator = path_with(6, 2, LightSampling::One, SkySampling::Light);
+    same_both_ways("one light drawn, constant sky sampled", &one, &opts(9, 2));
     let tex = Texture::from_texels(
         8,
         4,

@@ -332,14 +332,13 @@ impl<const N: usize> LaneSampler<N> {
             ([s; N], std::array::from_fn(|m| [p[m]; N]))
         } else {
             let mut s = [0u32; N];
-            for k in 0..N {
-                s[k] = dim_seed(self.pixel_seed[k], h);
+            for (s, &pixel) in s.iter_mut().zip(&self.pixel_seed) {
+                *s = dim_seed(pixel, h);
             }
             let mut p = [[0u32; N]; M];
-            for k in 0..N {
-                let q = f(s[k]);
-                for m in 0..M {
-                    p[m][k] = q[m];
+            for (k, &sk) in s.iter().enumerate() {
+                for (p, q) in p.iter_mut().zip(f(sk)) {
+                    p[k] = q;
                 }
             }
             (s, p)

@@ -45,7 +45,7 @@
 
 use super::SceneContext;
 use crate::accel::{Hit, HitKind, ID_MASK, PrimRef, Ray, spawn_origin};
-use crate::lights::{AnyLight, LightSample, SkyLight, power_heuristic};
+use crate::lights::{AnyLight, LightSample, power_heuristic};
 use crate::materials::SurfaceBsdf;
 use crate::sampler::{LaneSampler, PixelStream};
 use crate::shading::{ShadingFrame, shading_normal};
@@ -152,10 +152,9 @@ pub(crate) struct Wave {
     /// Whether any primitive or shape emits (quad and sphere lights): only then can a hit
     /// be an emitter's.
     emitters: bool,
-    /// Where the only light an escaping ray can see is a constant sky of non-zero radiance:
-    /// that radiance (W m⁻² sr⁻¹, linear Rec.709) and the density MIS weighs it with (the
-    /// sky's sampling density times its pick probability), so that the lanes that escape
-    /// are added in lanes, with no per-lane branch on which lanes escaped.
+    /// [`crate::lights::LightSet::constant_escape`]: where every escaping ray sees the same
+    /// constant sky, its radiance and MIS density, so that the lanes that escape add it in
+    /// lanes, with no per-lane branch on which lanes escaped.
     sky: Option<(Vec3, f32)>,
 }
 
@@ -199,23 +198,12 @@ impl Wave {
             .lights
             .iter()
             .any(|l| matches!(l, AnyLight::Quad(_) | AnyLight::Sphere(_)));
-        let sky = match *ctx.lights.escaping.as_slice() {
-            [i] => match &ctx.lights.lights[i] {
-                AnyLight::Sky(SkyLight::Constant(c)) if *c != Vec3::ZERO => {
-                    // The sky's `escaped` is the same along every direction.
-                    let (le, pdf) = ctx.lights.lights[i].escaped(Vec3::Z);
-                    Some((le, pdf * ctx.lights.pick_prob(i)))
-                }
-                _ => None,
-            },
-            _ => None,
-        };
         Some(Wave {
             lobes,
             max_depth,
             rr_depth,
             emitters,
-            sky,
+            sky: ctx.lights.constant_escape(),
         })
     }
 

@@ -201,6 +201,25 @@ impl LightSet {
         Ok(set)
     }
 
+    /// What every escaping ray sees where that does not depend on its direction: the only
+    /// light an escaping ray can see ([`LightSet::escaping`]) is a constant sky of non-zero
+    /// radiance. Then its radiance (W m⁻² sr⁻¹, linear Rec.709) and the density MIS weighs
+    /// a BSDF sample reaching it with (the sky's sampling density times its pick
+    /// probability, as `escaped` and [`LightSet::pick_prob`] give them along any ray);
+    /// `None` otherwise.
+    pub fn constant_escape(&self) -> Option<(Vec3, f32)> {
+        let &[i] = self.escaping.as_slice() else {
+            return None;
+        };
+        match &self.lights[i] {
+            AnyLight::Sky(SkyLight::Constant(c)) if *c != Vec3::ZERO => {
+                let (le, pdf) = self.lights[i].escaped(Vec3::Z);
+                Some((le, pdf * self.pick_prob(i)))
+            }
+            _ => None,
+        }
+    }
+
     /// The lights next-event estimation samples (the first [`LightSet::nee_count`]).
     #[inline]
     pub fn nee(&self) -> &[AnyLight] {
@@ -371,5 +390,35 @@ mod tests {
         }
         let none = LightSet::from_parts(&lights[..2], None).unwrap();
         assert!(none.escaping.is_empty());
+    }
+
+    /// An escaping ray's light is constant only where a constant sky is all it can see;
+    /// its density then carries the sky's pick probability.
+    #[test]
+    fn a_constant_sky_alone_is_a_constant_escape() {
+        let sun = |deg: f32| Light::Sun {
+            direction: Vec3::Y,
+            irradiance: Vec3::ONE,
+            angular_diameter_deg: deg,
+        };
+        let c = Vec3::new(0.2, 0.3, 0.4);
+        let sky = Sky::Constant(c);
+        let set = LightSet::from_parts(&[sun(0.0)], Some(&sky)).unwrap();
+        let (le, pdf) = set
+            .constant_escape()
+            .expect("a delta sun and a constant sky");
+        assert_eq!(le, c);
+        assert_eq!(pdf, lamina_leaf::sampling::UNIFORM_SPHERE_PDF);
+        // Left to BSDF samples (past `nee_count`): density 0, so the BSDF sample weighs 1.
+        let mut bsdf_only = set.clone();
+        bsdf_only.nee_count = 1;
+        assert_eq!(bsdf_only.constant_escape(), Some((c, 0.0)));
+        // A sun with a disc is seen too; a black sky shows nothing; no sky, no light.
+        let disc = LightSet::from_parts(&[sun(10.0)], Some(&sky)).unwrap();
+        assert_eq!(disc.constant_escape(), None);
+        let black = LightSet::from_parts(&[sun(0.0)], Some(&Sky::Constant(Vec3::ZERO))).unwrap();
+        assert_eq!(black.constant_escape(), None);
+        let no_sky = LightSet::from_parts(&[sun(0.0)], None).unwrap();
+        assert_eq!(no_sky.constant_escape(), None);
     }
 }

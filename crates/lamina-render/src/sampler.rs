@@ -335,13 +335,13 @@ impl<const N: usize> LaneSampler<N> {
             for (s, &pixel) in s.iter_mut().zip(&self.pixel_seed) {
                 *s = dim_seed(pixel, h);
             }
-            let mut p = [[0u32; N]; M];
+            let mut points = [[0u32; N]; M];
             for (k, &sk) in s.iter().enumerate() {
-                for (p, q) in p.iter_mut().zip(f(sk)) {
-                    p[k] = q;
+                for (lanes, q) in points.iter_mut().zip(f(sk)) {
+                    lanes[k] = q;
                 }
             }
-            (s, p)
+            (s, points)
         }
     }
 

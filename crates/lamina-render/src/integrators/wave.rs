@@ -547,10 +547,16 @@ impl Wave {
                         } else {
                             power_heuristic(prev_pdf[k], pdf)
                         };
-                        let on = missed & (1 << k) != 0;
+                        // The term times 1 in an escaped lane, times 0 in the others,
+                        // where it is finite (every lane's throughput is: ended lanes
+                        // keep a zero, see the BSDF sample below; `le` and `w` are), so
+                        // that adding it leaves the sum as it was. Written so, the loop
+                        // compiles to plain vector stores: a select, or a selected 0.0,
+                        // became masked stores (slow on AMD; no store-to-load
+                        // forwarding to the next read of `l`).
+                        let on = f32::from(u8::from(missed & (1 << k) != 0));
                         for c in 0..3 {
-                            let v = (beta[c][k] * le[c]) * w;
-                            l[c][k] += if on { v } else { 0.0 };
+                            l[c][k] += ((beta[c][k] * le[c]) * w) * on;
                         }
                     }
                 }
@@ -852,8 +858,10 @@ impl Wave {
                 }
                 go[k] = on;
                 pdfs[k] = pdf;
+                // Lanes that end here keep a zero throughput rather than whatever their
+                // inputs made (NaN even): the escaped-sky sum multiplies every lane's.
                 for c in 0..3 {
-                    beta[c][k] = b[c];
+                    beta[c][k] = if on { b[c] } else { 0.0 };
                 }
                 // `spawn_origin(p, ng, w)`.
                 let p = [g.p[0][k], g.p[1][k], g.p[2][k]];

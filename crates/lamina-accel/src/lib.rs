@@ -770,6 +770,57 @@ impl Accel {
         }
     }
 
+    /// [`Accel::intersect`] of the rays from `eye` along `(d[0][k], d[1][k], d[2][k])`
+    /// (world space, no limit, no primitive skipped) into `out[k]`: a pinhole camera's rays
+    /// as a renderer keeps them, one array per axis. The same answers as
+    /// [`Accel::intersect_many`] of those rays, bit for bit, without making them into
+    /// [`Ray`]s first: with a grid [`Accel::index_view`] added at `eye`, eight at a time
+    /// straight from the lanes.
+    ///
+    /// # Panics
+    /// When the three arrays of `d` and `out` are not all as long.
+    pub fn intersect_eye<F: AlphaFilter>(
+        &self,
+        eye: Vec3,
+        d: [&[f32]; 3],
+        f: &F,
+        out: &mut [Option<Hit>],
+    ) {
+        assert!(
+            d.iter().all(|a| a.len() == out.len()),
+            "one answer per ray, one direction component per axis"
+        );
+        match (&self.engine, self.kernel) {
+            #[cfg(target_arch = "x86_64")]
+            (Engine::W8(l), Kernel::Avx2) => {
+                #[target_feature(enable = "avx2,fma")]
+                unsafe fn go<F: AlphaFilter>(
+                    l: &Levels<8>,
+                    eye: Vec3,
+                    d: [&[f32]; 3],
+                    f: &F,
+                    out: &mut [Option<Hit>],
+                ) {
+                    // SAFETY: this function's own target features are AVX2 + FMA.
+                    unsafe { l.closest_eye(eye, d, f, &(), out) }
+                }
+                // SAFETY: an `Accel` holds `Kernel::Avx2` only after `Kernel::available`
+                // confirmed AVX2 and FMA on this CPU (`Accel::build_with`).
+                unsafe { go(l, eye, d, f, out) }
+            }
+            _ => {
+                for (k, out) in out.iter_mut().enumerate() {
+                    let ray = Ray {
+                        origin: eye,
+                        dir: Vec3::new(d[0][k], d[1][k], d[2][k]),
+                        tmax: f32::INFINITY,
+                    };
+                    *out = dispatch!(self, closest, &ray, PrimRef::NONE, f, &());
+                }
+            }
+        }
+    }
+
     /// [`Accel::occluded`] of each of `rays`, leaving `skips[k]`, into `out`: the same
     /// answers, bit for bit. Shadow rays toward a distant light indexed with
     /// [`Accel::index_direction`] (a pixel's samples' sun rays) are tested eight at a time,

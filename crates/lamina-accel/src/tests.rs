@@ -1044,6 +1044,83 @@ fn view_grid_finds_the_walks_hits() {
     }
 }
 
+/// [`Accel::intersect_eye`] answers each ray from the eye exactly as [`Accel::intersect`]
+/// does, for every kernel: lane arrays of 1 to 16 directions (one or two groups of eight,
+/// the second partial) through one small patch of the picture or spread over it, some
+/// past the window's edge; with the grid at that eye, with a grid at another eye (never
+/// used), and without a grid; on the world level with and without a ground crossing the
+/// eye's plane and a crowded column, with a sphere in view, and through instances.
+#[test]
+fn intersect_eye_answers_as_intersect() {
+    let f = |_: u32, uv: Vec2| matte(uv);
+    let (eye, fwd) = (Vec3::new(1.6, 1.55, 6.0), Vec3::new(0.02, -0.01, -1.0));
+    let window = [-0.6, 0.6, -0.45, 0.45];
+    for (s, instances, ground, sphere) in [
+        (21, false, false, false),
+        (22, false, true, false),
+        (23, false, false, true),
+        (24, true, false, false),
+    ] {
+        let mut desc = grid_scene(s, instances, ground, Vec3::Z);
+        if sphere {
+            desc.spheres.push(Sphere {
+                center: Vec3::new(1.2, 1.2, 2.0),
+                radius: 0.4,
+            });
+        }
+        for (kernel, walk) in walks(&desc) {
+            let mut here = walk.clone();
+            assert!(here.index_view(eye, fwd, Vec3::Y, window).is_some());
+            let mut elsewhere = walk.clone();
+            assert!(
+                elsewhere
+                    .index_view(eye + Vec3::X * 1e-3, fwd, Vec3::Y, window)
+                    .is_some()
+            );
+            let mut r = rng(s * 7 + 3);
+            let f3 = fwd.normalize();
+            let right = f3.cross(Vec3::Y).normalize();
+            let up = right.cross(f3);
+            let (mut hits, mut total) = (0, 0);
+            for bundle in 0..300 {
+                let (cx, cy) = if bundle % 10 == 9 {
+                    (1.3 * r() - 0.65, 1.0 * r() - 0.5)
+                } else {
+                    (0.5 * r() - 0.25, 0.5 * r() - 0.25)
+                };
+                let spread = if bundle % 4 == 3 { 0.2 } else { 2e-3 };
+                let n = 1 + bundle % 16;
+                let mut d = [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
+                for k in 0..n {
+                    let (x, y) = (cx + spread * (r() - 0.5), cy + spread * (r() - 0.5));
+                    let v = (f3 + right * x + up * y).normalize();
+                    for a in 0..3 {
+                        d[a][k] = v[a];
+                    }
+                }
+                let lanes = [&d[0][..], &d[1][..], &d[2][..]];
+                for (which, accel) in [("grid", &here), ("other eye", &elsewhere), ("walk", &walk)]
+                {
+                    let mut got = vec![None; n];
+                    accel.intersect_eye(eye, lanes, &f, &mut got);
+                    for (k, got) in got.iter().enumerate() {
+                        let ray = Ray {
+                            origin: eye,
+                            dir: Vec3::new(d[0][k], d[1][k], d[2][k]),
+                            tmax: f32::INFINITY,
+                        };
+                        let want = walk.intersect(&ray, PrimRef::NONE, &f);
+                        assert_eq!(*got, want, "{kernel:?} {which} bundle {bundle} ray {k}");
+                        hits += want.is_some() as u32;
+                        total += 1;
+                    }
+                }
+            }
+            assert!(hits * 5 > total, "{kernel:?}: {hits} hits of {total}");
+        }
+    }
+}
+
 /// [`Accel::intersect_many`] answers each ray exactly as [`Accel::intersect`] does, for
 /// every kernel: bundles of rays from a pinhole's eye through one small patch of the
 /// picture (tested together where they cross the same cells), spread over it (several

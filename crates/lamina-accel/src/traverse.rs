@@ -909,6 +909,77 @@ impl Levels<8> {
         }
     }
 
+    /// [`Levels::closest`] of the rays from `eye` along `d[0][k], d[1][k], d[2][k]` (no
+    /// limit, no primitive skipped) into `out[k]` (all as long): eight at a time through
+    /// [`crate::view::ViewIndex::closest_lanes`] where the grid is this eye's, straight
+    /// from the lanes; the others one by one. The same answers, bit for bit.
+    ///
+    /// # Safety
+    /// AVX2 and FMA must be available.
+    #[inline(always)]
+    pub(crate) unsafe fn closest_eye<F: AlphaFilter, C: Counter>(
+        &self,
+        eye: Vec3,
+        d: [&[f32]; 3],
+        f: &F,
+        c: &C,
+        out: &mut [Option<Hit>],
+    ) {
+        use crate::kernel::avx2::{Avx2, Rays8};
+        use std::arch::x86_64::*;
+        let view = self.view.as_ref().filter(|v| v.eye() == eye);
+        for (g, out) in out.chunks_mut(8).enumerate() {
+            let n = out.len();
+            let at = g * 8;
+            // The group's directions per axis; lanes past `n` repeat the first ray.
+            let mut lanes = [[0.0f32; 8]; 3];
+            for (lane, axis) in lanes.iter_mut().zip(d) {
+                let part = &axis[at..at + n];
+                *lane = [part[0]; 8];
+                lane[..n].copy_from_slice(part);
+            }
+            let ray = |k: usize| Ray {
+                origin: eye,
+                dir: Vec3::new(lanes[0][k], lanes[1][k], lanes[2][k]),
+                tmax: f32::INFINITY,
+            };
+            let mut best = [Best {
+                t: 0.0,
+                prim: u32::MAX,
+                inst: NO_INSTANCE,
+                bary: Vec2::ZERO,
+            }; 8];
+            let mut found = [false; 8];
+            let served = match view {
+                // SAFETY: AVX2 is available (caller); each load reads a whole `[f32; 8]`;
+                // every lane starts at the grid's eye.
+                Some(v) => unsafe {
+                    let load = |a: usize| _mm256_loadu_ps(lanes[a].as_ptr());
+                    let o = [
+                        _mm256_set1_ps(eye.x),
+                        _mm256_set1_ps(eye.y),
+                        _mm256_set1_ps(eye.z),
+                    ];
+                    let r = Rays8 {
+                        o,
+                        d: [load(0), load(1), load(2)],
+                    };
+                    let tmax = _mm256_set1_ps(f32::INFINITY);
+                    v.closest_lanes(self, r, tmax, (1u32 << n) - 1, f, c, &mut best, &mut found)
+                },
+                None => 0,
+            };
+            for (k, out) in out.iter_mut().enumerate() {
+                *out = if served & (1 << k) != 0 {
+                    self.finish(&ray(k), best[k], found[k])
+                } else {
+                    // SAFETY: AVX2 and FMA are available (caller).
+                    unsafe { self.closest::<Avx2, F, C>(&ray(k), PrimRef::NONE, f, c) }
+                };
+            }
+        }
+    }
+
     /// [`Levels::occluded`] of each of `rays`, leaving primitive `skips[k]`, into `out`
     /// (all as long): rays toward a distant light eight at a time through
     /// [`crate::direction::DirIndex::occluded_rays`] where it serves them, the others one

@@ -212,7 +212,8 @@ impl ViewIndex {
         Some((z, x, y))
     }
 
-    /// [`ViewIndex::cells_of`] for eight rays from the eye with directions `d`, in lanes:
+    /// [`ViewIndex::cells_of`] for eight rays from the eye with directions `dv` (lane `k`:
+    /// ray `k`, per axis), in lanes:
     /// their depths per unit length, the lanes the window serves (bit `k`), and per lane
     /// its cells `x0, x1, y0, y1` (meaningful in served lanes). The arithmetic is
     /// `cells_of`'s, operation by operation; whether the cells are listed is left to
@@ -222,25 +223,13 @@ impl ViewIndex {
     /// AVX2 must be available.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn cells_of_rays(&self, d: &[[f32; 3]; 8]) -> (__m256, u32, [[i32; 8]; 4]) {
+    unsafe fn cells_of_rays(&self, dv: &[__m256; 3]) -> (__m256, u32, [[i32; 8]; 4]) {
         let cells = &self.grid.cells;
         let (lo, hi) = (cells.lo, cells.hi());
         let last = [cells.n[0] as f32 - 1.0, cells.n[1] as f32 - 1.0];
-        let mut soa = [[0.0f32; 8]; 3];
-        for (k, d) in d.iter().enumerate() {
-            for a in 0..3 {
-                soa[a][k] = d[a];
-            }
-        }
         let mut out = [[0i32; 8]; 4];
-        // SAFETY: AVX2 is available (caller); the loads read whole `[f32; 8]` rows and the
-        // stores write whole `[i32; 8]` rows.
+        // SAFETY: AVX2 is available (caller); the stores write whole `[i32; 8]` rows.
         unsafe {
-            let dv = [
-                _mm256_loadu_ps(soa[0].as_ptr()),
-                _mm256_loadu_ps(soa[1].as_ptr()),
-                _mm256_loadu_ps(soa[2].as_ptr()),
-            ];
             // glam's `dot` on x86: `(x·x' + y·y') + z·z'`.
             macro_rules! dot {
                 ($v:expr) => {
@@ -323,14 +312,50 @@ impl ViewIndex {
             tmax[k] = ray.tmax;
             from_eye |= u32::from(ray.origin == self.eye) << k;
         }
+        // SAFETY: AVX2 is available (caller); the load reads all of `tmax`.
+        unsafe {
+            let r = Rays8::new(&os[..n], &ds[..n]);
+            let tmax = _mm256_loadu_ps(tmax.as_ptr());
+            self.closest_lanes(lv, r, tmax, from_eye & ((1u32 << n) - 1), f, c, best, found)
+        }
+    }
+
+    /// The eye this grid is for (world space): rays from elsewhere it never serves.
+    pub(crate) fn eye(&self) -> Vec3 {
+        self.eye
+    }
+
+    /// [`ViewIndex::closest_rays`] for the rays of lanes `todo` of `r` (from the eye,
+    /// each within lane `k` of `tmax`), already in lanes (a camera's rays as the renderer
+    /// makes them: no rays to take apart).
+    ///
+    /// # Safety
+    /// AVX2 must be available; lanes `todo` of `r` start at [`ViewIndex::eye`].
+    #[cfg(target_arch = "x86_64")]
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(crate) unsafe fn closest_lanes<F: AlphaFilter, C: Counter>(
+        &self,
+        lv: &Levels<8>,
+        r: Rays8,
+        tmax: __m256,
+        todo: u32,
+        f: &F,
+        c: &C,
+        best: &mut [Best; 8],
+        found: &mut [bool; 8],
+    ) -> u32 {
+        if !self.world_only {
+            return 0;
+        }
         // SAFETY: AVX2 is available (caller).
-        let (zv, window, cell) = unsafe { self.cells_of_rays(&ds) };
-        let mut todo = window & from_eye & ((1u32 << n) - 1);
+        let (zv, window, cell) = unsafe { self.cells_of_rays(&r.d) };
+        let mut todo = window & todo;
         let mut served = 0u32;
         let packs = &lv.world.packs;
         let pack = |e: &Entry| &packs[self.grid.refs[e.r as usize].pack as usize];
         // SAFETY: AVX2 is available (caller).
-        let mut b = unsafe { Bests::new(&os[..n], &ds[..n], &tmax) };
+        let mut b = unsafe { Bests::new(r, tmax) };
         // SAFETY: AVX2 is available (caller); each load reads one whole `[i32; 8]` row.
         let rows = unsafe { cell.map(|row| _mm256_loadu_si256(row.as_ptr() as *const __m256i)) };
         while todo != 0 {
@@ -446,17 +471,17 @@ struct Bests {
 
 #[cfg(target_arch = "x86_64")]
 impl Bests {
-    /// Rays `o[k] + t·d[k]` with nothing found before `tmax[k]`.
+    /// Rays `r` with nothing found before lane `k` of `tmax`.
     ///
     /// # Safety
     /// AVX2 must be available.
     #[inline(always)]
-    unsafe fn new(o: &[[f32; 3]], d: &[[f32; 3]], tmax: &[f32; 8]) -> Bests {
-        // SAFETY: AVX2 is available (caller); the load reads all of `tmax`.
+    unsafe fn new(r: Rays8, tmax: __m256) -> Bests {
+        // SAFETY: AVX2 is available (caller).
         unsafe {
             Bests {
-                r: Rays8::new(o, d),
-                t: _mm256_loadu_ps(tmax.as_ptr()),
+                r,
+                t: tmax,
                 prim: _mm256_set1_epi32(-1),
                 b1: _mm256_setzero_ps(),
                 b2: _mm256_setzero_ps(),

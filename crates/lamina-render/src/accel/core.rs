@@ -5,7 +5,7 @@
 //! agreement tests check them against each other); only the instance ids differ: the top
 //! level's order for lamina-accel, the scene's order for Embree.
 
-use glam::Affine3A;
+use glam::{Affine3A, Vec3};
 use lamina_accel::{AccelError, AccelMemory, AlphaFilter, Hit, PrimRef, Ray, SceneDesc};
 
 /// Which engine an [`super::Accel`] traces rays with.
@@ -159,6 +159,32 @@ impl Core {
             Core::Embree(e) => {
                 for (ray, out) in rays.iter().zip(out.iter_mut()) {
                     *out = e.accel.intersect(ray, PrimRef::NONE, f);
+                }
+            }
+        }
+    }
+
+    /// The closest accepted hit of each ray from `eye` along `(d[0][k], d[1][k],
+    /// d[2][k])` (see `lamina_accel::Accel::intersect_eye`).
+    #[inline(always)]
+    pub fn intersect_eye<F: AlphaFilter>(
+        &self,
+        eye: Vec3,
+        d: [&[f32]; 3],
+        f: &F,
+        out: &mut [Option<Hit>],
+    ) {
+        match self {
+            Core::Lamina(a) => a.intersect_eye(eye, d, f, out),
+            #[cfg(feature = "embree")]
+            Core::Embree(e) => {
+                for (k, out) in out.iter_mut().enumerate() {
+                    let ray = Ray {
+                        origin: eye,
+                        dir: Vec3::new(d[0][k], d[1][k], d[2][k]),
+                        tmax: f32::INFINITY,
+                    };
+                    *out = e.accel.intersect(&ray, PrimRef::NONE, f);
                 }
             }
         }

@@ -741,6 +741,38 @@ impl Accel {
         }
     }
 
+    /// [`Accel::intersect`] of the rays from `eye` along `(d[0][k], d[1][k], d[2][k])` (a
+    /// pinhole's camera rays in lanes, world space) into `out[k]`, all as long: the same
+    /// answers as [`Accel::intersect_many`] of those rays, bit for bit, from the lanes
+    /// themselves (`lamina_accel::Accel::intersect_eye`).
+    ///
+    /// # Panics
+    /// When the arrays of `d` and `out` are not all as long, or longer than
+    /// [`Accel::MANY_EYE`].
+    pub fn intersect_eye(&self, eye: Vec3, d: [&[f32]; 3], out: &mut [Option<Hit>]) {
+        let n = out.len();
+        assert!(d.iter().all(|a| a.len() == n) && n <= Self::MANY_EYE);
+        if self.wrap.is_some() {
+            for (k, out) in out.iter_mut().enumerate() {
+                *out = self.intersect(&Ray {
+                    origin: eye,
+                    dir: Vec3::new(d[0][k], d[1][k], d[2][k]),
+                    tmax: f32::INFINITY,
+                });
+            }
+            return;
+        }
+        let mut hits = [None; Self::MANY_EYE];
+        self.core
+            .intersect_eye(eye, d, &self.filter(), &mut hits[..n]);
+        for (h, out) in hits.iter().zip(out.iter_mut()) {
+            *out = h.map(|h| self.hit(h));
+        }
+    }
+
+    /// Most rays one [`Accel::intersect_eye`] takes.
+    pub const MANY_EYE: usize = 16;
+
     /// Most rays one [`Accel::intersect_many`] takes.
     pub const MANY: usize = 8;
 

@@ -479,6 +479,12 @@ impl Wave {
         }
         let mut o = [[0.0f32; LANES]; 3];
         let mut d = [[0.0f32; LANES]; 3];
+        let ray_of = |o: &Lanes3, d: &Lanes3, k: usize| Ray {
+            origin: get3(o, k),
+            dir: get3(d, k),
+            tmax: f32::INFINITY,
+        };
+        let mut hit: [Option<Hit>; LANES] = [None; LANES];
         if ctx.camera.uses_lens() {
             let (mut lx, mut ly) = ([0.0f32; LANES], [0.0f32; LANES]);
             sampler.peek_2d(0, &mut lx, &mut ly);
@@ -489,25 +495,22 @@ impl Wave {
                 set3(&mut o, k, ro);
                 set3(&mut d, k, rd);
             }
-        } else {
-            let eye = ctx.camera.pinhole_lanes(&fx, &fy, &mut d);
-            for (c, o) in o.iter_mut().enumerate() {
-                *o = [eye[c]; LANES];
-            }
-        }
-        sampler.skip(1); // the lens draw, made or skipped
-        let ray_of = |o: &Lanes3, d: &Lanes3, k: usize| Ray {
-            origin: get3(o, k),
-            dir: get3(d, k),
-            tmax: f32::INFINITY,
-        };
-        let mut hit: [Option<Hit>; LANES] = [None; LANES];
-        {
             let cam: [Ray; LANES] = std::array::from_fn(|k| ray_of(&o, &d, k));
             let m = crate::accel::Accel::MANY;
             for (r, h) in cam[..n].chunks(m).zip(hit[..n].chunks_mut(m)) {
                 ctx.accel.intersect_many(r, h);
             }
+        } else {
+            // A pinhole's rays all leave the eye: traced from the lanes themselves.
+            let eye = ctx.camera.pinhole_lanes(&fx, &fy, &mut d);
+            for (c, o) in o.iter_mut().enumerate() {
+                *o = [eye[c]; LANES];
+            }
+            ctx.accel
+                .intersect_eye(eye, [&d[0][..n], &d[1][..n], &d[2][..n]], &mut hit[..n]);
+        }
+        sampler.skip(1); // the lens draw, made or skipped
+        {
             for h in &hit[..n] {
                 if let Some(Hit {
                     kind: HitKind::Triangle { prim, .. },

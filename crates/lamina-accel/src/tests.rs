@@ -1044,6 +1044,25 @@ fn view_grid_finds_the_walks_hits() {
     }
 }
 
+/// The frame of an eye looking along `fwd` (up +y): unit forward, right and up.
+fn eye_frame(fwd: Vec3) -> (Vec3, Vec3, Vec3) {
+    let f3 = fwd.normalize();
+    let right = f3.cross(Vec3::Y).normalize();
+    (f3, right, right.cross(f3))
+}
+
+/// Where bundle `bundle` of camera rays points in the picture (tangents right and up) and
+/// how far its rays spread: mostly over the scene, one in ten past the window's edge; a
+/// pixel's spread, one in four a wide one.
+fn bundle_spot(bundle: usize, r: &mut impl FnMut() -> f32) -> (f32, f32, f32) {
+    let (cx, cy) = if bundle % 10 == 9 {
+        (1.3 * r() - 0.65, 1.0 * r() - 0.5)
+    } else {
+        (0.5 * r() - 0.25, 0.5 * r() - 0.25)
+    };
+    (cx, cy, if bundle % 4 == 3 { 0.2 } else { 2e-3 })
+}
+
 /// [`Accel::intersect_eye`] answers each ray from the eye exactly as [`Accel::intersect`]
 /// does, for every kernel: lane arrays of 1 to 16 directions (one or two groups of eight,
 /// the second partial) through one small patch of the picture or spread over it, some
@@ -1078,17 +1097,10 @@ fn intersect_eye_answers_as_intersect() {
                     .is_some()
             );
             let mut r = rng(s * 7 + 3);
-            let f3 = fwd.normalize();
-            let right = f3.cross(Vec3::Y).normalize();
-            let up = right.cross(f3);
+            let (f3, right, up) = eye_frame(fwd);
             let (mut hits, mut total) = (0, 0);
             for bundle in 0..300 {
-                let (cx, cy) = if bundle % 10 == 9 {
-                    (1.3 * r() - 0.65, 1.0 * r() - 0.5)
-                } else {
-                    (0.5 * r() - 0.25, 0.5 * r() - 0.25)
-                };
-                let spread = if bundle % 4 == 3 { 0.2 } else { 2e-3 };
+                let (cx, cy, spread) = bundle_spot(bundle, &mut r);
                 let n = 1 + bundle % 16;
                 let mut d = [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
                 for k in 0..n {
@@ -1141,20 +1153,11 @@ fn intersect_many_answers_as_intersect() {
                 grid.index_view(eye, fwd, Vec3::Y, [-0.6, 0.6, -0.45, 0.45])
                     .is_some()
             );
-            let f3 = fwd.normalize();
-            let right = f3.cross(Vec3::Y).normalize();
-            let up = right.cross(f3);
+            let (f3, right, up) = eye_frame(fwd);
             let (mut hits, mut rays_total) = (0, 0);
             let stats = TraversalStats::default();
             for bundle in 0..400 {
-                // Mostly over the scene, some past the window's edge.
-                let (cx, cy) = if bundle % 10 == 9 {
-                    (1.3 * r() - 0.65, 1.0 * r() - 0.5)
-                } else {
-                    (0.5 * r() - 0.25, 0.5 * r() - 0.25)
-                };
-                // A pixel's spread, or a wide one.
-                let spread = if bundle % 4 == 3 { 0.2 } else { 2e-3 };
+                let (cx, cy, spread) = bundle_spot(bundle, &mut r);
                 let n = 1 + bundle % 13;
                 let rays: Vec<Ray> = (0..n)
                     .map(|i| {

@@ -374,6 +374,19 @@ pub(crate) struct Best {
     pub bary: Vec2,
 }
 
+impl Best {
+    /// Nothing found before `t`.
+    #[inline(always)]
+    pub(crate) fn none(t: f32) -> Best {
+        Best {
+            t,
+            prim: u32::MAX,
+            inst: NO_INSTANCE,
+            bary: Vec2::ZERO,
+        }
+    }
+}
+
 /// One bottom level queried with one prepared ray: what both leaf visits share.
 struct LevelQuery<'a, K: Lanes<W>, const W: usize, F, C> {
     blas: &'a Blas<W>,
@@ -739,12 +752,7 @@ impl<const W: usize> Levels<W> {
     ) -> Option<Hit> {
         let o = Vec3A::from(ray.origin);
         let d = Vec3A::from(ray.dir);
-        let mut best = Best {
-            t: ray.tmax,
-            prim: u32::MAX,
-            inst: NO_INSTANCE,
-            bary: Vec2::ZERO,
-        };
+        let mut best = Best::none(ray.tmax);
         let wr = LRay {
             o: ray.origin.to_array(),
             d: ray.dir.to_array(),
@@ -886,12 +894,7 @@ impl Levels<8> {
     ) {
         use crate::kernel::avx2::Avx2;
         for (rays, out) in rays.chunks(8).zip(out.chunks_mut(8)) {
-            let mut best = [Best {
-                t: 0.0,
-                prim: u32::MAX,
-                inst: NO_INSTANCE,
-                bary: Vec2::ZERO,
-            }; 8];
+            let mut best = [Best::none(0.0); 8];
             let mut found = [false; 8];
             let served = match &self.view {
                 // SAFETY: AVX2 is available (caller).
@@ -943,12 +946,7 @@ impl Levels<8> {
                 dir: Vec3::new(lanes[0][k], lanes[1][k], lanes[2][k]),
                 tmax: f32::INFINITY,
             };
-            let mut best = [Best {
-                t: 0.0,
-                prim: u32::MAX,
-                inst: NO_INSTANCE,
-                bary: Vec2::ZERO,
-            }; 8];
+            let mut best = [Best::none(0.0); 8];
             let mut found = [false; 8];
             let served = match view {
                 // SAFETY: AVX2 is available (caller); each load reads a whole `[f32; 8]`;

@@ -206,7 +206,8 @@ impl LightSet {
     /// radiance. Then its radiance (W m⁻² sr⁻¹, linear Rec.709) and the density MIS weighs
     /// a BSDF sample reaching it with (the sky's sampling density times its pick
     /// probability, as `escaped` and [`LightSet::pick_prob`] give them along any ray);
-    /// `None` otherwise.
+    /// `None` otherwise. The radiance is finite (a set is not made with a sky that is
+    /// not): the wavefront adds it to every lane times 1 or 0.
     pub fn constant_escape(&self) -> Option<(Vec3, f32)> {
         let &[i] = self.escaping.as_slice() else {
             return None;
@@ -420,5 +421,8 @@ mod tests {
         assert_eq!(black.constant_escape(), None);
         let no_sky = LightSet::from_parts(&[sun(0.0)], None).unwrap();
         assert_eq!(no_sky.constant_escape(), None);
+        // A sky that is not finite makes no set (the wavefront's lane sum relies on it).
+        let inf = Sky::Constant(Vec3::new(f32::INFINITY, 0.3, 0.4));
+        assert!(LightSet::from_parts(&[sun(0.0)], Some(&inf)).is_err());
     }
 }

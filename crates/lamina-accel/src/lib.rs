@@ -82,6 +82,22 @@ pub struct Ray {
     pub tmax: f32,
 }
 
+impl Ray {
+    /// Lane `k` of rays from `eye` kept as one direction array per axis (`d[0]` x, `d[1]`
+    /// y, `d[2]` z; what [`Accel::intersect_eye`] takes), with no limit.
+    ///
+    /// # Panics
+    /// When `k` is past an array of `d`.
+    #[inline(always)]
+    pub fn from_eye_lane(eye: Vec3, d: [&[f32]; 3], k: usize) -> Ray {
+        Ray {
+            origin: eye,
+            dir: Vec3::new(d[0][k], d[1][k], d[2][k]),
+            tmax: f32::INFINITY,
+        }
+    }
+}
+
 /// [`PrimRef::inst`] of the world geometry.
 pub const NO_INSTANCE: u32 = u32::MAX;
 /// [`PrimRef::inst`] of a sphere (its index in [`SceneDesc::spheres`] is `prim`).
@@ -810,11 +826,7 @@ impl Accel {
             }
             _ => {
                 for (k, out) in out.iter_mut().enumerate() {
-                    let ray = Ray {
-                        origin: eye,
-                        dir: Vec3::new(d[0][k], d[1][k], d[2][k]),
-                        tmax: f32::INFINITY,
-                    };
+                    let ray = Ray::from_eye_lane(eye, d, k);
                     *out = dispatch!(self, closest, &ray, PrimRef::NONE, f, &());
                 }
             }

@@ -1116,11 +1116,7 @@ fn intersect_eye_answers_as_intersect() {
                     let mut got = vec![None; n];
                     accel.intersect_eye(eye, lanes, &f, &mut got);
                     for (k, got) in got.iter().enumerate() {
-                        let ray = Ray {
-                            origin: eye,
-                            dir: Vec3::new(d[0][k], d[1][k], d[2][k]),
-                            tmax: f32::INFINITY,
-                        };
+                        let ray = Ray::from_eye_lane(eye, lanes, k);
                         let want = walk.intersect(&ray, PrimRef::NONE, &f);
                         assert_eq!(*got, want, "{kernel:?} {which} bundle {bundle} ray {k}");
                         hits += want.is_some() as u32;

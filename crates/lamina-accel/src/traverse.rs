@@ -941,11 +941,7 @@ impl Levels<8> {
                 *lane = [part[0]; 8];
                 lane[..n].copy_from_slice(part);
             }
-            let ray = |k: usize| Ray {
-                origin: eye,
-                dir: Vec3::new(lanes[0][k], lanes[1][k], lanes[2][k]),
-                tmax: f32::INFINITY,
-            };
+            let ray = |k: usize| Ray::from_eye_lane(eye, [&lanes[0], &lanes[1], &lanes[2]], k);
             let mut best = [Best::none(0.0); 8];
             let mut found = [false; 8];
             let served = match view {

@@ -179,11 +179,7 @@ impl Core {
             #[cfg(feature = "embree")]
             Core::Embree(e) => {
                 for (k, out) in out.iter_mut().enumerate() {
-                    let ray = Ray {
-                        origin: eye,
-                        dir: Vec3::new(d[0][k], d[1][k], d[2][k]),
-                        tmax: f32::INFINITY,
-                    };
+                    let ray = Ray::from_eye_lane(eye, d, k);
                     *out = e.accel.intersect(&ray, PrimRef::NONE, f);
                 }
             }

@@ -754,11 +754,7 @@ impl Accel {
         assert!(d.iter().all(|a| a.len() == n) && n <= Self::MANY_EYE);
         if self.wrap.is_some() {
             for (k, out) in out.iter_mut().enumerate() {
-                *out = self.intersect(&Ray {
-                    origin: eye,
-                    dir: Vec3::new(d[0][k], d[1][k], d[2][k]),
-                    tmax: f32::INFINITY,
-                });
+                *out = self.intersect(&Ray::from_eye_lane(eye, d, k));
             }
             return;
         }

@@ -514,6 +514,10 @@ impl Job {
             let results: Vec<Option<(Vec<f64>, u64)>> = self.pool.install(|| {
                 self.tiles
                     .par_iter()
+                    // Every tile a job of its own that an idle thread can take: rayon's
+                    // adaptive splitting otherwise runs runs of tiles as one job, and a
+                    // thread that ends its share early waits out the other's run.
+                    .with_max_len(1)
                     .map(|t| {
                         if stop() {
                             None

@@ -504,6 +504,25 @@ impl Job {
         let mut acc = Accumulator::new(crop.width(), crop.height(), est.channels());
         let (mut spp_done, mut rays, mut stopped_early) = (0u32, 0u64, false);
         let mut passes_done = 0u32;
+        // A completed pass's tiles are added into the image while the next pass renders
+        // (one more job on the pool): the merge is serial, and the threads used to wait
+        // for it between passes. The sums are added pass after pass, tile after tile, as
+        // before: the same image.
+        let merge = |acc: &mut Accumulator, done: Done| {
+            for (t, (sums, _)) in self.tiles.iter().zip(&done.tiles) {
+                acc.add_tile(t.x0 - crop.x0, t.y0 - crop.y0, t.w, sums);
+            }
+            if let Some(cb) = &opts.progress {
+                cb(Progress {
+                    passes_done: done.pass as u32 + 1,
+                    passes_total: self.passes.len() as u32,
+                    spp_done: done.s1 - range.start,
+                    spp_total: range.len(),
+                    elapsed: start.elapsed(),
+                });
+            }
+        };
+        let mut pending: Option<Done> = None;
         for (pi, &(s0, s1)) in self.passes.iter().enumerate() {
             let first = pi == 0;
             let stop = || cancelled() || (!first && deadline.is_some_and(|d| Instant::now() >= d));
@@ -511,43 +530,48 @@ impl Job {
                 stopped_early = true;
                 break;
             }
-            let results: Vec<Option<(Vec<f64>, u64)>> = self.pool.install(|| {
-                self.tiles
-                    .par_iter()
-                    // Every tile a job of its own that an idle thread can take: rayon's
-                    // adaptive splitting otherwise runs runs of tiles as one job, and a
-                    // thread that ends its share early waits out the other's run.
-                    .with_max_len(1)
-                    .map(|t| {
-                        if stop() {
-                            None
-                        } else {
-                            Some(render_tile(ctx, est, t, s0, s1, seed))
+            let previous = pending.take();
+            let (_, results): ((), Vec<Option<TileSums>>) = self.pool.install(|| {
+                rayon::join(
+                    || {
+                        if let Some(done) = previous {
+                            merge(&mut acc, done);
                         }
-                    })
-                    .collect()
+                    },
+                    || {
+                        self.tiles
+                            .par_iter()
+                            // Every tile a job of its own that an idle thread can take:
+                            // rayon's adaptive splitting otherwise runs runs of tiles as
+                            // one job, and a thread that ends its share early waits out
+                            // the other's run.
+                            .with_max_len(1)
+                            .map(|t| {
+                                if stop() {
+                                    None
+                                } else {
+                                    Some(render_tile(ctx, est, t, s0, s1, seed))
+                                }
+                            })
+                            .collect()
+                    },
+                )
             });
             rays += results.iter().flatten().map(|r| r.1).sum::<u64>();
-            if results.iter().any(Option::is_none) {
+            let Some(tiles) = results.into_iter().collect::<Option<Vec<_>>>() else {
                 stopped_early = true;
                 break;
-            }
-            for (t, r) in self.tiles.iter().zip(&results) {
-                if let Some((sums, _)) = r {
-                    acc.add_tile(t.x0 - crop.x0, t.y0 - crop.y0, t.w, sums);
-                }
-            }
+            };
             spp_done = s1 - range.start;
             passes_done = pi as u32 + 1;
-            if let Some(cb) = &opts.progress {
-                cb(Progress {
-                    passes_done: pi as u32 + 1,
-                    passes_total: self.passes.len() as u32,
-                    spp_done,
-                    spp_total: range.len(),
-                    elapsed: start.elapsed(),
-                });
-            }
+            pending = Some(Done {
+                pass: pi,
+                s1,
+                tiles,
+            });
+        }
+        if let Some(done) = pending {
+            merge(&mut acc, done);
         }
         let stats = RenderStats {
             elapsed: start.elapsed(),
@@ -572,12 +596,23 @@ impl Job {
     }
 }
 
-/// Samples `[s0, s1)` of every pixel of `tile`: per-pixel sums (row-major, `channels` per
-/// pixel, f64 so that splitting a pixel's samples into parts changes only the order of f64
-/// additions) and rays traced.
+/// A pass rendered and not yet added into the image: its index, its end sample and each
+/// tile's sums and rays (in [`Job`]'s tile order).
+struct Done {
+    pass: usize,
+    s1: u32,
+    tiles: Vec<TileSums>,
+}
+
+/// What [`render_tile`] gives for a tile: its pixels' sums and the rays traced.
+type TileSums = (Vec<f64>, u64);
+
 /// Camera rays whose first hits [`render_tile`] finds in a row before following their paths.
 const FIRST_HITS: usize = crate::accel::Accel::MANY;
 
+/// Samples `[s0, s1)` of every pixel of `tile`: per-pixel sums (row-major, `channels` per
+/// pixel, f64 so that splitting a pixel's samples into parts changes only the order of f64
+/// additions) and rays traced.
 fn render_tile<E: Estimator>(
     ctx: &SceneContext,
     est: &E,
@@ -585,7 +620,7 @@ fn render_tile<E: Estimator>(
     s0: u32,
     s1: u32,
     seed: u32,
-) -> (Vec<f64>, u64) {
+) -> TileSums {
     let c = est.channels();
     let mut sums = vec![0.0f64; (tile.w * tile.h) as usize * c];
     let mut vals = vec![0.0f32; c];

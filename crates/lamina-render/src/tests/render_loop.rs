@@ -68,6 +68,37 @@ fn time_limit_and_cancel_return_valid_images() {
     assert_eq!(out.image, render(&scene, &opts(2, 2)).unwrap().image);
 }
 
+/// Progress comes once per pass, in order, after the pass is in the image (each pass is
+/// added while the next one renders): the last report is the whole render, and the image
+/// is the one a render without a callback gives.
+#[test]
+fn progress_reports_every_pass_in_order() {
+    let scene = small_canopy_scene();
+    let seen = Arc::new(std::sync::Mutex::new(Vec::new()));
+    let log = seen.clone();
+    let out = render(
+        &scene,
+        &RenderOptions {
+            progress: Some(Arc::new(move |p| {
+                log.lock()
+                    .unwrap()
+                    .push((p.passes_done, p.spp_done, p.passes_total));
+            })),
+            ..opts(40, 2)
+        },
+    )
+    .unwrap();
+    // 40 spp: passes of 1, 1, 2, 4, 8, 16 and 8 samples.
+    let want: Vec<(u32, u32, u32)> = [1, 2, 4, 8, 16, 32, 40]
+        .iter()
+        .enumerate()
+        .map(|(i, &spp)| (i as u32 + 1, spp, 7))
+        .collect();
+    assert_eq!(*seen.lock().unwrap(), want);
+    assert_eq!((out.stats.passes_done, out.stats.spp_done), (7, 40));
+    assert_eq!(out.image, render(&scene, &opts(40, 1)).unwrap().image);
+}
+
 /// Bad options fail cleanly.
 #[test]
 fn bad_options_are_errors() {

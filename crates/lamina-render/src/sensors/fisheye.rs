@@ -69,6 +69,8 @@ pub(crate) fn measure(
     // Per row: pixels, and per ring and batch (misses, rays) for the gap fraction.
     let rows: Vec<(Vec<Vec3>, Vec<[f64; 2]>, u64)> = (0..n)
         .into_par_iter()
+        // One job each, for idle threads to take (see `render.rs`'s tiles).
+        .with_max_len(1)
         .map(|y| {
             let mut px_out = vec![Vec3::ZERO; n as usize];
             let mut gap = vec![[0.0f64; 2]; rings * BATCHES as usize];

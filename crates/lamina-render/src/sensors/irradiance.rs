@@ -110,6 +110,8 @@ pub(crate) fn measure(
         .collect();
     let sums: Vec<(DVec3, DVec3, u64)> = jobs
         .par_iter()
+        // One job each, for idle threads to take (see `render.rs`'s tiles).
+        .with_max_len(1)
         .map(|&(k, b)| {
             if run.cancelled() {
                 return (DVec3::ZERO, DVec3::ZERO, 0);

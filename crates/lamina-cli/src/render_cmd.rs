@@ -404,6 +404,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
         }
         crate::sensors_cmd::check(&scene, args.force, &outputs.inputs)?;
         if args.output.is_empty() {
+            if let Some(s) = args.flags.time_limit {
+                bail!(
+                    "--time-limit {s} stops an image's render, and this run only measures the \
+                     scene's [[sensor]]s (each takes its own `samples`): drop --time-limit, or \
+                     add -o FILE for an image"
+                );
+            }
             return crate::sensors_cmd::run(
                 &scene,
                 &args.scene,

@@ -305,3 +305,19 @@ fn the_meadow_example_measures_and_its_budget_closes_with_real_leaves() {
         assert!((budget - 1.0).abs() < 0.02, "{c}: {budget}");
     }
 }
+
+/// `--time-limit` on a run that only measures sensors (no `-o`) would do nothing: an error
+/// naming the flag, before any sensor file is written.
+#[test]
+fn a_time_limit_on_a_sensors_only_run_is_an_error() {
+    let d = scratch("canopy", "meadow_time_limit");
+    let ex = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    for f in ["canopy_sensors.toml", "cards.csv"] {
+        std::fs::copy(ex.join(f), d.join(f)).unwrap();
+    }
+    let o = lamina(&["render", "canopy_sensors.toml", "--time-limit", "5"], &d);
+    fails(&o, &["--time-limit 5", "[[sensor]]", "-o FILE"]);
+    for f in ["meadow_brf.csv", "meadow_fluxes.csv", "meadow_gap.csv"] {
+        assert!(!d.join(f).exists(), "{f} written");
+    }
+}

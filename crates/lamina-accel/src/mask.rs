@@ -45,8 +45,25 @@ pub struct OpacityMask {
     height: i64,
     wrap: MaskWrap,
     /// `Repeat`: `height x width` cells indexed by the wrapped lower-left texel. `Clamp`:
-    /// `(height + 1) x (width + 1)` cells for lower-left texels `-1 ..= size - 1`.
-    cells: Vec<u8>,
+    /// `(height + 1) x (width + 1)` cells for lower-left texels `-1 ..= size - 1`. Two bits
+    /// a cell, [`CELLS_PER_WORD`] to a word from its low bits up, the last word's spare
+    /// cells [`UNKNOWN`]: a quarter of a byte a cell, so that the cells the leaf tests read
+    /// stay in the first-level cache (a byte a cell, the bush's three mattes took 124 KB).
+    cells: Vec<u64>,
+    /// Cells held (the words' spare cells not counted).
+    len: usize,
+}
+
+/// Cells in one word of [`OpacityMask`]'s table.
+const CELLS_PER_WORD: usize = 32;
+
+/// The class of cell `i` in a packed table (`UNKNOWN` past its end).
+#[inline(always)]
+fn cell_in(words: &[u64], i: u64) -> u8 {
+    match words.get((i / CELLS_PER_WORD as u64) as usize) {
+        Some(w) => ((w >> ((i % CELLS_PER_WORD as u64) * 2)) & 3) as u8,
+        None => UNKNOWN,
+    }
 }
 
 impl OpacityMask {
@@ -73,9 +90,9 @@ impl OpacityMask {
             MaskWrap::Clamp => (-1..w, -1..h),
         };
         let (hi, lo) = (cutoff + 1e-5, cutoff - 1e-5);
-        let mut cells = Vec::with_capacity(
-            (x_range.end - x_range.start) as usize * (y_range.end - y_range.start) as usize,
-        );
+        let len = (x_range.end - x_range.start) as usize * (y_range.end - y_range.start) as usize;
+        let mut cells = vec![0u64; len.div_ceil(CELLS_PER_WORD)];
+        let mut i = 0;
         for y in y_range {
             for x in x_range.clone() {
                 let c = [
@@ -84,20 +101,26 @@ impl OpacityMask {
                     value(x, y + 1),
                     value(x + 1, y + 1),
                 ];
-                cells.push(if c.iter().all(|&a| a >= hi) {
+                let class = if c.iter().all(|&a| a >= hi) {
                     OPAQUE
                 } else if c.iter().all(|&a| a < lo) {
                     TRANSPARENT
                 } else {
                     UNKNOWN
-                });
+                };
+                cells[i / CELLS_PER_WORD] |= (class as u64) << ((i % CELLS_PER_WORD) * 2);
+                i += 1;
             }
+        }
+        for j in len..cells.len() * CELLS_PER_WORD {
+            cells[j / CELLS_PER_WORD] |= (UNKNOWN as u64) << ((j % CELLS_PER_WORD) * 2);
         }
         Some(OpacityMask {
             width: w,
             height: h,
             wrap,
             cells,
+            len,
         })
     }
 
@@ -120,7 +143,8 @@ impl OpacityMask {
                     + 1
             }
         };
-        self.cells.get(i as usize).copied().unwrap_or(UNKNOWN)
+        // (A negative index, which the wrap and the clamp never give, reads past the end.)
+        cell_in(&self.cells, i as u64)
     }
 
     /// The matte's size in texels (width, height).
@@ -143,12 +167,7 @@ impl OpacityMask {
             MaskWrap::Clamp => (self.width + 1, -1),
         };
         let mut r: Option<((i64, i64), (i64, i64))> = None;
-        for (i, _) in self
-            .cells
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| **c != TRANSPARENT)
-        {
+        for i in (0..self.len).filter(|&i| cell_in(&self.cells, i as u64) != TRANSPARENT) {
             let (x, y) = ((i as i64 % w) + first, (i as i64 / w) + first);
             r = Some(match r {
                 None => ((x, x), (y, y)),
@@ -160,14 +179,17 @@ impl OpacityMask {
 
     /// Shares of the cells that are opaque, transparent and unknown.
     pub fn shares(&self) -> [f64; 3] {
-        let n = self.cells.len().max(1) as f64;
-        [OPAQUE, TRANSPARENT, UNKNOWN]
-            .map(|c| self.cells.iter().filter(|&&x| x == c).count() as f64 / n)
+        let n = self.len.max(1) as f64;
+        let mut count = [0usize; 3];
+        for i in 0..self.len {
+            count[cell_in(&self.cells, i as u64) as usize] += 1;
+        }
+        [OPAQUE, TRANSPARENT, UNKNOWN].map(|c| count[c as usize] as f64 / n)
     }
 
     /// Heap bytes.
     pub fn bytes(&self) -> usize {
-        self.cells.len()
+        self.cells.len() * std::mem::size_of::<u64>()
     }
 }
 
@@ -182,6 +204,72 @@ mod tests {
         for n in [1i64, 2, 3, 7, 64, 1000] {
             for v in (-3 * n - 2..=3 * n + 2).chain([i64::MIN, i64::MIN + 1, i64::MAX]) {
                 assert_eq!(wrapped(v, n), v.rem_euclid(n), "{v} mod {n}");
+            }
+        }
+    }
+
+    /// The class of the cell with lower-left texel `(x, y)` (wrap applied by `value`), as
+    /// `from_texels` decides it, for the packed table to be checked against.
+    fn class_of(value: &impl Fn(i64, i64) -> f32, x: i64, y: i64) -> u8 {
+        let c = [
+            value(x, y),
+            value(x + 1, y),
+            value(x, y + 1),
+            value(x + 1, y + 1),
+        ];
+        if c.iter().all(|&a| a >= 0.5 + 1e-5) {
+            OPAQUE
+        } else if c.iter().all(|&a| a < 0.5 - 1e-5) {
+            TRANSPARENT
+        } else {
+            UNKNOWN
+        }
+    }
+
+    /// Two bits a cell, 32 to a word: every cell of mattes whose tables end inside a word,
+    /// at its end and one cell past it reads back the class it was built with, through
+    /// `classify` at the cell's centre, in both wrap modes; `shares` counts the cells the
+    /// table holds (not the word's spare ones) and `bytes` is a quarter of a byte a cell.
+    #[test]
+    fn packed_cells_read_back_as_built() {
+        for (w, h) in [
+            (1u32, 1u32),
+            (7, 5),
+            (31, 1),
+            (32, 1),
+            (33, 1),
+            (15, 2),
+            (16, 2),
+            (40, 9),
+        ] {
+            for wrap in [MaskWrap::Repeat, MaskWrap::Clamp] {
+                let (wi, hi) = (w as i64, h as i64);
+                let texel = move |x: i64, y: i64| -> f32 {
+                    let (x, y) = match wrap {
+                        MaskWrap::Repeat => (x.rem_euclid(wi), y.rem_euclid(hi)),
+                        MaskWrap::Clamp => (x.clamp(0, wi - 1), y.clamp(0, hi - 1)),
+                    };
+                    [0.0, 1.0, 0.2, 0.9, 0.6][((x * 7 + y * 3 + x * y) % 5) as usize]
+                };
+                let m = OpacityMask::from_texels(w, h, wrap, 0.5, texel).unwrap();
+                let first = if wrap == MaskWrap::Repeat { 0 } else { -1 };
+                let mut count = [0usize; 3];
+                for y in first..hi {
+                    for x in first..wi {
+                        let want = class_of(&texel, x, y);
+                        count[want as usize] += 1;
+                        // The centre of the cell: texel coordinates x + 0.5, y + 0.5.
+                        let uv = Vec2::new(
+                            (x as f32 + 1.0) / w as f32,
+                            1.0 - (y as f32 + 1.0) / h as f32,
+                        );
+                        assert_eq!(m.classify(uv), want, "{w}x{h} {wrap:?} cell ({x}, {y})");
+                    }
+                }
+                let n = count.iter().sum::<usize>() as f64;
+                let want = [OPAQUE, TRANSPARENT, UNKNOWN].map(|c| count[c as usize] as f64 / n);
+                assert_eq!(m.shares(), want, "{w}x{h} {wrap:?}");
+                assert_eq!(m.bytes(), (count.iter().sum::<usize>()).div_ceil(32) * 8);
             }
         }
     }

@@ -67,4 +67,4 @@ pub use params::{LayerParams, LeafMode, LeafParams};
 pub use pbr::PbrBsdf;
 pub use pigment_leaf::PigmentLeaf;
 pub use prospect::{LeafSpectrum, PigmentInputs, Pigments, ProspectModel, prospect};
-pub use texture::{Encoding, Texture, TextureError, Wrap};
+pub use texture::{Encoding, Texture, TextureChannel, TextureError, Wrap};

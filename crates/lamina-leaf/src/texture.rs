@@ -506,11 +506,92 @@ impl Texture {
         Arc::ptr_eq(&self.texels, &other.texels)
             && (self.width, self.height, self.wrap) == (other.width, other.height, other.wrap)
     }
+
+    /// Channel `c` (0 red, 1 green, 2 blue, 3 alpha) on its own, with this texture's size
+    /// and current wrap mode.
+    ///
+    /// # Panics
+    /// When `c > 3`.
+    pub fn channel(&self, c: usize) -> TextureChannel {
+        assert!(c < 4, "a texture has channels 0 to 3, not {c}");
+        TextureChannel {
+            width: self.width,
+            height: self.height,
+            wrap: self.wrap,
+            texels: self.texels.iter().map(|t| t[c]).collect(),
+        }
+    }
+}
+
+/// One channel of a [`Texture`] on its own (its linear values, as the texture holds them):
+/// a quarter of the memory, for lookups that read one channel at scattered places (the
+/// alpha test of a matte's leaves), filtered with the texture's footprint and arithmetic,
+/// so that [`TextureChannel::sample`] is that channel of [`Texture::sample`] bit for bit.
+#[derive(Clone, Debug)]
+pub struct TextureChannel {
+    width: u32,
+    height: u32,
+    wrap: Wrap,
+    texels: Arc<[f32]>,
+}
+
+impl TextureChannel {
+    /// The channel bilinearly filtered at texture coordinates `uv` (`v` up, see the module
+    /// docs): the same value as the channel of [`Texture::sample`] at `uv`.
+    #[inline]
+    pub fn sample(&self, uv: Vec2) -> f32 {
+        Footprint::new(self.width, self.height, self.wrap, uv).filter(|i| self.texels[i])
+    }
 }
 
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    /// A channel on its own filters to that channel of the whole texture, bit for bit:
+    /// inside, outside and on the edges of `[0, 1]`, at texel centres, for non-finite
+    /// coordinates and 1x1 images, in both wrap modes.
+    #[test]
+    fn a_channel_samples_as_the_texture_does() {
+        for (w, h) in [(1u32, 1u32), (1, 5), (7, 5), (64, 33)] {
+            let texels: Vec<Vec4> = (0..w * h)
+                .map(|i| {
+                    let f = |k: u32| ((i * k + 13) % 97) as f32 / 96.0;
+                    Vec4::new(f(37), f(11), f(53), f(29))
+                })
+                .collect();
+            for wrap in [Wrap::Repeat, Wrap::Clamp] {
+                let t = Texture::from_texels(w, h, texels.clone(), wrap);
+                let chans: Vec<TextureChannel> = (0..4).map(|c| t.channel(c)).collect();
+                let mut uvs: Vec<Vec2> = (0..3000)
+                    .map(|i| {
+                        Vec2::new(
+                            i as f32 / 3000.0 * 2.4 - 0.7,
+                            ((i * 7919) % 3000) as f32 / 3000.0 * 2.4 - 0.7,
+                        )
+                    })
+                    .collect();
+                uvs.extend((0..w).map(|x| Vec2::new((x as f32 + 0.5) / w as f32, 0.5)));
+                uvs.extend([
+                    Vec2::ZERO,
+                    Vec2::ONE,
+                    Vec2::new(f32::NAN, 0.5),
+                    Vec2::new(0.5, f32::INFINITY),
+                    Vec2::new(-1e30, 1e30),
+                ]);
+                for uv in uvs {
+                    let all = t.sample(uv);
+                    for (c, ch) in chans.iter().enumerate() {
+                        assert_eq!(
+                            ch.sample(uv).to_bits(),
+                            all[c].to_bits(),
+                            "{w}x{h} {wrap:?} channel {c} at {uv}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn srgb_round_trip() {

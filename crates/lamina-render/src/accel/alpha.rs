@@ -5,18 +5,28 @@
 use glam::Vec2;
 use lamina_accel::{MaskWrap, OpacityMask};
 use lamina_core::AlphaMask;
-use lamina_leaf::{Texture, Wrap};
-use std::sync::Arc;
+use lamina_leaf::{Texture, TextureChannel, Wrap};
 
 /// The alpha test of one material.
 #[derive(Clone, Debug)]
 pub(super) enum AlphaTest {
     /// Opaque everywhere.
     None,
-    /// A matte (`pbr`, `diffuse`, ... with `alpha`).
-    Mask(AlphaMask),
-    /// A leaf's alpha map ([`lamina_leaf::LeafMaterial::opaque`]).
-    Leaf(Arc<lamina_leaf::LeafMaterial>),
+    /// A matte: a material's `alpha` ([`AlphaMask`]) or a leaf's alpha map
+    /// ([`lamina_leaf::LeafMaterial::opaque`]).
+    Matte(Matte),
+}
+
+/// A matte's test: the surface is there where the bilinear blend of one channel of `map`
+/// is at least `cutoff`.
+#[derive(Clone, Debug)]
+pub(super) struct Matte {
+    map: Texture,
+    alpha_channel: bool,
+    cutoff: f32,
+    /// That channel on its own, which the exact test reads (a quarter of the texture's
+    /// bytes: the lookups the opacity masks leave land at scattered texels).
+    channel: TextureChannel,
 }
 
 /// The mask of `map` read through `channel`, opaque where the bilinear blend is at least
@@ -33,23 +43,40 @@ fn mask_of(map: &Texture, alpha_channel: bool, cutoff: f32) -> Option<OpacityMas
 }
 
 impl AlphaTest {
+    /// The test of a material's matte: [`AlphaMask::opaque`]'s.
+    pub(super) fn of_mask(m: &AlphaMask) -> AlphaTest {
+        AlphaTest::matte(&m.map, m.use_alpha_channel, m.cutoff)
+    }
+
+    /// The test of a leaf: [`lamina_leaf::LeafMaterial::opaque`]'s (its matte at 0.5), or
+    /// none for a leaf without an alpha map.
+    pub(super) fn of_leaf(l: &lamina_leaf::LeafMaterial) -> AlphaTest {
+        l.matte().map_or(AlphaTest::None, |(map, alpha)| {
+            AlphaTest::matte(map, alpha, 0.5)
+        })
+    }
+
+    fn matte(map: &Texture, alpha_channel: bool, cutoff: f32) -> AlphaTest {
+        AlphaTest::Matte(Matte {
+            map: map.clone(),
+            alpha_channel,
+            cutoff,
+            channel: map.channel(if alpha_channel { 3 } else { 0 }),
+        })
+    }
+
     /// Whether the surface exists at `uv` (the exact test).
     #[inline]
     pub(super) fn opaque(&self, uv: Vec2) -> bool {
         match self {
             AlphaTest::None => true,
-            AlphaTest::Mask(m) => m.opaque(uv),
-            AlphaTest::Leaf(l) => l.opaque(uv),
+            AlphaTest::Matte(m) => m.channel.sample(uv) >= m.cutoff,
         }
     }
 
     /// Whether there is a test at all.
     pub(super) fn is_some(&self) -> bool {
-        match self {
-            AlphaTest::None => false,
-            AlphaTest::Mask(_) => true,
-            AlphaTest::Leaf(l) => l.matte().is_some(),
-        }
+        matches!(self, AlphaTest::Matte(_))
     }
 
     /// The opacity mask of the matte, exact at its texel grid; `None` for no matte and
@@ -57,11 +84,7 @@ impl AlphaTest {
     pub(super) fn mask(&self) -> Option<OpacityMask> {
         match self {
             AlphaTest::None => None,
-            AlphaTest::Mask(m) => mask_of(&m.map, m.use_alpha_channel, m.cutoff),
-            AlphaTest::Leaf(l) => {
-                let (map, alpha_channel) = l.matte()?;
-                mask_of(map, alpha_channel, 0.5)
-            }
+            AlphaTest::Matte(m) => mask_of(&m.map, m.alpha_channel, m.cutoff),
         }
     }
 }

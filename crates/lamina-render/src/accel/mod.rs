@@ -338,11 +338,8 @@ impl Accel {
             .materials
             .iter()
             .map(|m| match m {
-                Material::Leaf { leaf, .. } => AlphaTest::Leaf(leaf.clone()),
-                m => m
-                    .alpha_mask()
-                    .cloned()
-                    .map_or(AlphaTest::None, AlphaTest::Mask),
+                Material::Leaf { leaf, .. } => AlphaTest::of_leaf(leaf),
+                m => m.alpha_mask().map_or(AlphaTest::None, AlphaTest::of_mask),
             })
             .collect();
         let copies = match &scene.radiometry.periodic {

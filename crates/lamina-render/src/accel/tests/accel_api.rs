@@ -71,7 +71,7 @@ fn mask_cells_agree_with_filtered_lookup() {
                 use_alpha_channel,
                 cutoff: 0.5,
             };
-            let test = AlphaTest::Mask(mask.clone());
+            let test = AlphaTest::of_mask(&mask);
             let cells = test.mask().unwrap();
             let mut decided = 0;
             for i in 0..4000 {
@@ -90,6 +90,55 @@ fn mask_cells_agree_with_filtered_lookup() {
             assert!(decided > 200, "{decided} of 4000 decided by the mask");
         }
     }
+}
+
+/// A leaf's alpha test is [`lamina_leaf::LeafMaterial::opaque`] bit for bit (its matte's
+/// alpha channel where the map has one, else the grey value, at 0.5), through the
+/// channel the test keeps on its own, for both wrap modes, inside and outside `[0, 1]`;
+/// a leaf without an alpha map has no test.
+#[test]
+fn a_leaf_alpha_test_is_the_leaf_material_own() {
+    use lamina_leaf::{LeafMaps, LeafMaterial, LeafParams};
+    let (w, h) = (9u32, 6u32);
+    for (wrap, with_alpha) in [
+        (Wrap::Repeat, false),
+        (Wrap::Clamp, true),
+        (Wrap::Clamp, false),
+    ] {
+        let texels: Vec<Vec4> = (0..w * h)
+            .map(|i| {
+                let v = ((i * 37 + 11) % 10) as f32 / 9.0;
+                let a = ((i * 13 + 5) % 10) as f32 / 9.0;
+                Vec4::new(v, v, v, if with_alpha { a } else { 1.0 })
+            })
+            .collect();
+        let maps = LeafMaps {
+            alpha: Some(Texture::from_texels(w, h, texels, wrap)),
+            ..Default::default()
+        };
+        let leaf = LeafMaterial::new(maps, LeafParams::default()).unwrap();
+        let test = AlphaTest::of_leaf(&leaf);
+        assert!(test.is_some());
+        let (mut opaque, n) = (0, 4000);
+        for i in 0..n {
+            let uv = Vec2::new(
+                i as f32 / n as f32 * 1.6 - 0.3,
+                ((i * 7919) % n) as f32 / n as f32 * 1.6 - 0.3,
+            );
+            assert_eq!(
+                test.opaque(uv),
+                leaf.opaque(uv),
+                "{wrap:?} {with_alpha} {uv}"
+            );
+            opaque += leaf.opaque(uv) as usize;
+        }
+        assert!(
+            (n / 5..n * 4 / 5).contains(&opaque),
+            "{opaque} of {n} opaque"
+        );
+    }
+    let bare = LeafMaterial::new(LeafMaps::default(), LeafParams::default()).unwrap();
+    assert!(!AlphaTest::of_leaf(&bare).is_some());
 }
 
 /// Directions with negative zeros (`-Vec3::Z` is `(-0, -0, -1)`) hit what the same

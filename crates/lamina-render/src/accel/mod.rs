@@ -540,8 +540,14 @@ impl Accel {
     /// Asks for [`Accel::surface`]'s record of `prim` ahead of the call (a cache hint).
     #[inline]
     pub fn prefetch_surface(&self, prim: PrimRef) {
-        if let Some(s) = self.blas_of(prim).prims.get(prim.prim as usize) {
+        let blas = self.blas_of(prim);
+        if let Some(s) = blas.prims.get(prim.prim as usize) {
             lamina_accel::wide::prefetch(s);
+        }
+        // And its entry of the vertex normals' index, which [`Accel::shading_normal`]
+        // reads next (an empty index, no level's primitive with normals, is not read).
+        if let Some(k) = blas.nidx.get(prim.prim as usize) {
+            lamina_accel::wide::prefetch(k);
         }
     }
 

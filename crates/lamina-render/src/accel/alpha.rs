@@ -25,9 +25,14 @@ pub(super) struct Matte {
     alpha_channel: bool,
     cutoff: f32,
     /// That channel on its own, which the exact test reads (a quarter of the texture's
-    /// bytes: the lookups the opacity masks leave land at scattered texels).
-    channel: TextureChannel,
+    /// bytes: the lookups the opacity masks leave land at scattered texels); `None` for
+    /// a matte of more than [`CHANNEL_TEXELS`] texels, whose copy would cost more memory
+    /// than its lookups gain (the test reads the texture itself).
+    channel: Option<TextureChannel>,
 }
+
+/// Largest matte (texels) whose channel the exact test keeps a copy of: 16 MiB of `f32`.
+pub(super) const CHANNEL_TEXELS: u64 = 1 << 22;
 
 /// The mask of `map` read through `channel`, opaque where the bilinear blend is at least
 /// `cutoff` (the arithmetic of [`Texture::sample`]).
@@ -45,23 +50,31 @@ fn mask_of(map: &Texture, alpha_channel: bool, cutoff: f32) -> Option<OpacityMas
 impl AlphaTest {
     /// The test of a material's matte: [`AlphaMask::opaque`]'s.
     pub(super) fn of_mask(m: &AlphaMask) -> AlphaTest {
-        AlphaTest::matte(&m.map, m.use_alpha_channel, m.cutoff)
+        AlphaTest::matte(&m.map, m.use_alpha_channel, m.cutoff, CHANNEL_TEXELS)
     }
 
     /// The test of a leaf: [`lamina_leaf::LeafMaterial::opaque`]'s (its matte at 0.5), or
     /// none for a leaf without an alpha map.
     pub(super) fn of_leaf(l: &lamina_leaf::LeafMaterial) -> AlphaTest {
         l.matte().map_or(AlphaTest::None, |(map, alpha)| {
-            AlphaTest::matte(map, alpha, 0.5)
+            AlphaTest::matte(map, alpha, 0.5, CHANNEL_TEXELS)
         })
     }
 
-    fn matte(map: &Texture, alpha_channel: bool, cutoff: f32) -> AlphaTest {
+    /// The test of `map`'s alpha channel (else its first) at `cutoff`, keeping that
+    /// channel on its own when the map has at most `channel_texels` texels.
+    pub(super) fn matte(
+        map: &Texture,
+        alpha_channel: bool,
+        cutoff: f32,
+        channel_texels: u64,
+    ) -> AlphaTest {
         AlphaTest::Matte(Matte {
             map: map.clone(),
             alpha_channel,
             cutoff,
-            channel: map.channel(if alpha_channel { 3 } else { 0 }),
+            channel: (u64::from(map.width()) * u64::from(map.height()) <= channel_texels)
+                .then(|| map.channel(if alpha_channel { 3 } else { 0 })),
         })
     }
 
@@ -70,7 +83,16 @@ impl AlphaTest {
     pub(super) fn opaque(&self, uv: Vec2) -> bool {
         match self {
             AlphaTest::None => true,
-            AlphaTest::Matte(m) => m.channel.sample(uv) >= m.cutoff,
+            AlphaTest::Matte(m) => {
+                let a = match &m.channel {
+                    Some(c) => c.sample(uv),
+                    None => {
+                        let s = m.map.sample(uv);
+                        if m.alpha_channel { s.w } else { s.x }
+                    }
+                };
+                a >= m.cutoff
+            }
         }
     }
 

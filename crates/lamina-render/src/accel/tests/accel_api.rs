@@ -72,6 +72,8 @@ fn mask_cells_agree_with_filtered_lookup() {
                 cutoff: 0.5,
             };
             let test = AlphaTest::of_mask(&mask);
+            // A matte too large for its channel's copy reads the texture: the same test.
+            let uncopied = AlphaTest::matte(&mask.map, use_alpha_channel, mask.cutoff, 0);
             let cells = test.mask().unwrap();
             let mut decided = 0;
             for i in 0..4000 {
@@ -80,6 +82,7 @@ fn mask_cells_agree_with_filtered_lookup() {
                     ((i * 7919) % 4000) as f32 / 4000.0 * 1.6 - 0.3,
                 );
                 assert_eq!(test.opaque(uv), mask.opaque(uv), "{wrap:?} {uv}");
+                assert_eq!(uncopied.opaque(uv), mask.opaque(uv), "{wrap:?} {uv}");
                 match cells.classify(uv) {
                     lamina_accel::mask::OPAQUE => assert!(mask.opaque(uv), "{wrap:?} {uv}"),
                     lamina_accel::mask::TRANSPARENT => assert!(!mask.opaque(uv), "{wrap:?} {uv}"),
@@ -94,8 +97,9 @@ fn mask_cells_agree_with_filtered_lookup() {
 
 /// A leaf's alpha test is [`lamina_leaf::LeafMaterial::opaque`] bit for bit (its matte's
 /// alpha channel where the map has one, else the grey value, at 0.5), through the
-/// channel the test keeps on its own, for both wrap modes, inside and outside `[0, 1]`;
-/// a leaf without an alpha map has no test.
+/// channel the test keeps on its own and, for a matte too large for that copy, through
+/// the texture, for both wrap modes, inside and outside `[0, 1]`; a leaf without an
+/// alpha map has no test.
 #[test]
 fn a_leaf_alpha_test_is_the_leaf_material_own() {
     use lamina_leaf::{LeafMaps, LeafMaterial, LeafParams};
@@ -119,17 +123,17 @@ fn a_leaf_alpha_test_is_the_leaf_material_own() {
         let leaf = LeafMaterial::new(maps, LeafParams::default()).unwrap();
         let test = AlphaTest::of_leaf(&leaf);
         assert!(test.is_some());
+        let (map, alpha) = leaf.matte().unwrap();
+        let uncopied = AlphaTest::matte(map, alpha, 0.5, 0);
         let (mut opaque, n) = (0, 4000);
         for i in 0..n {
             let uv = Vec2::new(
                 i as f32 / n as f32 * 1.6 - 0.3,
                 ((i * 7919) % n) as f32 / n as f32 * 1.6 - 0.3,
             );
-            assert_eq!(
-                test.opaque(uv),
-                leaf.opaque(uv),
-                "{wrap:?} {with_alpha} {uv}"
-            );
+            let want = leaf.opaque(uv);
+            assert_eq!(test.opaque(uv), want, "{wrap:?} {with_alpha} {uv}");
+            assert_eq!(uncopied.opaque(uv), want, "{wrap:?} {with_alpha} {uv}");
             opaque += leaf.opaque(uv) as usize;
         }
         assert!(

@@ -60,6 +60,9 @@ use crate::{AlphaFilter, Counter, Ray};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
+/// Cells `x` range and `y` range (first and last, inclusive).
+type Cover = ([usize; 2], [usize; 2]);
+
 /// A primitive this many times the median size is "big": it does not size the grid.
 const BIG: f32 = 64.0;
 /// Most cells the shadow rays tested together run ([`DirIndex::occluded_rays`]), unless
@@ -89,6 +92,59 @@ pub(crate) struct DirIndex {
     /// Whether every pack listed is the world level's (no instance's): what
     /// [`DirIndex::occluded_rays`] serves.
     world_only: bool,
+    /// The short plan of rays along exactly the direction the grid was built for.
+    along: Option<Along>,
+}
+
+/// What [`DirIndex::plan`] knows ahead of a ray whose direction is, bit for bit, the one
+/// the grid was built for (a delta sun's shadow rays, nearly all of a sunlit render's):
+/// that direction's components across the axis are rounding noise, so such a ray drifts
+/// across the grid by less than `pad` on its way up from any origin at or above `lowest`,
+/// and its cells are those under its origin widened by `2·pad` (a superset of the general
+/// plan's, so the same answers), without the division and the drift's arithmetic on the
+/// query's critical path.
+#[derive(Clone, Copy, Debug)]
+struct Along {
+    /// The direction's bits.
+    dir: [u32; 3],
+    /// Lowest origin depth along the axis served this way.
+    lowest: f32,
+}
+
+impl Along {
+    /// The short plan for rays along `given` (the direction the grid was asked for, before
+    /// its normalisation to `a`, with `u`, `v` across it), for a scene topped at depth
+    /// `top` with rounding margin `pad` and cells of side `cell`; `None` where it does not
+    /// apply (a direction away from the axis, a margin not below a cell).
+    fn new(
+        given: Vec3,
+        a: Vec3A,
+        u: Vec3A,
+        v: Vec3A,
+        top: f32,
+        pad: f32,
+        cell: f32,
+    ) -> Option<Along> {
+        // The products `plan` forms for such a ray, the same operations on the same values.
+        let g = Vec3A::from(given);
+        let (da, du, dv) = (g.dot(a), g.dot(u), g.dot(v));
+        let across = du.abs().max(dv.abs());
+        if !(da > 0.5 && across.is_finite() && pad < cell) {
+            return None;
+        }
+        // From depth `d0` to the top the ray drifts `(top - d0) / da · across`: at most a
+        // quarter of `pad` from `lowest` up (the factor of four, and the rest of the
+        // `2·pad` the cells are widened by, cover the rounding of these products).
+        let lowest = if across == 0.0 {
+            f32::NEG_INFINITY
+        } else {
+            top - 0.25 * pad * da / across
+        };
+        (!lowest.is_nan()).then_some(Along {
+            dir: given.to_array().map(f32::to_bits),
+            lowest,
+        })
+    }
 }
 
 impl DirIndex {
@@ -202,6 +258,7 @@ impl DirIndex {
             .collect();
         sort_entries(&mut bigs, true);
         let world_only = refs.iter().all(|r| r.inst == crate::NO_INSTANCE);
+        let along = Along::new(axis, a, u, v, top + pad, pad, cells.cell);
         Some(DirIndex {
             axis: a,
             u,
@@ -220,7 +277,52 @@ impl DirIndex {
                 apart: bigs,
             },
             world_only,
+            along,
         })
+    }
+
+    /// The lowest origin depth the short plan serves, if the grid has one (tests).
+    #[cfg(test)]
+    pub(crate) fn along_lowest(&self) -> Option<f32> {
+        self.along.map(|a| a.lowest)
+    }
+
+    /// Whether `ray` takes the short plan (tests).
+    #[cfg(test)]
+    pub(crate) fn takes_short_plan(&self, ray: &Ray) -> bool {
+        let d0 = Vec3A::from(ray.origin).dot(self.axis);
+        d0 < self.top && self.along_serves(ray, d0)
+    }
+
+    /// Largest depth of any pack along the axis, with its margin (tests).
+    #[cfg(test)]
+    pub(crate) fn top(&self) -> f32 {
+        self.top
+    }
+
+    /// The point at `s`, `q` across the axis and depth `d` along it (tests).
+    #[cfg(test)]
+    pub(crate) fn point(&self, s: f32, q: f32, d: f32) -> Vec3 {
+        Vec3::from(self.u * s + self.v * q + self.axis * d)
+    }
+
+    /// The grid's lower corner, cell side and cells across (tests).
+    #[cfg(test)]
+    pub(crate) fn layout(&self) -> ([f32; 2], f32, [usize; 2]) {
+        let c = &self.grid.cells;
+        (c.lo, c.cell, c.n)
+    }
+
+    /// `ray`'s cells and whether it tests the packs apart, by the plan with the short one
+    /// when `short`, else the general plan; `None` for a ray without lists (tests).
+    #[cfg(test)]
+    pub(crate) fn cells_of(&self, ray: &Ray, short: bool) -> Option<(Option<Cover>, bool)> {
+        match self.plan_with(ray, short) {
+            Plan::Lists {
+                cover, off_grid, ..
+            } => Some((cover, off_grid)),
+            _ => None,
+        }
     }
 
     /// What the grid holds.
@@ -238,6 +340,13 @@ impl DirIndex {
     /// the eight-ray queries, so that both run the same lists for every ray.
     #[inline(always)]
     fn plan(&self, ray: &Ray) -> Plan {
+        self.plan_with(ray, true)
+    }
+
+    /// [`DirIndex::plan`], with the short plan for rays along the grid's own direction
+    /// when `short` (the general one for every ray otherwise: tests compare the two).
+    #[inline(always)]
+    fn plan_with(&self, ray: &Ray, short: bool) -> Plan {
         let o = Vec3A::from(ray.origin);
         let d = Vec3A::from(ray.dir);
         let da = d.dot(self.axis);
@@ -252,6 +361,12 @@ impl DirIndex {
             } else {
                 Plan::Walk
             };
+        }
+        if short && self.along_serves(ray, d0) {
+            // Along the grid's own direction: the drift is below `pad` (`Along`).
+            let (s0, q0) = (o.dot(self.u), o.dot(self.v));
+            let m = 2.0 * self.pad;
+            return self.lists([s0 - m, s0 + m], [q0 - m, q0 + m], false, d0);
         }
         // Where the ray is when it climbs past the top of the scene (or ends).
         let t_all = ((self.top - d0) / da).min(ray.tmax);
@@ -276,6 +391,23 @@ impl DirIndex {
         let (s1, q1) = (s0 + t_end * du, q0 + t_end * dv);
         let s = [s0.min(s1) - self.pad, s0.max(s1) + self.pad];
         let q = [q0.min(q1) - self.pad, q0.max(q1) + self.pad];
+        self.lists(s, q, past, d0)
+    }
+
+    /// Whether `ray`, from origin depth `d0` below the top, takes the short plan
+    /// ([`Along`]): its direction is the grid's own, bit for bit, and it starts no lower
+    /// than the drift bound reaches.
+    #[inline(always)]
+    fn along_serves(&self, ray: &Ray, d0: f32) -> bool {
+        self.along
+            .as_ref()
+            .is_some_and(|a| ray.dir.to_array().map(f32::to_bits) == a.dir && d0 >= a.lowest)
+    }
+
+    /// [`DirIndex::plan`]'s end: the lists of a ray over `s × q` across the axis, past the
+    /// small packs' top when `past`, from origin depth `d0`.
+    #[inline(always)]
+    fn lists(&self, s: [f32; 2], q: [f32; 2], past: bool, d0: f32) -> Plan {
         if !(s[0] <= s[1] && q[0] <= q[1]) {
             return Plan::Walk; // NaN: the walk decides
         }
@@ -332,7 +464,7 @@ impl DirIndex {
     #[inline(always)]
     unsafe fn run_lists<'a, const W: usize, K: Lanes<W>, F: AlphaFilter, C: Counter>(
         &'a self,
-        cover: Option<([usize; 2], [usize; 2])>,
+        cover: Option<Cover>,
         off_grid: bool,
         behind: f32,
         tmax: f32,
@@ -365,7 +497,7 @@ impl DirIndex {
         const DEDUP: bool,
     >(
         &'a self,
-        cover: Option<([usize; 2], [usize; 2])>,
+        cover: Option<Cover>,
         off_grid: bool,
         behind: f32,
         tmax: f32,
@@ -725,7 +857,7 @@ impl DirIndex {
 /// Whether a walk over the cells `cover` and, when `off_grid`, the packs apart may meet a
 /// pack twice: several cells, or cells and the packs apart (listed in their cells too).
 #[inline(always)]
-fn several(cover: Option<([usize; 2], [usize; 2])>, off_grid: bool) -> bool {
+fn several(cover: Option<Cover>, off_grid: bool) -> bool {
     match cover {
         Some((x, y)) => off_grid || x[0] != x[1] || y[0] != y[1],
         None => false,
@@ -905,7 +1037,7 @@ enum Plan {
     /// the grid's area) and, when it leaves that area (`off_grid`), the big packs apart;
     /// packs reaching no higher than `behind` cannot block it.
     Lists {
-        cover: Option<([usize; 2], [usize; 2])>,
+        cover: Option<Cover>,
         off_grid: bool,
         behind: f32,
     },

@@ -690,8 +690,11 @@ fn direction_grid_answers_as_the_walk() {
                 let (u, v) = a.any_orthonormal_pair();
                 let (mut served, mut along) = (0, 0);
                 for i in 0..3000 {
-                    // Directions: the axis itself, a sun of 0.5° and of 10°, anything.
+                    // Directions: the axis itself (half of them exactly as the grid was
+                    // asked for, which its short plan serves), a sun of 0.5° and of 10°,
+                    // anything.
                     let dir = match i % 4 {
+                        0 if i % 8 == 0 => axis,
                         0 => a,
                         1 | 2 => {
                             let w = if i % 4 == 1 { 0.0046 } else { 0.18 };
@@ -702,8 +705,11 @@ fn direction_grid_answers_as_the_walk() {
                         _ => unit(&mut r),
                     };
                     let spread = if ground && i % 8 == 4 { 60.0 } else { 5.0 };
+                    // Some far below the scene along the axis, where the short plan's drift
+                    // bound does not reach (the general plan serves them).
+                    let below = if i % 24 == 16 { a * -3.0e5 } else { Vec3::ZERO };
                     let mut ray = Ray {
-                        origin: Vec3::new(r(), r(), r()) * spread - 0.1 * spread,
+                        origin: Vec3::new(r(), r(), r()) * spread - 0.1 * spread + below,
                         dir: dir * if i % 5 == 0 { 3.0 } else { 1.0 },
                         tmax: if i % 3 == 0 {
                             0.2 + 2.0 * r()
@@ -748,6 +754,106 @@ fn direction_grid_answers_as_the_walk() {
                     "{kernel:?} axis {axis}: {served} of {along} served"
                 );
             }
+        }
+    }
+}
+
+/// Rays along exactly the direction a sun's grid was asked for take its short plan (their
+/// cells under the origin, no drift computed) from anywhere in the scene, and the general
+/// one from far enough below it that the direction's rounding across the axis could carry
+/// them more than the rounding margin; either way the answers are the tree walk's, and the
+/// short plan's cells hold the general plan's, also for origins at cells' edges.
+#[test]
+fn rays_along_the_grids_own_direction_take_the_short_plan() {
+    let f = |_: u32, uv: Vec2| matte(uv);
+    let desc = grid_scene(5, false, true, Vec3::Y);
+    for (kernel, walk) in walks(&desc) {
+        let mut r = rng(77);
+        for axis in [Vec3::new(0.3, 0.8, 0.2), Vec3::Y, unit(&mut r)] {
+            let mut grid = walk.clone();
+            grid.index_direction(axis).expect("a grid");
+            let ix = match &grid.engine {
+                Engine::W8(l) => l.dirs[0].clone(),
+                Engine::W4(l) => l.dirs[0].clone(),
+            };
+            let lowest = ix
+                .along_lowest()
+                .expect("a short plan for its own direction");
+            let a = axis.normalize();
+            let (mut short, mut blocked) = (0, 0);
+            for i in 0..4000 {
+                let mut origin = Vec3::new(r(), r(), r()) * 6.0 - 1.0;
+                let far = i % 10 == 0 && lowest.is_finite();
+                if far {
+                    origin -= a * (2.0 * (origin.dot(a) - lowest).abs() + 10.0);
+                }
+                let ray = Ray {
+                    origin,
+                    dir: axis,
+                    tmax: if i % 3 == 0 { 0.5 + r() } else { f32::INFINITY },
+                };
+                let takes_short = ix.takes_short_plan(&ray);
+                assert_eq!(
+                    takes_short,
+                    !far && origin.dot(a) < ix.top(),
+                    "{kernel:?} {ray:?}"
+                );
+                short += takes_short as u32;
+                let want = walk.occluded(&ray, PrimRef::NONE, &f);
+                assert_eq!(
+                    grid.occluded(&ray, PrimRef::NONE, &f),
+                    want,
+                    "{kernel:?} {ray:?}"
+                );
+                blocked += want as u32;
+            }
+            assert!(
+                short > 2000 && blocked > 200,
+                "{kernel:?} {axis}: {short} short, {blocked} blocked"
+            );
+            // The short plan's cells hold the general plan's, also for origins within a
+            // few units in the last place of a cell's edge, where the general plan's
+            // margin takes in the next cell.
+            let (lo, cell, n) = ix.layout();
+            let mut checked = 0;
+            for i in 0..4000 {
+                let (kx, ky) = ((r() * n[0] as f32) as i32, (r() * n[1] as f32) as i32);
+                let nudge = |k: i32| (k as f32 * 2.0 - 1.0) * 1e-6 * (i % 7) as f32;
+                let s0 = lo[0] + kx as f32 * cell + nudge(i % 3 - 1);
+                let q0 = lo[1] + ky as f32 * cell + nudge(i % 5 - 2);
+                let depth = ix.top() - 0.1 - 4.0 * r();
+                let ray = Ray {
+                    origin: ix.point(s0, q0, depth),
+                    dir: axis,
+                    tmax: f32::INFINITY,
+                };
+                let (Some(short), Some(general)) =
+                    (ix.cells_of(&ray, true), ix.cells_of(&ray, false))
+                else {
+                    continue;
+                };
+                assert!(
+                    short.1 || !general.1,
+                    "{ray:?}: apart {short:?} {general:?}"
+                );
+                if let Some((gx, gy)) = general.0 {
+                    let (sx, sy) = short.0.expect("cells where the general plan has some");
+                    assert!(
+                        sx[0] <= gx[0] && gx[1] <= sx[1] && sy[0] <= gy[0] && gy[1] <= sy[1],
+                        "{kernel:?} {ray:?}: short {short:?} general {general:?}"
+                    );
+                    checked += 1;
+                }
+            }
+            assert!(checked > 3000, "{checked}");
+            // A direction one unit in the last place away is not the grid's own.
+            let off = Vec3::from_array(axis.to_array().map(|c| f32::from_bits(c.to_bits() + 1)));
+            let ray = Ray {
+                origin: Vec3::splat(1.0),
+                dir: off,
+                tmax: f32::INFINITY,
+            };
+            assert!(!ix.takes_short_plan(&ray));
         }
     }
 }

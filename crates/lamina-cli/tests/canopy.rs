@@ -263,13 +263,20 @@ fn sensors_measure_every_band_of_a_band_film() {
     );
 }
 
-#[test]
-fn the_meadow_example_measures_and_its_budget_closes_with_real_leaves() {
-    let d = scratch("canopy", "meadow");
+/// A scratch folder `name` holding a copy of the meadow example (`canopy_sensors.toml`
+/// and its `cards.csv`).
+fn meadow_copy(name: &str) -> std::path::PathBuf {
+    let d = scratch("canopy", name);
     let ex = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
     for f in ["canopy_sensors.toml", "cards.csv"] {
         std::fs::copy(ex.join(f), d.join(f)).unwrap();
     }
+    d
+}
+
+#[test]
+fn the_meadow_example_measures_and_its_budget_closes_with_real_leaves() {
+    let d = meadow_copy("meadow");
     let o = lamina(
         &[
             "render",
@@ -310,11 +317,7 @@ fn the_meadow_example_measures_and_its_budget_closes_with_real_leaves() {
 /// naming the flag, before any sensor file is written.
 #[test]
 fn a_time_limit_on_a_sensors_only_run_is_an_error() {
-    let d = scratch("canopy", "meadow_time_limit");
-    let ex = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
-    for f in ["canopy_sensors.toml", "cards.csv"] {
-        std::fs::copy(ex.join(f), d.join(f)).unwrap();
-    }
+    let d = meadow_copy("meadow_time_limit");
     let o = lamina(&["render", "canopy_sensors.toml", "--time-limit", "5"], &d);
     fails(&o, &["--time-limit 5", "[[sensor]]", "-o FILE"]);
     for f in ["meadow_brf.csv", "meadow_fluxes.csv", "meadow_gap.csv"] {

@@ -66,8 +66,26 @@ def scene_rays_binary(embree, build):
     return exe
 
 
-def mitsuba_times(scene, size, spp, repeat):
-    """Warm seconds (best of `repeat` after a compiling call) per ray set, and the rays."""
+def write_rays(rays, path):
+    """`rays` (a Mitsuba Ray3f) as bench/embree_rays.c reads them: float32, eight per ray
+    (origin, tnear = 0, direction, tfar = the ray's maxt), written through a temporary file."""
+    import numpy as np
+    dr = common.dr
+    n = dr.width(rays.o)
+    a = np.empty((n, 8), dtype="<f4")
+    for k, c in enumerate("xyz"):
+        a[:, k] = np.array(getattr(rays.o, c))
+        a[:, 4 + k] = np.array(getattr(rays.d, c))
+    a[:, 3] = 0.0
+    a[:, 7] = np.array(rays.maxt)
+    tmp = path.with_suffix(".tmp")
+    a.tofile(tmp)
+    tmp.replace(path)
+
+
+def mitsuba_times(scene, size, spp, repeat, dump=None):
+    """Warm seconds (best of `repeat` after a compiling call) per ray set, and the rays.
+    With `dump` (a folder), also writes the bounce and sun rays there (`write_rays`)."""
     mi, dr = common.mi, common.dr
     n = size * size * spp
     sensor = scene.sensors()[0]
@@ -101,6 +119,9 @@ def mitsuba_times(scene, size, spp, repeat):
     perm = mi.UInt32((dr.arange(mi.UInt64, m) * a) % m)
     scrambled = dr.gather(mi.Ray3f, bounce, perm)
     dr.eval(bounce, shadow, scrambled)
+    if dump is not None:
+        write_rays(bounce, dump / "mitsuba_bounce.f32")
+        write_rays(shadow, dump / "mitsuba_sun.f32")
 
     def timed(f):
         best = math.inf
@@ -135,6 +156,9 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--repeat", type=int, default=3, help="timed runs per set (the best counts)")
     ap.add_argument("--out", default=str(common.DEFAULT_OUT / "mitsuba_rays"))
+    ap.add_argument("--write-rays", action="store_true",
+                    help="also write Mitsuba's bounce and sun rays (mitsuba_bounce.f32, mitsuba_sun.f32) "
+                         "and lamina's (lamina_bounce.f32, lamina_sun.f32) to --out, for bench/embree_rays.c")
     args = ap.parse_args()
 
     out = Path(args.out).resolve()
@@ -157,11 +181,14 @@ def main():
            "--repeat", str(args.repeat), "--json", str(report)]
     if args.embree:
         cmd.append("--embree")
+    if args.write_rays:
+        # The folder is this script's (claim_out): its earlier ray files may be replaced.
+        cmd += ["--write-rays", str(out), "--force"]
     subprocess.run(cmd, check=True)
     lam = json.loads(report.read_text())["rows"]
 
     scene = mc.mitsuba_scene(args.size, args.size, args.spp, 8, out / "cards.obj", out / "ground.obj")
-    mit = mitsuba_times(scene, args.size, args.spp, args.repeat)
+    mit = mitsuba_times(scene, args.size, args.spp, args.repeat, out if args.write_rays else None)
 
     def row(engine, s):
         return next((r for r in lam if r["engine"] == engine and r["set"] == s), None)

@@ -68,12 +68,65 @@ struct Args {
     /// when it is an earlier report of this benchmark.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
-    /// Replace the `--json` file even when it is not an earlier report of this benchmark.
+    /// Replace the `--json` file even when it is not an earlier report of this benchmark,
+    /// and `--write-rays`' files when they exist.
     #[arg(long)]
     force: bool,
     /// Also count what lamina's engine does per ray of each set (an extra, untimed run).
     #[arg(long)]
     counts: bool,
+    /// Also trace the rays of FILE (a ray file, see above), closest hit one at a time.
+    #[arg(long, value_name = "FILE")]
+    read_rays: Option<PathBuf>,
+    /// Write the bounce and sun sets to DIR as ray files (see above).
+    #[arg(long, value_name = "DIR")]
+    write_rays: Option<PathBuf>,
+}
+
+/// The bytes of `rays` as a ray file: eight little-endian `f32` per ray.
+fn ray_file_bytes<'a>(rays: impl Iterator<Item = &'a Ray>) -> Vec<u8> {
+    let mut out = Vec::new();
+    for r in rays {
+        let v = [
+            r.origin.x, r.origin.y, r.origin.z, 0.0, r.dir.x, r.dir.y, r.dir.z, r.tmax,
+        ];
+        for x in v {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// The rays of a ray file (tnear ignored), with a clear error for a file that is not one.
+fn read_ray_file(path: &std::path::Path) -> Result<Vec<Ray>> {
+    let bytes =
+        std::fs::read(path).map_err(|e| anyhow::anyhow!("--read-rays {}: {e}", path.display()))?;
+    if bytes.is_empty() || bytes.len() % 32 != 0 {
+        bail!(
+            "--read-rays {}: {} bytes is not a whole number of 32-byte rays",
+            path.display(),
+            bytes.len()
+        );
+    }
+    let f = |c: &[u8]| f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+    let mut rays = Vec::with_capacity(bytes.len() / 32);
+    for (i, c) in bytes.chunks_exact(32).enumerate() {
+        let v: Vec<f32> = c.chunks_exact(4).map(f).collect();
+        let ray = Ray {
+            origin: Vec3::new(v[0], v[1], v[2]),
+            dir: Vec3::new(v[4], v[5], v[6]),
+            tmax: v[7],
+        };
+        if !ray.origin.is_finite() || !ray.dir.is_finite() || ray.dir == Vec3::ZERO || v[7].is_nan()
+        {
+            bail!(
+                "--read-rays {}: ray {i} has a non-finite origin or direction, a zero direction or a NaN tfar",
+                path.display()
+            );
+        }
+        rays.push(ray);
+    }
+    Ok(rays)
 }
 
 /// One set on one engine.
@@ -191,8 +244,34 @@ fn main() -> Result<()> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
         .build()?;
+    let from_file = match &args.read_rays {
+        Some(p) => read_ray_file(p)?,
+        None => Vec::new(),
+    };
     let lamina = Accel::build_on(&scene, Backend::Lamina)?;
     let (camera, secondary, deeper) = pool.install(|| make_sets(&scene, &lamina, spp))?;
+    if let Some(dir) = &args.write_rays {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow::anyhow!("--write-rays {}: {e}", dir.display()))?;
+        for name in ["lamina_bounce.f32", "lamina_sun.f32"] {
+            let f = dir.join(name);
+            if f.exists() && !args.force {
+                bail!(
+                    "--write-rays: {} exists; nothing was written (pass --force to replace it, \
+                     or name another folder)",
+                    f.display()
+                );
+            }
+        }
+        let bounce = ray_file_bytes(secondary.iter().map(|s| &s.bounce));
+        lamina_io::write_bytes(&dir.join("lamina_bounce.f32"), &bounce)?;
+        let sun = ray_file_bytes(secondary.iter().filter_map(|s| s.sun.as_ref()));
+        lamina_io::write_bytes(&dir.join("lamina_sun.f32"), &sun)?;
+        println!(
+            "wrote lamina_bounce.f32 and lamina_sun.f32 to {}",
+            dir.display()
+        );
+    }
     // The bounce rays in a random order, moved (not indexed: reading them at random would
     // time the memory, not the engine).
     let mut shuffled: Vec<(Ray, PrimRef)> = secondary.iter().map(|s| (s.bounce, s.skip)).collect();
@@ -229,7 +308,7 @@ fn main() -> Result<()> {
         };
         let suns = secondary.iter().filter(|s| s.sun.is_some()).count();
         let suns2 = deeper.iter().filter(|s| s.sun.is_some()).count();
-        let sets: [(&'static str, usize, Tracer); 8] = [
+        let sets: [(&'static str, usize, Tracer); 9] = [
             (
                 "camera",
                 camera.len(),
@@ -293,6 +372,17 @@ fn main() -> Result<()> {
                 Box::new(|| bounce_hits(accel, &deeper)),
             ),
             ("sun2_one", suns2, Box::new(|| suns_blocked(accel, &deeper))),
+            (
+                "file",
+                from_file.len(),
+                Box::new(|| {
+                    let hit = |r: &Ray| accel.intersect(r).is_some();
+                    from_file
+                        .par_chunks(1024)
+                        .map(|ch| ch.iter().filter(|r| hit(r)).count())
+                        .sum()
+                }),
+            ),
         ];
         for (set, rays, f) in &sets {
             if *rays == 0 {
@@ -300,8 +390,9 @@ fn main() -> Result<()> {
             }
             let (seconds, hits) = time(f.as_ref());
             let counts = (args.counts && *engine == "lamina").then(|| {
-                let stats =
-                    pool.install(|| count_set(set, accel, spp, &camera, &secondary, &deeper));
+                let stats = pool.install(|| {
+                    count_set(set, accel, spp, &camera, &secondary, &deeper, &from_file)
+                });
                 Counts::per_ray(stats, *rays)
             });
             rows.push(Row {
@@ -426,7 +517,8 @@ fn sun_many(accel: &Accel, ch: &[Secondary], stats: Option<&TraversalStats>) -> 
 /// Set `set`'s rays traced again on `accel` with the engine's counters on (in parallel
 /// chunks, summed): nodes, packs, instances, mask decisions and exact lookups, in
 /// [`Counts`]' order. The shuffled bounce rays are the bounce rays: the same counts.
-/// `deeper`: the second vertices, whose rays `bounce2` and `sun2_one` are.
+/// `deeper`: the second vertices, whose rays `bounce2` and `sun2_one` are; `file`: the
+/// `--read-rays` rays.
 fn count_set(
     set: &str,
     accel: &Accel,
@@ -434,8 +526,13 @@ fn count_set(
     camera: &[Ray],
     secondary: &[Secondary],
     deeper: &[Secondary],
+    file: &[Ray],
 ) -> [u64; 6] {
     let sum = |a, b| add_stats(a, b);
+    let (set, camera) = match set {
+        "file" => ("camera_one", file),
+        _ => (set, camera),
+    };
     let (set, secondary) = match set {
         "bounce2" => ("bounce", deeper),
         "sun2_one" => ("sun_one", deeper),
@@ -659,7 +756,7 @@ edge_v = [0, 0, -20]
             .build()
             .unwrap();
         let counted =
-            |set| pool.install(|| count_set(set, &accel, 4, &camera, &secondary, &deeper));
+            |set| pool.install(|| count_set(set, &accel, 4, &camera, &secondary, &deeper, &[]));
         let one = TraversalStats::default();
         for r in &camera {
             accel.intersect_counted(r, PrimRef::NONE, &one);
@@ -755,7 +852,7 @@ edge_v = [0, 0, -100]
             .build()
             .unwrap();
         let counted =
-            |set| pool.install(|| count_set(set, &accel, 4, &camera, &secondary, &deeper));
+            |set| pool.install(|| count_set(set, &accel, 4, &camera, &secondary, &deeper, &[]));
         let (bounce, sun) = (TraversalStats::default(), TraversalStats::default());
         for s in &deeper {
             accel.intersect_counted(&s.bounce, s.skip, &bounce);
@@ -771,5 +868,53 @@ edge_v = [0, 0, -100]
             .count();
         assert_eq!(pool_hits, hits);
         assert_eq!(pool.install(|| suns_blocked(&accel, &deeper)), 0);
+    }
+
+    #[test]
+    fn ray_files_round_trip_and_bad_ones_are_named() {
+        let rays = [
+            Ray {
+                origin: Vec3::new(1.0, -2.5, 0.25),
+                dir: Vec3::new(-0.0, 0.6, -0.8),
+                tmax: f32::INFINITY,
+            },
+            Ray {
+                origin: Vec3::ZERO,
+                dir: Vec3::X,
+                tmax: 3.5,
+            },
+        ];
+        let bytes = ray_file_bytes(rays.iter());
+        assert_eq!(bytes.len(), 64);
+        // The layout bench/embree_rays.c reads: origin, tnear 0, direction, tfar.
+        let word = |k: usize| f32::from_le_bytes(bytes[4 * k..4 * k + 4].try_into().unwrap());
+        assert_eq!([word(0), word(1), word(2), word(3)], [1.0, -2.5, 0.25, 0.0]);
+        assert_eq!(word(4).to_bits(), (-0.0f32).to_bits());
+        assert_eq!(word(15), 3.5);
+        let dir = std::env::temp_dir().join(format!("scene_rays_files_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let good = dir.join("good.f32");
+        std::fs::write(&good, &bytes).unwrap();
+        let back = read_ray_file(&good).unwrap();
+        assert_eq!(back.len(), 2);
+        for (a, b) in back.iter().zip(&rays) {
+            assert_eq!(a.origin, b.origin);
+            assert_eq!(
+                a.dir.to_array().map(f32::to_bits),
+                b.dir.to_array().map(f32::to_bits)
+            );
+            assert_eq!(a.tmax, b.tmax);
+        }
+        let short = dir.join("short.f32");
+        std::fs::write(&short, &bytes[..40]).unwrap();
+        let e = read_ray_file(&short).unwrap_err().to_string();
+        assert!(e.contains("short.f32") && e.contains("40 bytes"), "{e}");
+        let mut zero = bytes.clone();
+        zero[16..28].fill(0); // ray 0's direction
+        let bad = dir.join("zero.f32");
+        std::fs::write(&bad, &zero).unwrap();
+        let e = read_ray_file(&bad).unwrap_err().to_string();
+        assert!(e.contains("zero.f32") && e.contains("ray 0"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

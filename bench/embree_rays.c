@@ -27,6 +27,8 @@
  *   --repeat N        timed runs per mode, the best counts (default 3)
  *   --scramble        trace the rays in a scrambled order (i -> i*a mod n, as
  *                     mitsuba_rays.py's bounce_shuffled)
+ *   --device CFG      more of rtcNewDevice's configuration, e.g. `isa=avx2` (Embree's
+ *                     AVX2 kernels on an AVX-512 machine) or `verbose=1`
  *
  * Printed, per mode: rays, hits (or blocked), best seconds, M rays/s. Modes:
  * `intersect1` (rtcIntersect1 per ray), `intersect16` (rtcIntersect16 on runs of 16
@@ -247,6 +249,7 @@ static void *worker(void *arg) {
 
 int main(int argc, char **argv) {
     int robust = 0, quads = 0, threads = 2, repeat = 3, scramble = 0;
+    const char *device = NULL;
     RTCBuildQuality quality = RTC_BUILD_QUALITY_HIGH;
     int a = 1;
     for (; a < argc && strncmp(argv[a], "--", 2) == 0; a++) {
@@ -255,6 +258,7 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[a], "--scramble")) scramble = 1;
         else if (!strcmp(argv[a], "--threads") && a + 1 < argc) threads = atoi(argv[++a]);
         else if (!strcmp(argv[a], "--repeat") && a + 1 < argc) repeat = atoi(argv[++a]);
+        else if (!strcmp(argv[a], "--device") && a + 1 < argc) device = argv[++a];
         else if (!strcmp(argv[a], "--quality") && a + 1 < argc) {
             a++;
             if (!strcmp(argv[a], "low")) quality = RTC_BUILD_QUALITY_LOW;
@@ -291,8 +295,8 @@ int main(int argc, char **argv) {
         rays = s;
     }
 
-    char cfg[64];
-    snprintf(cfg, sizeof cfg, "threads=%d", threads);
+    char cfg[256];
+    snprintf(cfg, sizeof cfg, "threads=%d%s%s", threads, device ? "," : "", device ? device : "");
     RTCDevice dev = rtcNewDevice(cfg);
     if (!dev) die("rtcNewDevice failed", NULL);
     RTCScene scene = rtcNewScene(dev);

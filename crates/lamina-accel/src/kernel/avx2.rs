@@ -11,26 +11,37 @@ use std::arch::x86_64::*;
 pub(crate) struct Avx2;
 
 /// The children whose slabs overlap within `(0, tmax)`: entry distance the largest near
-/// plane, exit the smallest far plane, the exit widened by [`ROBUST`].
+/// plane, exit the smallest far plane. `far` and `tmax_far` come already widened by
+/// [`ROBUST`] (folded into the far planes' FMAs, so that no multiply of its own sits on the
+/// walk's critical path).
+///
+/// Integer max, min and compare (one cycle each, against four for their float forms on
+/// Intel cores): for floats of which one is `>= 0` the integer order of the bits is the
+/// float order, and the entry maximum includes 0; an exit below 0 (whatever the integer
+/// order among negatives) is below every entry, as it is in floats.
 ///
 /// # Safety
-/// AVX (part of the AVX2 kernel's instruction set).
+/// AVX2 (part of the AVX2 kernel's instruction set).
 #[inline(always)]
-unsafe fn slab_hits(near: [__m256; 3], far: [__m256; 3], tmax: f32) -> (u32, [f32; 8]) {
-    // SAFETY: the caller guarantees AVX; the store writes all of `tn`.
+unsafe fn slab_hits(near: [__m256; 3], far: [__m256; 3], tmax_far: f32) -> (u32, [f32; 8]) {
+    // SAFETY: the caller guarantees AVX2; the store writes all of `tn`.
     unsafe {
-        let n = _mm256_max_ps(
-            _mm256_max_ps(near[0], near[1]),
-            _mm256_max_ps(near[2], _mm256_setzero_ps()),
+        let i = |v: __m256| _mm256_castps_si256(v);
+        let n = _mm256_max_epi32(
+            _mm256_max_epi32(i(near[0]), i(near[1])),
+            _mm256_max_epi32(i(near[2]), _mm256_setzero_si256()),
         );
-        let f = _mm256_min_ps(
-            _mm256_min_ps(far[0], far[1]),
-            _mm256_min_ps(far[2], _mm256_set1_ps(tmax)),
+        let f = _mm256_min_epi32(
+            _mm256_min_epi32(i(far[0]), i(far[1])),
+            _mm256_min_epi32(i(far[2]), _mm256_set1_epi32(tmax_far.to_bits() as i32)),
         );
-        let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(n, _mm256_mul_ps(f, _mm256_set1_ps(ROBUST)));
+        let miss = _mm256_cmpgt_epi32(n, f);
         let mut tn = [0.0f32; 8];
-        _mm256_storeu_ps(tn.as_mut_ptr(), n);
-        (_mm256_movemask_ps(hit) as u32, tn)
+        _mm256_storeu_ps(tn.as_mut_ptr(), _mm256_castsi256_ps(n));
+        (
+            !(_mm256_movemask_ps(_mm256_castsi256_ps(miss)) as u32) & 0xff,
+            tn,
+        )
     }
 }
 
@@ -40,6 +51,10 @@ pub(crate) struct WRay {
     /// `origin · inv` per axis (the FMA form `b·inv - o·inv`).
     oinv: [__m256; 3],
     inv: [__m256; 3],
+    /// `oinv` and `inv` scaled by [`ROBUST`], for the far planes: the exit distance comes
+    /// out widened without a multiply of its own on the node test's critical path.
+    oinv_far: [__m256; 3],
+    inv_far: [__m256; 3],
     near: [usize; 3],
     four: VRay,
 }
@@ -64,6 +79,16 @@ impl Lanes<8> for Avx2 {
                     _mm256_set1_ps(inv[1]),
                     _mm256_set1_ps(inv[2]),
                 ],
+                oinv_far: [
+                    _mm256_set1_ps(r.o[0] * inv[0] * ROBUST),
+                    _mm256_set1_ps(r.o[1] * inv[1] * ROBUST),
+                    _mm256_set1_ps(r.o[2] * inv[2] * ROBUST),
+                ],
+                inv_far: [
+                    _mm256_set1_ps(inv[0] * ROBUST),
+                    _mm256_set1_ps(inv[1] * ROBUST),
+                    _mm256_set1_ps(inv[2] * ROBUST),
+                ],
                 near: four.near,
                 four,
             }
@@ -81,13 +106,13 @@ impl Lanes<8> for Avx2 {
                 let hi = _mm256_loadu_ps(n.b[far_index(r.near[a])].as_ptr());
                 (
                     _mm256_fmsub_ps(lo, r.inv[a], r.oinv[a]),
-                    _mm256_fmsub_ps(hi, r.inv[a], r.oinv[a]),
+                    _mm256_fmsub_ps(hi, r.inv_far[a], r.oinv_far[a]),
                 )
             };
             let (x0, x1) = slab(0);
             let (y0, y1) = slab(1);
             let (z0, z1) = slab(2);
-            slab_hits([x0, y0, z0], [x1, y1, z1], tmax)
+            slab_hits([x0, y0, z0], [x1, y1, z1], tmax * ROBUST)
         }
     }
 
@@ -97,16 +122,20 @@ impl Lanes<8> for Avx2 {
         // SAFETY: each 8-byte load reads all of `n.q[k]` (an `[u8; 8]`, unaligned load);
         // the store writes all of `tn`. AVX2 + FMA are guaranteed by the caller.
         unsafe {
-            let t = |ax: usize, k: usize| {
+            let t = |ax: usize, k: usize, scale: f32| {
                 let q = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(
                     n.q[k].as_ptr() as *const __m128i
                 )));
-                _mm256_fmadd_ps(q, _mm256_set1_ps(a[ax]), _mm256_set1_ps(b[ax]))
+                _mm256_fmadd_ps(
+                    q,
+                    _mm256_set1_ps(a[ax] * scale),
+                    _mm256_set1_ps(b[ax] * scale),
+                )
             };
-            let (x0, x1) = (t(0, r.near[0]), t(0, far_index(r.near[0])));
-            let (y0, y1) = (t(1, r.near[1]), t(1, far_index(r.near[1])));
-            let (z0, z1) = (t(2, r.near[2]), t(2, far_index(r.near[2])));
-            slab_hits([x0, y0, z0], [x1, y1, z1], tmax)
+            let (x0, x1) = (t(0, r.near[0], 1.0), t(0, far_index(r.near[0]), ROBUST));
+            let (y0, y1) = (t(1, r.near[1], 1.0), t(1, far_index(r.near[1]), ROBUST));
+            let (z0, z1) = (t(2, r.near[2], 1.0), t(2, far_index(r.near[2]), ROBUST));
+            slab_hits([x0, y0, z0], [x1, y1, z1], tmax * ROBUST)
         }
     }
 
@@ -288,5 +317,102 @@ pub(crate) unsafe fn leaf_rays(p: &Pack, r: &Rays8, tmax: __m256, skip: u32) -> 
             (h.t[j], h.b1[j], h.b2[j]) = (t, b1, b2);
         }
         h
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The float slab test `slab_hits` stands for: entry the largest of the near distances
+    /// and 0, exit the smallest of the far distances and `tmax_far`, a hit when entry <=
+    /// exit.
+    fn reference(near: [[f32; 8]; 3], far: [[f32; 8]; 3], tmax_far: f32) -> (u32, [f32; 8]) {
+        let mut mask = 0;
+        let mut tn = [0.0; 8];
+        for k in 0..8 {
+            let n = near[0][k].max(near[1][k]).max(near[2][k]).max(0.0);
+            let f = far[0][k].min(far[1][k]).min(far[2][k]).min(tmax_far);
+            tn[k] = n;
+            if n <= f {
+                mask |= 1 << k;
+            }
+        }
+        (mask, tn)
+    }
+
+    #[test]
+    fn integer_slab_test_is_the_float_one() {
+        if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+            return;
+        }
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        // Distances as slab tests give them: either sign, zeros of both signs, tiny and
+        // huge ones, infinities, and ties between entry and exit.
+        let special = [
+            0.0,
+            -0.0,
+            1e-30,
+            -1e-30,
+            f32::MIN_POSITIVE,
+            1e30,
+            -1e30,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        let draw = |r: u64, shared: f32| -> f32 {
+            match r % 8 {
+                0 => special[(r >> 8) as usize % special.len()],
+                1 => shared,
+                _ => ((r >> 16) as u32 as f32 / u32::MAX as f32 - 0.3) * 10.0,
+            }
+        };
+        for _ in 0..20_000 {
+            let shared = draw(next(), 1.0);
+            let mut near = [[0.0f32; 8]; 3];
+            let mut far = [[0.0f32; 8]; 3];
+            for a in 0..3 {
+                for k in 0..8 {
+                    near[a][k] = draw(next(), shared);
+                    far[a][k] = draw(next(), shared);
+                }
+            }
+            let tmax_far = if next() % 3 == 0 {
+                f32::INFINITY
+            } else {
+                draw(next(), shared).abs()
+            };
+            // SAFETY: AVX2 and FMA are present (checked above); each load reads a whole
+            // `[f32; 8]`.
+            let (mask, tn) = unsafe {
+                let v = |x: &[f32; 8]| _mm256_loadu_ps(x.as_ptr());
+                slab_hits(
+                    [v(&near[0]), v(&near[1]), v(&near[2])],
+                    [v(&far[0]), v(&far[1]), v(&far[2])],
+                    tmax_far,
+                )
+            };
+            let (want_mask, want_tn) = reference(near, far, tmax_far);
+            // A box whose exit is at t = 0 touches the ray's origin only; where that exit is
+            // -0 the float test keeps it and the integer one drops it (-0 is the smallest
+            // integer): nothing lies there at t > 0, so either answer is right.
+            let touch = (0..8)
+                .filter(|&k| far[0][k].min(far[1][k]).min(far[2][k]).min(tmax_far) == 0.0)
+                .fold(0u32, |m, k| m | 1 << k);
+            assert_eq!(
+                mask & !touch,
+                want_mask & !touch,
+                "{near:?} {far:?} {tmax_far}"
+            );
+            for k in 0..8 {
+                assert_eq!(tn[k], want_tn[k], "lane {k}");
+            }
+        }
     }
 }

@@ -49,10 +49,7 @@ impl<K: Lanes<W>, const W: usize> Nodes<K, W, W> for [Node<W>] {
     #[inline(always)]
     fn prefetch_node(&self, i: u32) {
         if let Some(n) = self.get(i as usize) {
-            prefetch_lines(
-                n as *const Node<W> as *const u8,
-                std::mem::size_of::<Node<W>>(),
-            );
+            prefetch_whole(n);
         }
     }
 }
@@ -88,6 +85,28 @@ fn prefetch<K: Lanes<W>, const W: usize, const N: usize, T: Nodes<K, W, N> + ?Si
     } else if code != EMPTY {
         leaf.prefetch(code & !LEAF);
     }
+}
+
+/// Prefetches the whole cache lines that hold `*v`, for a type aligned to a cache line and a
+/// whole number of them long (a node, a pack): a fixed number of prefetches, no loop.
+#[inline(always)]
+pub(crate) fn prefetch_whole<T>(v: &T) {
+    const { assert!(std::mem::align_of::<T>() >= 64 && std::mem::size_of::<T>().is_multiple_of(64)) };
+    #[cfg(target_arch = "x86_64")]
+    {
+        let p = v as *const T as *const i8;
+        for k in 0..std::mem::size_of::<T>() / 64 {
+            // SAFETY: a prefetch is a hint that never faults; the address, inside `*v`, is
+            // only computed, never dereferenced. SSE is part of x86-64.
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                    p.wrapping_add(64 * k),
+                )
+            };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = v;
 }
 
 /// Prefetches the cache lines of `bytes` bytes at `p` into L1 (a plain loop: an iterator
@@ -402,7 +421,7 @@ impl<K: Lanes<W>, const W: usize, F, C> LevelQuery<'_, K, W, F, C> {
     #[inline(always)]
     fn prefetch_pack(&self, k: u32) {
         if let Some(p) = self.blas.packs.get(k as usize) {
-            prefetch_lines(p as *const Pack as *const u8, std::mem::size_of::<Pack>());
+            prefetch_whole(p);
         }
     }
 }

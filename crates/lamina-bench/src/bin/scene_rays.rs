@@ -111,7 +111,7 @@ fn read_ray_file(path: &std::path::Path) -> Result<Vec<Ray>> {
     let f = |c: &[u8]| f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
     let mut rays = Vec::with_capacity(bytes.len() / 32);
     for (i, c) in bytes.chunks_exact(32).enumerate() {
-        let v: Vec<f32> = c.chunks_exact(4).map(f).collect();
+        let v: [f32; 8] = std::array::from_fn(|k| f(&c[4 * k..4 * k + 4]));
         let ray = Ray {
             origin: Vec3::new(v[0], v[1], v[2]),
             dir: Vec3::new(v[4], v[5], v[6]),

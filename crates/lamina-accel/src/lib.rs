@@ -215,7 +215,8 @@ impl Counter for TraversalStats {
 /// The traversal kernel (instruction set and node width).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kernel {
-    /// 8-wide nodes, AVX2 + FMA (x86-64).
+    /// 8-wide nodes, AVX2 + FMA (x86-64; also uses BMI1/2, LZCNT and POPCNT, which every
+    /// AVX2 CPU has, for the walk's bit arithmetic).
     Avx2,
     /// 4-wide nodes, SSE2 (every x86-64 CPU).
     Sse,
@@ -280,7 +281,14 @@ impl Kernel {
     pub fn available(self) -> bool {
         match self {
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx2 => is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"),
+            Kernel::Avx2 => {
+                is_x86_feature_detected!("avx2")
+                    && is_x86_feature_detected!("fma")
+                    && is_x86_feature_detected!("bmi1")
+                    && is_x86_feature_detected!("bmi2")
+                    && is_x86_feature_detected!("lzcnt")
+                    && is_x86_feature_detected!("popcnt")
+            }
             #[cfg(target_arch = "x86_64")]
             Kernel::Sse => true,
             Kernel::Scalar => true,
@@ -605,14 +613,14 @@ macro_rules! dispatch {
         match (&$self.engine, $self.kernel) {
             #[cfg(target_arch = "x86_64")]
             (Engine::W8(l), Kernel::Avx2) => {
-                #[target_feature(enable = "avx2,fma")]
+                #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
                 unsafe fn go<F: AlphaFilter, C: Counter>(l: &Levels<8>, ray: &Ray, skip: PrimRef, f: &F, c: &C) -> _ret!($method) {
-                    // SAFETY: this function's own target features are AVX2 + FMA, which
+                    // SAFETY: this function's own target features include AVX2 + FMA, which
                     // `Avx2` needs.
                     unsafe { l.$method::<kernel::avx2::Avx2, F, C>(ray, skip, f, c) }
                 }
                 // SAFETY: an `Accel` holds `Kernel::Avx2` only after `Kernel::available`
-                // confirmed AVX2 and FMA on this CPU (`Accel::build_with`).
+                // confirmed AVX2, FMA, BMI1/2, LZCNT and POPCNT on this CPU (`Accel::build_with`).
                 unsafe { go(l, $($arg),*) }
             }
             #[cfg(target_arch = "x86_64")]
@@ -763,7 +771,7 @@ impl Accel {
         match (&self.engine, self.kernel) {
             #[cfg(target_arch = "x86_64")]
             (Engine::W8(l), Kernel::Avx2) => {
-                #[target_feature(enable = "avx2,fma")]
+                #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
                 unsafe fn go<F: AlphaFilter, C: Counter>(
                     l: &Levels<8>,
                     rays: &[Ray],
@@ -771,11 +779,11 @@ impl Accel {
                     c: &C,
                     out: &mut [Option<Hit>],
                 ) {
-                    // SAFETY: this function's own target features are AVX2 + FMA.
+                    // SAFETY: this function's own target features include AVX2 + FMA.
                     unsafe { l.closest_rays(rays, f, c, out) }
                 }
                 // SAFETY: an `Accel` holds `Kernel::Avx2` only after `Kernel::available`
-                // confirmed AVX2 and FMA on this CPU (`Accel::build_with`).
+                // confirmed AVX2, FMA, BMI1/2, LZCNT and POPCNT on this CPU (`Accel::build_with`).
                 unsafe { go(l, rays, f, c, out) }
             }
             _ => {
@@ -809,7 +817,7 @@ impl Accel {
         match (&self.engine, self.kernel) {
             #[cfg(target_arch = "x86_64")]
             (Engine::W8(l), Kernel::Avx2) => {
-                #[target_feature(enable = "avx2,fma")]
+                #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
                 unsafe fn go<F: AlphaFilter>(
                     l: &Levels<8>,
                     eye: Vec3,
@@ -817,11 +825,11 @@ impl Accel {
                     f: &F,
                     out: &mut [Option<Hit>],
                 ) {
-                    // SAFETY: this function's own target features are AVX2 + FMA.
+                    // SAFETY: this function's own target features include AVX2 + FMA.
                     unsafe { l.closest_eye(eye, d, f, &(), out) }
                 }
                 // SAFETY: an `Accel` holds `Kernel::Avx2` only after `Kernel::available`
-                // confirmed AVX2 and FMA on this CPU (`Accel::build_with`).
+                // confirmed AVX2, FMA, BMI1/2, LZCNT and POPCNT on this CPU (`Accel::build_with`).
                 unsafe { go(l, eye, d, f, out) }
             }
             _ => {
@@ -869,7 +877,7 @@ impl Accel {
         match (&self.engine, self.kernel) {
             #[cfg(target_arch = "x86_64")]
             (Engine::W8(l), Kernel::Avx2) => {
-                #[target_feature(enable = "avx2,fma")]
+                #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
                 unsafe fn go<F: AlphaFilter, C: Counter>(
                     l: &Levels<8>,
                     rays: &[Ray],
@@ -878,11 +886,11 @@ impl Accel {
                     c: &C,
                     out: &mut [bool],
                 ) {
-                    // SAFETY: this function's own target features are AVX2 + FMA.
+                    // SAFETY: this function's own target features include AVX2 + FMA.
                     unsafe { l.occluded_rays(rays, skips, f, c, out) }
                 }
                 // SAFETY: an `Accel` holds `Kernel::Avx2` only after `Kernel::available`
-                // confirmed AVX2 and FMA on this CPU (`Accel::build_with`).
+                // confirmed AVX2, FMA, BMI1/2, LZCNT and POPCNT on this CPU (`Accel::build_with`).
                 unsafe { go(l, rays, skips, f, c, out) }
             }
             _ => {

@@ -67,7 +67,7 @@ impl<K: Lanes<W>, const W: usize> Nodes<K, W, 8> for [QNode] {
     #[inline(always)]
     fn prefetch_node(&self, i: u32) {
         if let Some(n) = self.get(i as usize) {
-            prefetch_lines(n as *const QNode as *const u8, std::mem::size_of::<QNode>());
+            prefetch_ends(n);
         }
     }
 }
@@ -103,6 +103,30 @@ pub(crate) fn prefetch_whole<T>(v: &T) {
                     p.wrapping_add(64 * k),
                 )
             };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = v;
+}
+
+/// Prefetches the cache lines that hold `*v`, for a type that lies on at most two lines
+/// wherever its alignment puts it (a quantised node, an instance record): its first and
+/// its last byte, two prefetches and no loop.
+#[inline(always)]
+pub(crate) fn prefetch_ends<T>(v: &T) {
+    const {
+        let align = std::mem::align_of::<T>();
+        assert!(align <= 64 && std::mem::size_of::<T>() + (64 - align) <= 128)
+    };
+    #[cfg(target_arch = "x86_64")]
+    {
+        let p = v as *const T as *const i8;
+        // SAFETY: a prefetch is a hint that never faults; both addresses, inside `*v`, are
+        // only computed, never dereferenced. SSE is part of x86-64.
+        unsafe {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            _mm_prefetch::<{ _MM_HINT_T0 }>(p);
+            _mm_prefetch::<{ _MM_HINT_T0 }>(p.wrapping_add(std::mem::size_of::<T>() - 1));
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -698,10 +722,7 @@ impl<const W: usize> Levels<W> {
     #[inline(always)]
     fn prefetch_record(&self, i: u32) {
         if let Some(r) = self.recs.get(i as usize) {
-            prefetch_lines(
-                r as *const InstRec as *const u8,
-                std::mem::size_of::<InstRec>(),
-            );
+            prefetch_ends(r);
         }
     }
 

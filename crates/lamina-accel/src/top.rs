@@ -132,6 +132,16 @@ pub(crate) fn build_top(bin: &Binary, boxes: &[Aabb]) -> TopBuild {
     }
 }
 
+/// An empty node whose frame (origin and steps) covers `bounds`.
+fn framed(bounds: &Aabb) -> QNode {
+    let mut n = empty_node();
+    for a in 0..3 {
+        n.exp[a] = step_exp(bounds.min[a], bounds.max[a]);
+        n.origin[a] = bounds.min[a] - n.steps()[a];
+    }
+    n
+}
+
 fn empty_node() -> QNode {
     QNode {
         origin: [0.0; 3],
@@ -215,13 +225,7 @@ fn fill(
     };
     let kid_boxes: Vec<Aabb> = kids.iter().map(box_of).collect();
     let bounds = kid_boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
-    let mut n = empty_node();
-    for a in 0..3 {
-        let e = step_exp(bounds.min[a], bounds.max[a]);
-        n.exp[a] = e;
-        let s = f32::from_bits(((e as i32 + 127) as u32) << 23);
-        n.origin[a] = bounds.min[a] - s;
-    }
+    let mut n = framed(&bounds);
     n.first_node = nodes.len() as u32;
     n.first_leaf = order.len() as u32;
     let mut inner = Vec::new();
@@ -243,6 +247,18 @@ fn fill(
     }
 }
 
+/// A node over up to 8 child boxes, quantised as the build does (all children instances),
+/// for kernel tests.
+#[cfg(test)]
+pub(crate) fn node_over(boxes: &[Aabb]) -> QNode {
+    assert!(boxes.len() <= 8);
+    let mut n = framed(&boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(*b)));
+    for (slot, b) in boxes.iter().enumerate() {
+        quantise(&mut n, slot, b);
+    }
+    n
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -256,11 +272,7 @@ mod tests {
                 Vec3::splat(offset),
                 Vec3::splat(offset) + Vec3::new(3.0, 0.0, 1.0) * scale,
             ]);
-            let mut n = empty_node();
-            for a in 0..3 {
-                n.exp[a] = step_exp(parent.min[a], parent.max[a]);
-                n.origin[a] = parent.min[a] - n.steps()[a];
-            }
+            let mut n = framed(&parent);
             let steps = n.steps();
             for k in 0..8 {
                 let f = k as f32 / 8.0;

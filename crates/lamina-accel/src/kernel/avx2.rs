@@ -3,12 +3,19 @@
 
 use super::{LRay, Lanes, LeafHits, ROBUST};
 use crate::kernel::scalar::far_index;
-use crate::kernel::sse::{VRay, leaf4, prep4};
+use crate::kernel::sse::{VRay, inverse_dir4, leaf4};
 use crate::layout::{Node, Pack};
 use crate::top::QNode;
 use std::arch::x86_64::*;
 
 pub(crate) struct Avx2;
+
+// `Avx2::qnode` reads a quantised node's origin and exponent bytes with two loads.
+const _: () = {
+    assert!(std::mem::offset_of!(QNode, origin) == 0);
+    assert!(std::mem::offset_of!(QNode, exp) == 12);
+    assert!(std::mem::offset_of!(QNode, inner) == 15);
+};
 
 /// The children whose slabs overlap within `(0, tmax)`: entry distance the largest near
 /// plane, exit the smallest far plane. `far` and `tmax_far` come already widened by
@@ -56,6 +63,11 @@ pub(crate) struct WRay {
     oinv_far: [__m256; 3],
     inv_far: [__m256; 3],
     near: [usize; 3],
+    /// Origin, `inv` and `inv · ROBUST` per axis in lanes 0-2 of one register (lane 3 is
+    /// 0): a quantised node's frame for all three axes at once.
+    qo: __m128,
+    qinv: __m128,
+    qinv_far: __m128,
     four: VRay,
 }
 
@@ -64,33 +76,63 @@ impl Lanes<8> for Avx2 {
 
     #[inline(always)]
     unsafe fn prep(r: &LRay) -> WRay {
-        // SAFETY: the caller guarantees AVX2 (trait contract); `_mm256_set1_ps` is AVX.
+        // In vector registers throughout (one division for the three axes, each lane
+        // broadcast once, the 4-wide copies the low halves of the 8-wide ones): an
+        // instance's entry prepares one of these, and the scalar form's three divisions
+        // and twenty-one broadcasts were a tenth of a tree's camera ray.
+        // SAFETY: the caller guarantees AVX2 (trait contract).
         unsafe {
-            let four = prep4(r);
-            let inv = four.sinv;
+            let o = _mm_setr_ps(r.o[0], r.o[1], r.o[2], 0.0);
+            let d = _mm_setr_ps(r.d[0], r.d[1], r.d[2], 1.0);
+            let (inv, near) = inverse_dir4(d);
+            let robust = _mm256_set1_ps(ROBUST);
+            let lane = |v: __m128, a: i32| {
+                _mm256_permutevar8x32_ps(_mm256_castps128_ps256(v), _mm256_set1_epi32(a))
+            };
+            let o8 = [lane(o, 0), lane(o, 1), lane(o, 2)];
+            let d8 = [lane(d, 0), lane(d, 1), lane(d, 2)];
+            let inv8 = [lane(inv, 0), lane(inv, 1), lane(inv, 2)];
+            // The same products, rounded the same way, as `o[a] * inv[a] * ROBUST` in
+            // scalars.
+            let oinv = [
+                _mm256_mul_ps(o8[0], inv8[0]),
+                _mm256_mul_ps(o8[1], inv8[1]),
+                _mm256_mul_ps(o8[2], inv8[2]),
+            ];
+            let low = |v: [__m256; 3]| {
+                [
+                    _mm256_castps256_ps128(v[0]),
+                    _mm256_castps256_ps128(v[1]),
+                    _mm256_castps256_ps128(v[2]),
+                ]
+            };
+            let mut sinv = [0.0f32; 4];
+            _mm_storeu_ps(sinv.as_mut_ptr(), inv);
             WRay {
-                oinv: [
-                    _mm256_set1_ps(r.o[0] * inv[0]),
-                    _mm256_set1_ps(r.o[1] * inv[1]),
-                    _mm256_set1_ps(r.o[2] * inv[2]),
-                ],
-                inv: [
-                    _mm256_set1_ps(inv[0]),
-                    _mm256_set1_ps(inv[1]),
-                    _mm256_set1_ps(inv[2]),
-                ],
                 oinv_far: [
-                    _mm256_set1_ps(r.o[0] * inv[0] * ROBUST),
-                    _mm256_set1_ps(r.o[1] * inv[1] * ROBUST),
-                    _mm256_set1_ps(r.o[2] * inv[2] * ROBUST),
+                    _mm256_mul_ps(oinv[0], robust),
+                    _mm256_mul_ps(oinv[1], robust),
+                    _mm256_mul_ps(oinv[2], robust),
                 ],
                 inv_far: [
-                    _mm256_set1_ps(inv[0] * ROBUST),
-                    _mm256_set1_ps(inv[1] * ROBUST),
-                    _mm256_set1_ps(inv[2] * ROBUST),
+                    _mm256_mul_ps(inv8[0], robust),
+                    _mm256_mul_ps(inv8[1], robust),
+                    _mm256_mul_ps(inv8[2], robust),
                 ],
-                near: four.near,
-                four,
+                oinv,
+                inv: inv8,
+                near,
+                qo: o,
+                qinv: inv,
+                qinv_far: _mm_mul_ps(inv, _mm256_castps256_ps128(robust)),
+                four: VRay {
+                    o: low(o8),
+                    d: low(d8),
+                    inv: low(inv8),
+                    near,
+                    so: r.o,
+                    sinv: [sinv[0], sinv[1], sinv[2]],
+                },
             }
         }
     }
@@ -118,24 +160,44 @@ impl Lanes<8> for Avx2 {
 
     #[inline(always)]
     unsafe fn qnode(n: &QNode, r: &WRay, tmax: f32) -> (u32, [f32; 8]) {
-        let (a, b) = super::qframe(n, r.four.so, r.four.sinv);
-        // SAFETY: each 8-byte load reads all of `n.q[k]` (an `[u8; 8]`, unaligned load);
-        // the store writes all of `tn`. AVX2 + FMA are guaranteed by the caller.
+        // The frame of all three axes in one register each, without a trip through scalar
+        // registers (that trip, three dependent scalar multiplies and a move per axis, was
+        // the longest chain of the test): lanes 0-2 hold x, y, z.
+        // SAFETY: `QNode` is `repr(C)` with `origin` at offset 0 and `exp`, `inner` at
+        // 12-15 (asserted at compile time below), so the 16-byte load at `n` and the 4-byte
+        // load at byte 12 read valid bytes of `*n`; each 8-byte load reads all of `n.q[k]`
+        // (an `[u8; 8]`, unaligned load). AVX2 + FMA are guaranteed by the caller.
         unsafe {
-            let t = |ax: usize, k: usize, scale: f32| {
+            let base = n as *const QNode as *const u8;
+            let head = _mm_loadu_ps(base as *const f32);
+            // The steps `2^exp`: the exponent bytes sign-extended, biased and shifted into
+            // place (lane 3, from `inner`, is garbage and never read).
+            let exp = _mm_cvtepi8_epi32(_mm_cvtsi32_si128(std::ptr::read_unaligned(
+                base.add(12) as *const i32
+            )));
+            let step = _mm_castsi128_ps(_mm_slli_epi32::<23>(_mm_add_epi32(
+                exp,
+                _mm_set1_epi32(127),
+            )));
+            let rel = _mm_sub_ps(head, r.qo);
+            let (a, a_far) = (_mm_mul_ps(step, r.qinv), _mm_mul_ps(step, r.qinv_far));
+            let (b, b_far) = (_mm_mul_ps(rel, r.qinv), _mm_mul_ps(rel, r.qinv_far));
+            let lane = |v: __m128, ax: usize| {
+                _mm256_permutevar8x32_ps(_mm256_castps128_ps256(v), _mm256_set1_epi32(ax as i32))
+            };
+            let t = |ax: usize, k: usize, a: __m128, b: __m128| {
                 let q = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(
                     n.q[k].as_ptr() as *const __m128i
                 )));
-                _mm256_fmadd_ps(
-                    q,
-                    _mm256_set1_ps(a[ax] * scale),
-                    _mm256_set1_ps(b[ax] * scale),
-                )
+                _mm256_fmadd_ps(q, lane(a, ax), lane(b, ax))
             };
-            let (x0, x1) = (t(0, r.near[0], 1.0), t(0, far_index(r.near[0]), ROBUST));
-            let (y0, y1) = (t(1, r.near[1], 1.0), t(1, far_index(r.near[1]), ROBUST));
-            let (z0, z1) = (t(2, r.near[2], 1.0), t(2, far_index(r.near[2]), ROBUST));
-            slab_hits([x0, y0, z0], [x1, y1, z1], tmax * ROBUST)
+            let near = |ax: usize| t(ax, r.near[ax], a, b);
+            let far = |ax: usize| t(ax, far_index(r.near[ax]), a_far, b_far);
+            slab_hits(
+                [near(0), near(1), near(2)],
+                [far(0), far(1), far(2)],
+                tmax * ROBUST,
+            )
         }
     }
 
@@ -323,6 +385,7 @@ pub(crate) unsafe fn leaf_rays(p: &Pack, r: &Rays8, tmax: __m256, skip: u32) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Kernel;
 
     /// The float slab test `slab_hits` stands for: entry the largest of the near distances
     /// and 0, exit the smallest of the far distances and `tmax_far`, a hit when entry <=
@@ -414,5 +477,176 @@ mod tests {
                 assert_eq!(tn[k], want_tn[k], "lane {k}");
             }
         }
+    }
+
+    fn xorshift(seed: u64) -> impl FnMut() -> u64 {
+        let mut state = seed;
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        }
+    }
+
+    /// A direction component as rays bring them: ordinary, zeros of both signs, tiny ones
+    /// around `MIN_DIR`, subnormal, huge, infinite and NaN.
+    fn component(r: u64) -> f32 {
+        let special = [
+            0.0,
+            -0.0,
+            1e-21,
+            -1e-21,
+            crate::kernel::MIN_DIR,
+            -crate::kernel::MIN_DIR,
+            1e-45,
+            -1e-38,
+            3e38,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        if r.is_multiple_of(4) {
+            special[(r >> 8) as usize % special.len()]
+        } else {
+            ((r >> 16) as u32 as f32 / u32::MAX as f32 - 0.5) * 4.0
+        }
+    }
+
+    #[test]
+    fn vector_prep_is_the_scalar_one() {
+        if !Kernel::Avx2.available() {
+            return;
+        }
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
+        for _ in 0..20_000 {
+            let d = [component(next()), component(next()), component(next())];
+            let o = [component(next()), component(next()), component(next())];
+            let r = LRay { o, d, skip: 0 };
+            let (inv, near) = super::super::inverse_dir(d);
+            // SAFETY: AVX2 and the rest of the kernel's set are present (checked above).
+            let w = unsafe { Avx2::prep(&r) };
+            let lane0 = |v: __m256| {
+                let mut x = [0.0f32; 8];
+                // SAFETY: AVX is present; the store writes all of `x`.
+                unsafe { _mm256_storeu_ps(x.as_mut_ptr(), v) };
+                assert!(x.iter().all(|e| e.to_bits() == x[0].to_bits()), "{x:?}");
+                x[0]
+            };
+            let low = |v: __m128| {
+                let mut x = [0.0f32; 4];
+                // SAFETY: SSE is present; the store writes all of `x`.
+                unsafe { _mm_storeu_ps(x.as_mut_ptr(), v) };
+                x
+            };
+            let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+            assert_eq!(w.near, near, "{d:?}");
+            assert_eq!(w.four.near, near);
+            for a in 0..3 {
+                let want = [
+                    inv[a],
+                    inv[a] * ROBUST,
+                    o[a] * inv[a],
+                    o[a] * inv[a] * ROBUST,
+                    o[a],
+                    d[a],
+                ];
+                let got = [
+                    lane0(w.inv[a]),
+                    lane0(w.inv_far[a]),
+                    lane0(w.oinv[a]),
+                    lane0(w.oinv_far[a]),
+                    low(w.four.o[a])[1],
+                    low(w.four.d[a])[2],
+                ];
+                for (g, e) in got.iter().zip(&want) {
+                    assert!(same(*g, *e), "{d:?} {o:?} axis {a}: {got:?} vs {want:?}");
+                }
+                assert!(same(low(w.four.inv[a])[3], inv[a]));
+                assert!(same(w.four.sinv[a], inv[a]));
+                assert!(same(low(w.qinv)[a], inv[a]));
+                assert!(same(low(w.qinv_far)[a], inv[a] * ROBUST));
+                assert!(same(low(w.qo)[a], o[a]));
+            }
+        }
+    }
+
+    #[test]
+    fn vector_quantised_test_is_the_scalar_one() {
+        if !Kernel::Avx2.available() {
+            return;
+        }
+        let mut next = xorshift(0x2545_f491_4f6c_dd1d);
+        let mut unit = move || (next() >> 40) as f32 / (1u64 << 24) as f32;
+        let (mut hits, mut slots) = (0, 0);
+        for case in 0..20_000 {
+            // A node over up to eight random boxes at one of several scales and offsets,
+            // quantised by the top level's own code.
+            let (scale, offset) =
+                [(1.0f32, 0.0f32), (1e-3, 5.0), (100.0, -1e4), (0.01, 300.0)][case % 4];
+            let mut v = || glam::Vec3::new(unit(), unit(), unit()) * 10.0 * scale + offset;
+            let boxes: Vec<crate::build::Aabb> = (0..1 + case % 8)
+                .map(|_| crate::build::Aabb::of_points(&[v(), v()]))
+                .collect();
+            let n = crate::top::node_over(&boxes);
+            // Rays from outside or inside the node toward a point in one of its boxes.
+            let b = boxes[case % boxes.len()];
+            let f = (v() - glam::Vec3::splat(offset)) / (10.0 * scale);
+            let target = b.min + (b.max - b.min) * f.clamp(glam::Vec3::ZERO, glam::Vec3::ONE);
+            let o = v() + (v() - glam::Vec3::splat(offset)) * if case % 3 == 0 { 0.0 } else { 2.0 };
+            let d = (target - o).to_array();
+            // Some rays along an axis, with zeros of both signs.
+            let d = match case % 5 {
+                0 => [d[0], 0.0, -0.0],
+                1 => [-0.0, d[1], 0.0],
+                _ => d,
+            };
+            let o = o.to_array();
+            let tmax = if case % 2 == 0 {
+                f32::INFINITY
+            } else {
+                unit() * 100.0 * scale
+            };
+            let (inv, near) = super::super::inverse_dir(d);
+            let (want_mask, want_tn) = crate::kernel::scalar::qnode_scalar(&n, o, inv, near, tmax);
+            // SAFETY: AVX2 and the rest of the kernel's set are present (checked above).
+            let (mask, tn) = unsafe { Avx2::qnode(&n, &Avx2::prep(&LRay { o, d, skip: 0 }), tmax) };
+            hits += want_mask.count_ones();
+            slots += boxes.len() as u32;
+            assert_eq!(mask >> boxes.len(), 0, "an unused slot was hit");
+            let (qa, qb) = super::super::qframe(&n, o, inv);
+            for k in 0..boxes.len() {
+                // The magnitude the slot's plane distances are computed from: the FMA here
+                // and the multiply and add of the scalar form round differently, by a few
+                // units in the last place of this.
+                let mag = (0..6)
+                    .map(|p| (n.q[p][k] as f32 * qa[p % 3]).abs() + qb[p % 3].abs())
+                    .fold(0.0f32, f32::max);
+                let close = |a: f32, b: f32| (a - b).abs() <= 4.0 * f32::EPSILON * mag + 1e-30;
+                assert!(
+                    close(tn[k], want_tn[k]),
+                    "slot {k}: entry {} vs {} ({mag})",
+                    tn[k],
+                    want_tn[k]
+                );
+                if (mask ^ want_mask) & (1 << k) != 0 {
+                    // The two may part only where entry and (widened) exit meet.
+                    let exit = (0..3)
+                        .map(|ax| n.q[far_index(near[ax])][k] as f32 * qa[ax] + qb[ax])
+                        .fold(tmax, f32::min)
+                        * ROBUST;
+                    assert!(
+                        close(exit, want_tn[k]),
+                        "slot {k}: {mask:08b} vs {want_mask:08b}, entry {} exit {exit}",
+                        want_tn[k]
+                    );
+                }
+            }
+        }
+        // Both answers are tested, hits and misses.
+        assert!(
+            hits > slots / 10 && hits < slots * 9 / 10,
+            "{hits} of {slots} hit"
+        );
     }
 }

@@ -1,7 +1,7 @@
 //! The SSE kernel: 4-wide nodes and packs in `__m128` registers. SSE2 is part of the x86-64
 //! baseline, so this kernel runs on every x86-64 CPU.
 
-use super::{LRay, Lanes, LeafHits, ROBUST, inverse_dir};
+use super::{LRay, Lanes, LeafHits, MIN_DIR, ROBUST, inverse_dir};
 use crate::kernel::scalar::far_index;
 use crate::layout::{Node, Pack};
 use crate::top::QNode;
@@ -19,6 +19,30 @@ pub(crate) struct VRay {
     /// Origin and reciprocal direction as scalars (for quantised nodes' frames).
     pub so: [f32; 3],
     pub sinv: [f32; 3],
+}
+
+/// [`inverse_dir`] of the direction in lanes 0-2 of `d`, all lanes at once (one division
+/// instead of three), and the near-plane indices: bit for bit the scalar form's answer.
+///
+/// # Safety
+/// SSE2 only (every x86-64 CPU).
+#[inline(always)]
+pub(crate) unsafe fn inverse_dir4(d: __m128) -> (__m128, [usize; 3]) {
+    // SAFETY: SSE2 only, part of x86-64.
+    unsafe {
+        let sign = _mm_set1_ps(-0.0);
+        let min = _mm_set1_ps(MIN_DIR);
+        let small = _mm_cmplt_ps(_mm_andnot_ps(sign, d), min);
+        // `MIN_DIR` with the component's sign where it is smaller, else the component.
+        let safe = _mm_or_ps(
+            _mm_and_ps(small, _mm_or_ps(_mm_and_ps(sign, d), min)),
+            _mm_andnot_ps(small, d),
+        );
+        let inv = _mm_div_ps(_mm_set1_ps(1.0), safe);
+        let nonneg = _mm_movemask_ps(_mm_cmpge_ps(inv, _mm_setzero_ps())) as usize;
+        let n = |a: usize| if nonneg & (1 << a) != 0 { a } else { 3 + a };
+        (inv, [n(0), n(1), n(2)])
+    }
 }
 
 #[inline(always)]

@@ -23,8 +23,8 @@ pub struct RenderFlags {
     /// Random seed: the same scene, seed and sample count give the same image.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Stop after this many seconds and write what is done (whole passes; the first pass
-    /// always completes).
+    /// Stop after this many seconds and write what is done (whole passes; the first pass,
+    /// one sample per pixel, always completes).
     #[arg(long, value_name = "SECONDS")]
     pub time_limit: Option<f64>,
     /// No progress bar.
@@ -235,6 +235,10 @@ pub fn options(
         progress: Some(progress),
         accel: flags.accel,
         one_path_at_a_time: flags.one_path_at_a_time,
+        // Someone watching the bar may stop the render early: a first image after one
+        // sample per pixel. Logs and batch jobs render in passes of 16 (faster, the same
+        // image); a time limit makes the render progressive anyway.
+        progressive: bar.is_some(),
         ..Default::default()
     };
     Ok((opts, bar))

@@ -216,6 +216,9 @@ pub fn render<'py>(
         seed,
         time_limit,
         accel,
+        // A progress display gets its first pass after one sample per pixel (passes of 1,
+        // 1, 2, 4, 8, then 16); without one, passes of 16 (faster, the same image).
+        progressive: progress.is_some(),
         ..Default::default()
     };
     let scene_owned = scene.clone();

@@ -5,8 +5,9 @@
 //! [`super::path::trace`] follows one path to its end before the next starts: every
 //! vertex is a chain of dependent work (hit, surface, light samples, shadow rays, BSDF
 //! sample, next ray). Here the samples of a tile's pass advance [`LANES`] at a time: a
-//! pixel's 16 samples of a full pass, or several pixels' samples side by side in the
-//! first passes (of 1 to 8 samples per pixel), so that no lane idles for want of samples.
+//! pixel's 16 samples of a full pass, or several pixels' samples side by side in a smaller
+//! pass (a progressive render's first passes, of 1 to 8 samples per pixel, or a last pass
+//! of what remains), so that no lane idles for want of samples.
 //! Their camera rays are made in vector lanes, their next-event and BSDF arithmetic runs
 //! in loops over the lanes that the compiler vectorizes ([`lamina_accel::wide::run_wide`]:
 //! AVX2 + FMA where the CPU has them), their random numbers are drawn dimension by
@@ -213,7 +214,8 @@ impl Wave {
     /// non-finite sample counts as black); the rays traced are added to `rays`.
     ///
     /// The samples go into waves of [`LANES`] in that order: a pass of 16 samples makes
-    /// one wave per pixel, a pass of fewer (the first passes add 1, 1, 2, 4 and 8) puts
+    /// one wave per pixel, a pass of fewer (a progressive render's first passes add 1, 1, 2,
+    /// 4 and 8) puts
     /// several pixels' samples side by side, so that no lane idles while others run (a
     /// wave of one sample costs nearly a full wave's lane work, and its one ray walk
     /// overlaps no other).

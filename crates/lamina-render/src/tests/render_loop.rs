@@ -57,6 +57,7 @@ fn time_limit_and_cancel_return_valid_images() {
                     flag.store(true, Ordering::Relaxed);
                 }
             })),
+            progressive: true,
             ..opts(64, 2)
         },
     )
@@ -84,11 +85,12 @@ fn progress_reports_every_pass_in_order() {
                     .unwrap()
                     .push((p.passes_done, p.spp_done, p.passes_total));
             })),
+            progressive: true,
             ..opts(40, 2)
         },
     )
     .unwrap();
-    // 40 spp: passes of 1, 1, 2, 4, 8, 16 and 8 samples.
+    // 40 spp, progressive: passes of 1, 1, 2, 4, 8, 16 and 8 samples.
     let want: Vec<(u32, u32, u32)> = [1, 2, 4, 8, 16, 32, 40]
         .iter()
         .enumerate()
@@ -97,6 +99,65 @@ fn progress_reports_every_pass_in_order() {
     assert_eq!(*seen.lock().unwrap(), want);
     assert_eq!((out.stats.passes_done, out.stats.spp_done), (7, 40));
     assert_eq!(out.image, render(&scene, &opts(40, 1)).unwrap().image);
+}
+
+/// Passes of 16 from the first, or the progressive 1, 1, 2, 4, 8, 16: the same image bit
+/// for bit (a pixel's samples are added one after the other whatever the passes), on one
+/// thread or several; a time limit makes a render progressive (its first pass 1 spp).
+#[test]
+fn passes_do_not_change_the_image() {
+    let scene = small_canopy_scene();
+    let passes = |progressive: bool, threads: usize| {
+        let seen = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let log = seen.clone();
+        let out = render(
+            &scene,
+            &RenderOptions {
+                progress: Some(Arc::new(move |p| log.lock().unwrap().push(p.spp_done))),
+                progressive,
+                ..opts(40, threads)
+            },
+        )
+        .unwrap();
+        let seen = seen.lock().unwrap().clone();
+        (out.image, seen)
+    };
+    let (whole, seen) = passes(false, 2);
+    assert_eq!(seen, [16, 32, 40]);
+    let (ramp, seen) = passes(true, 1);
+    assert_eq!(seen, [1, 2, 4, 8, 16, 32, 40]);
+    assert_eq!(whole, ramp);
+    assert_eq!(whole, passes(false, 1).0);
+    // The sums too, not only the f32 image.
+    let sums = |progressive: bool| {
+        render(
+            &scene,
+            &RenderOptions {
+                keep_sums: true,
+                progressive,
+                ..opts(40, 2)
+            },
+        )
+        .unwrap()
+        .sums
+        .unwrap()
+    };
+    assert_eq!(sums(false), sums(true));
+    // A time limit starts with a pass of one sample per pixel.
+    let first = Arc::new(std::sync::Mutex::new(None));
+    let log = first.clone();
+    render(
+        &scene,
+        &RenderOptions {
+            time_limit: Some(Duration::from_secs(600)),
+            progress: Some(Arc::new(move |p| {
+                log.lock().unwrap().get_or_insert(p.spp_done);
+            })),
+            ..opts(40, 2)
+        },
+    )
+    .unwrap();
+    assert_eq!(*first.lock().unwrap(), Some(1));
 }
 
 /// Bad options fail cleanly.

@@ -112,17 +112,23 @@ fn path(scene: &mut Scene, max_depth: u32, rr_depth: u32) {
 #[test]
 fn wavefront_is_path_bit_for_bit() {
     // The small canopy: a finite sun, a quad, a sphere and a point light, a constant sky
-    // left to BSDF samples, a Gaussian filter, both served materials. 21 spp: passes of 1,
-    // 1, 2, 4, 8 and 5 samples, so waves of every fill.
+    // left to BSDF samples, a Gaussian filter, both served materials. 21 spp, progressive:
+    // passes of 1, 1, 2, 4, 8 and 5 samples, so waves of every fill; and in passes of 16
+    // and 5.
     let base = small_canopy_scene();
-    same_both_ways("canopy", &base, &opts(21, 2));
+    let progressive = |o: RenderOptions| RenderOptions {
+        progressive: true,
+        ..o
+    };
+    same_both_ways("canopy", &base, &progressive(opts(21, 2)));
+    same_both_ways("canopy, passes of 16", &base, &opts(21, 2));
     // An odd image size and 7 spp (passes of 1, 1, 2 and 3): the first passes' waves hold
     // several pixels, some pixels' samples span two waves, and tiles end in partly filled
     // waves.
     let mut s = base.clone();
     s.film.width = 37;
     s.film.height = 23;
-    same_both_ways("37 x 23 pixels, 7 spp", &s, &opts(7, 2));
+    same_both_ways("37 x 23 pixels, 7 spp", &s, &progressive(opts(7, 2)));
     same_both_ways(
         "canopy, another seed, one thread",
         &base,

@@ -514,7 +514,7 @@ mod tests {
     }
 
     #[test]
-    fn vector_prep_is_the_scalar_one() {
+    fn vector_preps_are_the_scalar_one() {
         if !Kernel::Avx2.available() {
             return;
         }
@@ -542,6 +542,10 @@ mod tests {
             let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
             assert_eq!(w.near, near, "{d:?}");
             assert_eq!(w.four.near, near);
+            // The SSE kernel's preparation, from the same vector inverse.
+            // SAFETY: SSE2 is part of x86-64.
+            let v = unsafe { crate::kernel::sse::prep4(&r) };
+            assert_eq!(v.near, near, "{d:?}");
             for a in 0..3 {
                 let want = [
                     inv[a],
@@ -567,6 +571,7 @@ mod tests {
                 assert!(same(low(w.qinv)[a], inv[a]));
                 assert!(same(low(w.qinv_far)[a], inv[a] * ROBUST));
                 assert!(same(low(w.qo)[a], o[a]));
+                assert!(same(v.sinv[a], inv[a]) && same(low(v.inv[a])[a], inv[a]));
             }
         }
     }

@@ -1,7 +1,7 @@
 //! The SSE kernel: 4-wide nodes and packs in `__m128` registers. SSE2 is part of the x86-64
 //! baseline, so this kernel runs on every x86-64 CPU.
 
-use super::{LRay, Lanes, LeafHits, MIN_DIR, ROBUST, inverse_dir};
+use super::{LRay, Lanes, LeafHits, MIN_DIR, ROBUST};
 use crate::kernel::scalar::far_index;
 use crate::layout::{Node, Pack};
 use crate::top::QNode;
@@ -47,18 +47,26 @@ pub(crate) unsafe fn inverse_dir4(d: __m128) -> (__m128, [usize; 3]) {
 
 #[inline(always)]
 pub(crate) unsafe fn prep4(r: &LRay) -> VRay {
-    let (inv, near) = inverse_dir(r.d);
-    // SAFETY: `_mm_set1_ps` only needs SSE, part of every x86-64 CPU.
+    // SAFETY: SSE2 only, part of every x86-64 CPU; the store writes all of `sinv`.
     unsafe {
+        // One division for the three axes (`inverse_dir4`), each lane broadcast by a
+        // shuffle.
+        let (inv, near) = inverse_dir4(_mm_setr_ps(r.d[0], r.d[1], r.d[2], 1.0));
+        let mut sinv = [0.0f32; 4];
+        _mm_storeu_ps(sinv.as_mut_ptr(), inv);
         // Written out: `[T; N]::map` was not inlined here (2 % of a render in `try_map`).
         let b = |v: [f32; 3]| [_mm_set1_ps(v[0]), _mm_set1_ps(v[1]), _mm_set1_ps(v[2])];
         VRay {
             o: b(r.o),
             d: b(r.d),
-            inv: b(inv),
+            inv: [
+                _mm_shuffle_ps::<0b00_00_00_00>(inv, inv),
+                _mm_shuffle_ps::<0b01_01_01_01>(inv, inv),
+                _mm_shuffle_ps::<0b10_10_10_10>(inv, inv),
+            ],
             near,
             so: r.o,
-            sinv: inv,
+            sinv: [sinv[0], sinv[1], sinv[2]],
         }
     }
 }

@@ -52,6 +52,17 @@ unsafe fn slab_hits(near: [__m256; 3], far: [__m256; 3], tmax_far: f32) -> (u32,
     }
 }
 
+/// Lane `a` (0-3) of `v` in all eight lanes (one permute).
+///
+/// # Safety
+/// AVX2 (part of the AVX2 kernel's instruction set).
+#[inline(always)]
+unsafe fn lane(v: __m128, a: usize) -> __m256 {
+    // SAFETY: the caller guarantees AVX2; the upper half the cast leaves undefined is never
+    // selected (`a < 4`).
+    unsafe { _mm256_permutevar8x32_ps(_mm256_castps128_ps256(v), _mm256_set1_epi32(a as i32)) }
+}
+
 /// The ray for 8-wide node tests and 4-wide leaf tests.
 #[derive(Clone, Copy)]
 pub(crate) struct WRay {
@@ -86,9 +97,6 @@ impl Lanes<8> for Avx2 {
             let d = _mm_setr_ps(r.d[0], r.d[1], r.d[2], 1.0);
             let (inv, near) = inverse_dir4(d);
             let robust = _mm256_set1_ps(ROBUST);
-            let lane = |v: __m128, a: i32| {
-                _mm256_permutevar8x32_ps(_mm256_castps128_ps256(v), _mm256_set1_epi32(a))
-            };
             let o8 = [lane(o, 0), lane(o, 1), lane(o, 2)];
             let d8 = [lane(d, 0), lane(d, 1), lane(d, 2)];
             let inv8 = [lane(inv, 0), lane(inv, 1), lane(inv, 2)];
@@ -182,9 +190,6 @@ impl Lanes<8> for Avx2 {
             let rel = _mm_sub_ps(head, r.qo);
             let (a, a_far) = (_mm_mul_ps(step, r.qinv), _mm_mul_ps(step, r.qinv_far));
             let (b, b_far) = (_mm_mul_ps(rel, r.qinv), _mm_mul_ps(rel, r.qinv_far));
-            let lane = |v: __m128, ax: usize| {
-                _mm256_permutevar8x32_ps(_mm256_castps128_ps256(v), _mm256_set1_epi32(ax as i32))
-            };
             let t = |ax: usize, k: usize, a: __m128, b: __m128| {
                 let q = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(
                     n.q[k].as_ptr() as *const __m128i
